@@ -1,0 +1,1 @@
+"""acausal: Modelica-style acausal component modelling in Python."""

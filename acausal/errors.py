@@ -1,0 +1,33 @@
+"""One exception family for the whole tool.
+
+Every message names what is at fault: the component, port, equation, variable, signal, file or column.
+Catch :class:`AcausalError` to catch them all.
+"""
+
+
+class AcausalError(Exception):
+    """Base class of every error raised by acausal."""
+
+
+class ModelError(AcausalError):
+    """The model as written is wrong: bad connection, bad parameter, missing port, unknown name."""
+
+
+class ConnectError(ModelError):
+    """Two ports that cannot be connected (different kinds), or a required port left unconnected."""
+
+
+class StructureError(AcausalError):
+    """The equations do not determine the unknowns (over/under-determined, structurally singular)."""
+
+
+class SignalError(AcausalError):
+    """A prescribed signal cannot provide what the model needs (e.g. a derivative order)."""
+
+
+class SimulationError(AcausalError):
+    """Integration or initialisation failed; the message says the time and, when found, the variable."""
+
+
+class DataError(AcausalError):
+    """Bad input data; the message names the file, row and column."""

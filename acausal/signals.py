@@ -1,0 +1,165 @@
+"""Prescribed signals of time that know their derivatives.
+
+Index reduction may need the 1st, 2nd or 3rd time derivative of a prescribed input (a position source driving an
+inertia through a gear needs the 2nd). A source's signal is therefore either
+
+* a sympy expression of :data:`acausal.time` (differentiated exactly by sympy and compiled into the model), or
+* a :class:`Signal`: a numeric function that evaluates itself and its derivatives up to :attr:`Signal.max_order`,
+  vectorised over time. It is *not* compiled in: it is called at run time, so a replay can swap it per run
+  (``sim.simulate(inputs={"pos.phi_ref": other})``) without recompiling.
+
+Inside equations a numeric signal appears as ``SignalCall(token, order, time)``, a sympy function whose derivative
+is the same call with ``order + 1``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+from scipy.interpolate import make_interp_spline
+
+from .errors import SignalError
+from .symbols import time
+
+
+class Signal:
+    """A function of time with derivatives, vectorised over time.
+
+    Subclasses implement :meth:`evaluate`; ``max_order`` is the highest derivative they can provide (``None`` means
+    any). ``name`` is used in error messages.
+    """
+
+    max_order: int | None = None
+    name: str = "signal"
+
+    def evaluate(self, t: np.ndarray, order: int) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError(f"{type(self).__name__}.evaluate")
+
+    def __call__(self, t, order: int = 0):
+        if order < 0:
+            raise SignalError(f"signal {self.name!r}: negative derivative order {order}")
+        if self.max_order is not None and order > self.max_order:
+            raise SignalError(
+                f"signal {self.name!r} ({type(self).__name__}) provides derivatives up to order "
+                f"{self.max_order}, but order {order} was asked for")
+        return self.evaluate(np.asarray(t, dtype=float), order)
+
+
+class Constant(Signal):
+    """A constant value (all derivatives zero)."""
+
+    def __init__(self, value: float, name: str = "constant"):
+        self.value = float(value)
+        self.name = name
+
+    def evaluate(self, t, order):
+        return np.full_like(t, self.value if order == 0 else 0.0, dtype=float)
+
+
+class ExpressionSignal(Signal):
+    """A sympy expression of :data:`acausal.time`, evaluated numerically with exact derivatives."""
+
+    def __init__(self, expr, name: str = "expression"):
+        self.expr = sp.sympify(expr)
+        extra = self.expr.free_symbols - {time}
+        if extra:
+            raise SignalError(f"signal {name!r}: expression {self.expr} depends on {sorted(map(str, extra))}, "
+                              "not only on time")
+        self.name = name
+        self._fns = {}
+
+    def evaluate(self, t, order):
+        f = self._fns.get(order)
+        if f is None:
+            f = sp.lambdify(time, sp.diff(self.expr, time, order), "numpy")
+            self._fns[order] = f
+        return np.broadcast_to(np.asarray(f(t), dtype=float), np.shape(t)).copy()
+
+
+class PeriodicSpline(Signal):
+    """Periodic interpolating B-spline (default quintic: derivatives 1-4 continuous, 5th piecewise constant).
+
+    ``t`` are the sample times of one period (without the repeated end point), ``period`` the period length.
+    Derivatives up to ``degree`` are available.
+    """
+
+    def __init__(self, t, y, period: float, degree: int = 5, name: str = "periodic spline"):
+        t = np.asarray(t, dtype=float)
+        y = np.asarray(y, dtype=float)
+        if t.ndim != 1 or t.shape != y.shape:
+            raise SignalError(f"signal {name!r}: t and y must be 1-D arrays of equal length")
+        if np.any(np.diff(t) <= 0):
+            raise SignalError(f"signal {name!r}: sample times must be strictly increasing")
+        if not (t[-1] - t[0] < period):
+            raise SignalError(f"signal {name!r}: samples span {t[-1] - t[0]} >= period {period}; "
+                              "leave out the repeated end point")
+        if not np.all(np.isfinite(y)):
+            raise SignalError(f"signal {name!r}: non-finite sample at index {int(np.flatnonzero(~np.isfinite(y))[0])}")
+        self.period = float(period)
+        self.t0 = float(t[0])
+        tt = np.append(t, t[0] + period)
+        yy = np.append(y, y[0])
+        self._spl = make_interp_spline(tt, yy, k=degree, bc_type="periodic")
+        self.max_order = degree
+        self.name = name
+
+    def evaluate(self, t, order):
+        tau = self.t0 + np.mod(t - self.t0, self.period)
+        return self._spl(tau, nu=order) if order > 0 else self._spl(tau)
+
+
+class FourierSeries(Signal):
+    """``y(t) = a0 + sum_k a_k cos(k w t) + b_k sin(k w t)``, ``w = 2 pi / period``; any derivative order."""
+
+    def __init__(self, a0: float, a, b, period: float, name: str = "Fourier series"):
+        self.a0 = float(a0)
+        self.a = np.asarray(a, dtype=float)
+        self.b = np.asarray(b, dtype=float)
+        if self.a.shape != self.b.shape:
+            raise SignalError(f"signal {name!r}: cosine and sine coefficient arrays differ in length")
+        self.period = float(period)
+        self.name = name
+
+    @classmethod
+    def fit(cls, t, y, period: float, harmonics: int, name: str = "Fourier series") -> "FourierSeries":
+        """Least-squares fit of ``harmonics`` harmonics to samples ``y(t)`` over one period."""
+        t = np.asarray(t, dtype=float)
+        w = 2 * np.pi / period
+        k = np.arange(1, harmonics + 1)
+        A = np.hstack([np.ones((t.size, 1)), np.cos(np.outer(t, k) * w), np.sin(np.outer(t, k) * w)])
+        c, *_ = np.linalg.lstsq(A, np.asarray(y, dtype=float), rcond=None)
+        return cls(c[0], c[1:harmonics + 1], c[harmonics + 1:], period, name=name)
+
+    def evaluate(self, t, order):
+        w = 2 * np.pi / self.period
+        k = np.arange(1, self.a.size + 1)
+        arg = np.multiply.outer(t, k * w)
+        # d^n/dt^n cos(x) = cos(x + n pi/2), likewise sin
+        scale = (k * w) ** order
+        y = (np.cos(arg + order * np.pi / 2) * (self.a * scale) + np.sin(arg + order * np.pi / 2) * (self.b * scale)).sum(-1)
+        return y + (self.a0 if order == 0 else 0.0)
+
+
+class SignalCall(sp.Function):
+    """``SignalCall(token, order, time)``: the ``order``-th derivative of the numeric signal ``token``."""
+
+    nargs = 3
+
+    def fdiff(self, argindex=1):
+        if argindex != 3:
+            raise sp.ArgumentIndexError(self, argindex)
+        token, order, t = self.args
+        return SignalCall(token, order + 1, t)
+
+    def _eval_is_real(self):
+        return True
+
+
+def as_signal_expr(value, token: str):
+    """Turn a source's signal value into a sympy expression for its equations.
+
+    Numbers and sympy expressions of time are used as they are; a :class:`Signal` becomes a :class:`SignalCall`.
+    """
+    if isinstance(value, Signal):
+        return SignalCall(sp.Symbol(token), sp.Integer(0), time)
+    expr = sp.sympify(value)
+    return expr

@@ -1,0 +1,85 @@
+"""Symbols of the equation system: time, variables, parameters, discrete modes and time derivatives.
+
+Variables and parameters are plain sympy symbols whose names are hierarchical paths ("motor.R.i"). The time
+derivative of a variable ``x`` is the symbol named ``der(x)``, of that ``der(der(x))`` and so on; :func:`der`
+applies the chain rule to any expression, so ``der(J*w)`` is ``J*der(w)`` when ``J`` is a parameter.
+
+What kind a symbol is (variable, parameter, discrete) is recorded in a :class:`SymbolTable` owned by the flattened
+model, never in global state. Before flattening, :func:`der` needs only the names: every symbol that is not time
+and not a known parameter/discrete is differentiated as a variable.
+"""
+from __future__ import annotations
+
+import re
+
+import sympy as sp
+
+#: The independent variable, time [s].
+time = sp.Symbol("time", real=True)
+
+_DER = re.compile(r"^der\((.*)\)$")
+
+
+def der_name(name: str, order: int = 1) -> str:
+    for _ in range(order):
+        name = f"der({name})"
+    return name
+
+
+def split_der(name: str) -> tuple[str, int]:
+    """``"der(der(x))" -> ("x", 2)``."""
+    order = 0
+    m = _DER.match(name)
+    while m:
+        order += 1
+        name = m.group(1)
+        m = _DER.match(name)
+    return name, order
+
+
+def var_symbol(name: str) -> sp.Symbol:
+    return sp.Symbol(name, real=True)
+
+
+class ConstantSymbol(sp.Symbol):
+    """A symbol that is constant in time: a parameter or a discrete (piecewise-constant) mode.
+
+    Marking the class lets :func:`der` treat it as constant without any table lookup.
+    """
+
+
+def par_symbol(name: str) -> sp.Symbol:
+    return ConstantSymbol(name, real=True)
+
+
+def is_constant_symbol(s) -> bool:
+    return isinstance(s, ConstantSymbol)
+
+
+def der(expr, order: int = 1):
+    """Total time derivative of ``expr`` (chain rule over its variables; parameters are constant).
+
+    ``der(x)`` for a variable symbol ``x`` is the symbol ``der(x)``. Prescribed signals (sympy functions of
+    ``time``) differentiate through sympy; see :mod:`acausal.signals`.
+    """
+    expr = sp.sympify(expr)
+    for _ in range(order):
+        expr = _der1(expr)
+    return expr
+
+
+def _der1(expr):
+    if isinstance(expr, sp.Symbol):
+        if expr == time:
+            return sp.Integer(1)
+        if is_constant_symbol(expr):
+            return sp.Integer(0)
+        return var_symbol(der_name(expr.name))
+    out = sp.diff(expr, time) if expr.has(time) else sp.Integer(0)
+    for s in sorted(expr.free_symbols, key=lambda s: s.name):
+        if s == time or is_constant_symbol(s):
+            continue
+        d = sp.diff(expr, s)
+        if d != 0:
+            out += d * var_symbol(der_name(s.name))
+    return out

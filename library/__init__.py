@@ -1,0 +1,1 @@
+"""Component library of acausal (imported as ``acausal.library``)."""
