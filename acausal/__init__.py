@@ -1,1 +1,27 @@
-"""acausal: Modelica-style acausal component modelling in Python."""
+"""acausal: Modelica-style acausal component modelling in Python.
+
+Write components as classes with ports, parameters and sympy equations; connect them; ``compile_model`` once
+(flatten, alias elimination, Pantelides index reduction with dummy derivatives, BLT, sympy solving, generated
+numeric code); ``simulate`` many times with other parameters; read any variable by its hierarchical name.
+"""
+from sympy import Eq, Piecewise, cos, exp, sin, sqrt, tanh, Abs, sign  # noqa: F401  (for equations)
+
+from .compiler import CompiledModel, compile_model
+from .components import (Component, Connector, Discrete, Event, Flow, Input, Model, Parameter, Potential, Start,
+                         Variable, connect)
+from .connectors import Flange, HeatPort, Pin, RealInput, RealOutput
+from .errors import (AcausalError, ConnectError, DataError, ModelError, SignalError, SimulationError,
+                     StructureError)
+from .result import Result
+from .signals import Constant, ExpressionSignal, FourierSeries, PeriodicSpline, Signal
+from .symbols import der, time
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Model", "Component", "Connector", "Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start",
+    "Event", "connect", "der", "time", "Eq", "compile_model", "CompiledModel", "Result",
+    "Pin", "Flange", "HeatPort", "RealInput", "RealOutput",
+    "Signal", "Constant", "ExpressionSignal", "PeriodicSpline", "FourierSeries",
+    "AcausalError", "ModelError", "ConnectError", "StructureError", "SignalError", "SimulationError", "DataError",
+]

@@ -18,7 +18,7 @@ import sympy as sp
 from scipy.interpolate import make_interp_spline
 
 from .errors import SignalError
-from .symbols import time
+from .symbols import ConstantSymbol, time
 
 
 class Signal:
@@ -160,6 +160,6 @@ def as_signal_expr(value, token: str):
     Numbers and sympy expressions of time are used as they are; a :class:`Signal` becomes a :class:`SignalCall`.
     """
     if isinstance(value, Signal):
-        return SignalCall(sp.Symbol(token), sp.Integer(0), time)
+        return SignalCall(ConstantSymbol(token, real=True), sp.Integer(0), time)
     expr = sp.sympify(value)
     return expr

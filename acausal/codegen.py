@@ -1,0 +1,340 @@
+"""Generate numeric Python functions from the solved blocks.
+
+Generated functions all have the signature ``f(t, x, p, d, u)``: time, state vector, parameter vector, discrete
+modes, and the tuple of numeric input signals (each called as ``u[k](t, order)``). Every value broadcasts, so
+``t`` may be an array of samples and ``p`` an array of parameter sets (``p[k]`` of shape ``(B, 1)``) at no extra
+cost. Parameters are arguments: changing one never recompiles.
+
+* ``all_values``: every unknown (algebraic variables and state derivatives), in :attr:`unknown_names` order;
+* ``rhs``: the state derivatives only (a backward slice of the steps);
+* ``jac``: the exact Jacobian of ``rhs`` with respect to the states, by forward differentiation through the
+  steps (implicit-function rule through numeric blocks);
+* ``zeros``: the event zero-crossing functions.
+
+Common subexpressions are eliminated (sympy ``cse``) per function; a shared subexpression is emitted just before
+its first use, so it never runs ahead of the block that defines its inputs.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import sympy as sp
+from sympy.printing.numpy import NumPyPrinter
+
+from . import runtime
+from .signals import SignalCall
+from .solve import Assign, LinearSolve, NewtonSolve
+from .symbols import der_name, time, var_symbol
+
+
+class _Printer(NumPyPrinter):
+    def __init__(self, names):
+        super().__init__({"fully_qualified_modules": True, "inline": True, "allow_unknown_functions": False})
+        self._names = names
+
+    def _print_Symbol(self, expr):
+        try:
+            return self._names[expr]
+        except KeyError:
+            raise KeyError(f"code generation: no value for symbol {expr.name!r}") from None
+
+
+class CodeGenerator:
+    def __init__(self, states, params, discretes, input_tokens, unknowns, steps):
+        self.states, self.params, self.discretes = list(states), list(params), list(discretes)
+        self.inputs, self.unknowns, self.steps = list(input_tokens), list(unknowns), list(steps)
+        self.names: dict = {time: "t"}
+        for i, n in enumerate(self.states):
+            self.names[var_symbol(n)] = f"_x{i}"
+        for i, n in enumerate(self.unknowns):
+            self.names[var_symbol(n)] = f"_v{i}"
+        from .symbols import par_symbol
+        for i, n in enumerate(self.params):
+            self.names[par_symbol(n)] = f"_p{i}"
+        for i, n in enumerate(self.discretes):
+            self.names[par_symbol(n)] = f"_d{i}"
+        self._input_index = {n: i for i, n in enumerate(self.inputs)}
+        self._blocks: list[str] = []  # source of Newton residual functions
+        self._block_count = itertools.count()
+        self.source = ""
+        self.signal_orders: dict = {}  # token -> highest order used
+        self.defined_by: dict = {}
+        for k, st in enumerate(self.steps):
+            for v in _step_vars(st):
+                self.defined_by[var_symbol(v)] = k
+
+    # ------------------------------------------------------------------ helpers
+    def _signal_symbols(self, expr):
+        if not expr.has(SignalCall):
+            return expr
+        rep = {}
+        for call in expr.atoms(SignalCall):
+            token, order = call.args[0].name, int(call.args[1])
+            k = self._input_index[token]
+            sym = sp.Symbol(f"_u{k}_{order}", real=True)
+            self.names[sym] = f"_u{k}_{order}"
+            rep[call] = sym
+            self.signal_orders[token] = max(self.signal_orders.get(token, 0), order)
+        return expr.xreplace(rep)
+
+    def _slice(self, targets) -> list[int]:
+        """Indices of the steps needed to compute the target symbols (in order)."""
+        need, todo = set(), list(targets)
+        seen = set()
+        while todo:
+            s = todo.pop()
+            if s in seen:
+                continue
+            seen.add(s)
+            k = self.defined_by.get(s)
+            if k is None or k in need:
+                continue
+            need.add(k)
+            for e in _step_exprs(self.steps[k]):
+                todo.extend(e.free_symbols)
+        return sorted(need)
+
+    # ------------------------------------------------------------------ body
+    def _body(self, step_ids, with_jac=False):
+        """Statement list: ("assign", ident, expr) | ("code", text, used_symbols)."""
+        items = []
+        D: dict = {}
+        if with_jac:
+            for i, n in enumerate(self.states):
+                D[var_symbol(n)] = {i: sp.Integer(1)}
+        for k in step_ids:
+            st = self.steps[k]
+            if isinstance(st, Assign):
+                sym = var_symbol(st.var)
+                expr = self._signal_symbols(st.expr)
+                if isinstance(expr, sp.Symbol) and expr in self.names:
+                    self.names[sym] = self.names[expr]  # a plain copy: share the value, emit nothing
+                    if with_jac and expr in D:
+                        D[sym] = D[expr]
+                    continue
+                items.append(("assign", self.names[sym], expr))
+                if with_jac:
+                    self._jac_assign(sym, expr, D, items)
+            elif isinstance(st, LinearSolve):
+                A = [[self._signal_symbols(e) for e in row] for row in st.A]
+                b = [self._signal_symbols(e) for e in st.b]
+                self._emit_linear(k, st.vars, A, b, items)
+                if with_jac:
+                    ys = [var_symbol(v) for v in st.vars]
+                    res = [sum(A[i][j] * ys[j] for j in range(len(ys))) - b[i] for i in range(len(ys))]
+                    self._jac_block(k, ys, res, A, D, items)
+            else:
+                self._emit_newton(k, st, items)
+                if with_jac:
+                    ys = [var_symbol(v) for v in st.vars]
+                    res = [self._signal_symbols(r) for r in st.residuals]
+                    J = [[self._signal_symbols(e) for e in row] for row in st.jac]
+                    self._jac_block(k, ys, res, J, D, items)
+        return items, D
+
+    def _emit_linear(self, k, vars_, A, b, items):
+        m = len(vars_)
+        a_names = [[f"_L{k}a{i}_{j}" for j in range(m)] for i in range(m)]
+        b_names = [f"_L{k}b{i}" for i in range(m)]
+        for i in range(m):
+            for j in range(m):
+                items.append(("assign", a_names[i][j], A[i][j]))
+            items.append(("assign", b_names[i], b[i]))
+        targets = ", ".join(self.names[var_symbol(v)] for v in vars_)
+        rows = "[" + ", ".join("[" + ", ".join(r) + "]" for r in a_names) + "]"
+        items.append(("code", f"{targets}, = _linsolve({rows}, [{', '.join(b_names)}])", set()))
+
+    def _emit_newton(self, k, st, items):
+        n = next(self._block_count)
+        ys = [var_symbol(v) for v in st.vars]
+        res = [self._signal_symbols(r) for r in st.residuals]
+        J = [[self._signal_symbols(e) for e in row] for row in st.jac]
+        ext = sorted({s for e in res + [x for row in J for x in row] for s in e.free_symbols} - set(ys),
+                     key=lambda s: s.name)
+        args = [self.names[s] for s in ext]
+        local = dict(self.names)
+        for i, y in enumerate(ys):
+            local[y] = f"_y[{i}]"
+        pr = _Printer(local)
+        reps, red = sp.cse(res + [x for row in J for x in row], symbols=_cse_symbols(f"_n{n}c"), optimizations=None)
+        for s, _ in reps:
+            local[s] = s.name
+        lines = [f"def _newton_block{n}(_y, {', '.join(args)}):" if args else f"def _newton_block{n}(_y):"]
+        for s, e in reps:
+            lines.append(f"    {s.name} = {pr.doprint(e)}")
+        m = len(ys)
+        rr = ", ".join(pr.doprint(e) for e in red[:m])
+        jj = ", ".join("(" + ", ".join(pr.doprint(e) for e in red[m + i * m: m + (i + 1) * m]) + ",)" for i in range(m))
+        lines.append(f"    return ({rr},), ({jj},)")
+        self._blocks.append("\n".join(lines))
+        label = f"the nonlinear block of {', '.join(repr(v) for v in st.vars)} (equations from {', '.join(sorted(set(st.origins)))})"
+        self._labels = getattr(self, "_labels", {})
+        self._labels[n] = label
+        targets = ", ".join(self.names[y] for y in ys)
+        guesses = ", ".join(repr(float(g)) for g in st.guesses)
+        items.append(("code", f"{targets}, = _newton(_newton_block{n}, ({guesses},), ({', '.join(args)}{',' if args else ''}), _labels[{n}])",
+                      set(ext)))
+
+    def _jac_assign(self, sym, expr, D, items):
+        d = {}
+        for s in expr.free_symbols:
+            if s in D:
+                fs = expr.diff(s)
+                if fs == 0:
+                    continue
+                for c, ds in D[s].items():
+                    d[c] = d.get(c, 0) + fs * ds
+        out = {}
+        for c, e in d.items():
+            if e != 0:
+                name = f"{self.names[sym]}_J{c}"
+                js = sp.Symbol(name, real=True)
+                self.names[js] = name
+                items.append(("assign", name, e))
+                out[c] = js
+        if out:
+            D[sym] = out
+
+    def _jac_block(self, k, ys, res, J, D, items):
+        """Implicit-function rule: dy/dx_c = -J^-1 * sum_s dr/ds * ds/dx_c over symbols s outside the block."""
+        m = len(ys)
+        yset = set(ys)
+        cols = sorted({c for r in res for s in r.free_symbols if s in D and s not in yset for c in D[s]})
+        if not cols:
+            return
+        jn = [[f"_B{k}j{i}_{j}" for j in range(m)] for i in range(m)]
+        for i in range(m):
+            for j in range(m):
+                items.append(("assign", jn[i][j], J[i][j]))
+        for y in ys:
+            D[y] = {}
+        for c in cols:
+            w = []
+            for i, r in enumerate(res):
+                acc = 0
+                for s in r.free_symbols:
+                    if s in D and s not in yset and c in D[s]:
+                        acc += r.diff(s) * D[s][c]
+                wn = f"_B{k}w{i}_{c}"
+                items.append(("assign", wn, -acc))
+                w.append(wn)
+            targets = []
+            for y in ys:
+                name = f"{self.names[y]}_J{c}"
+                js = sp.Symbol(name, real=True)
+                self.names[js] = name
+                D[y][c] = js
+                targets.append(name)
+            rows = "[" + ", ".join("[" + ", ".join(r) + "]" for r in jn) + "]"
+            items.append(("code", f"{', '.join(targets)}, = _linsolve({rows}, [{', '.join(w)}])", set()))
+
+    # ------------------------------------------------------------------ emission
+    def _render(self, fname, items, result_lines, extra_used=()):
+        exprs = [sp.sympify(e) for kind, _, e in items if kind == "assign"]
+        reps, red = sp.cse(exprs, symbols=_cse_symbols(f"_{fname}c"), optimizations=None) if exprs else ([], [])
+        rep_map = {s: e for s, e in reps}
+        names = dict(self.names)
+        for s, _ in reps:
+            names[s] = s.name
+        for kind, ident, _ in items:
+            if kind == "assign":
+                names.setdefault(sp.Symbol(ident, real=True), ident)
+        pr = _Printer(names)
+        lines, emitted = [], set()
+
+        def emit_reps(expr):
+            for s in sorted(expr.free_symbols & rep_map.keys(), key=lambda s: int(s.name.rsplit("c", 1)[1])):
+                if s not in emitted:
+                    emit_reps(rep_map[s])
+                    emitted.add(s)
+                    lines.append(f"    {s.name} = {pr.doprint(rep_map[s])}")
+
+        it = iter(red)
+        used = set(extra_used)
+        for kind, ident, payload in items:
+            if kind == "assign":
+                e = next(it)
+                emit_reps(e)
+                used |= e.free_symbols
+                lines.append(f"    {ident} = {pr.doprint(e)}")
+            else:
+                used |= payload
+                lines.append(f"    {ident}")
+        # prologue: unpack what is used (states, parameters, modes, signals)
+        text = "\n".join(lines) + "\n" + "\n".join(result_lines)
+        head = [f"def {fname}(t, x, p, d, u):"]
+        for i in range(len(self.states)):
+            if f"_x{i}" in text:
+                head.append(f"    _x{i} = x[{i}]")
+        for i in range(len(self.params)):
+            if f"_p{i}" in text:
+                head.append(f"    _p{i} = p[{i}]")
+        for i in range(len(self.discretes)):
+            if f"_d{i}" in text:
+                head.append(f"    _d{i} = d[{i}]")
+        for sym, ident in self.names.items():
+            if ident.startswith("_u") and ident in text:
+                k, o = ident[2:].split("_")
+                head.append(f"    {ident} = u[{k}](t, {o})")
+        return "\n".join(head + lines + list(result_lines))
+
+    def generate(self, event_zeros=()):
+        """Build the functions; returns a dict name -> callable and keeps :attr:`source`."""
+        srcs = []
+        all_ids = list(range(len(self.steps)))
+        items, _ = self._body(all_ids)
+        outs = ", ".join(self.names[var_symbol(v)] for v in self.unknowns)
+        srcs.append(self._render("all_values", items, [f"    return [{outs}{',' if len(self.unknowns) == 1 else ''}]"]))
+        dnames = [var_symbol(der_name(s)) for s in self.states]
+        rhs_ids = self._slice(dnames)
+        items, _ = self._body(rhs_ids)
+        vals = ", ".join(self.names[d] for d in dnames)
+        srcs.append(self._render("rhs", items, [f"    return _np_array([{vals}], dtype=float)"]))
+        srcs.append(self._render("rhs_vec", items, [f"    return _bstack([{vals}{',' if len(dnames) == 1 else ''}])"]))
+        items, D = self._body(rhs_ids, with_jac=True)
+        n = len(self.states)
+        rows = []
+        for i, d in enumerate(dnames):
+            row = D.get(d, {})
+            rows.append("[" + ", ".join(self.names[row[j]] if j in row and row[j] in self.names else
+                                         (pr_const(row[j]) if j in row else "0.0") for j in range(n)) + "]")
+        srcs.append(self._render("jac", items, [f"    return _np_array([{', '.join(rows)}], dtype=float)"]))
+        zeros = [self._signal_symbols(z) for z in event_zeros]
+        z_ids = self._slice([s for z in zeros for s in z.free_symbols])
+        items, _ = self._body(z_ids)
+        for i, z in enumerate(zeros):
+            items.append(("assign", f"_z{i}", z))
+        zs = ", ".join(f"_z{i}" for i in range(len(zeros)))
+        srcs.append(self._render("zeros", items, [f"    return [{zs}{',' if len(zeros) == 1 else ''}]"]))
+        self.source = "\n\n".join(self._blocks + srcs) + "\n"
+        ns = {"numpy": np, "_np_array": np.array, "_bstack": runtime.bstack, "_linsolve": runtime.linsolve,
+              "_newton": runtime.newton, "_labels": getattr(self, "_labels", {})}
+        code = compile(self.source, "<acausal generated>", "exec")
+        exec(code, ns)
+        return {k: ns[k] for k in ("all_values", "rhs", "rhs_vec", "jac", "zeros")}
+
+
+def pr_const(e):
+    return repr(float(e))
+
+
+def _cse_symbols(prefix):
+    for i in itertools.count():
+        yield sp.Symbol(f"{prefix}{i}", real=True)
+
+
+def _step_vars(st):
+    if isinstance(st, Assign):
+        return [st.var]
+    return list(st.vars)
+
+
+def _step_exprs(st):
+    if isinstance(st, Assign):
+        return [st.expr]
+    if isinstance(st, LinearSolve):
+        return [e for row in st.A for e in row] + list(st.b)
+    if isinstance(st, NewtonSolve):
+        return list(st.residuals) + [e for row in st.jac for e in row]
+    return []

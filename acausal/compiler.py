@@ -1,0 +1,278 @@
+"""``compile_model``: flatten -> aliases -> balance -> index reduction -> BLT -> solve -> code.
+
+The result, :class:`CompiledModel`, is compiled once and simulated many times with other parameter values,
+start values or input signals. ``report()`` tells what the compiler did: states, index, blocks.
+"""
+from __future__ import annotations
+
+import difflib
+import time as _time
+
+import numpy as np
+import sympy as sp
+
+from .alias import eliminate_aliases
+from .codegen import CodeGenerator
+from .errors import ModelError, SignalError
+from .flatten import FlatModel, flatten
+from .signals import Signal, SignalCall
+from .solve import Assign, LinearSolve, NewtonSolve, solve_blocks
+from .structure import blt_blocks, check_balance, reduce_index
+from .symbols import ConstantSymbol, split_der, time
+
+
+def compile_model(model) -> "CompiledModel":
+    """Compile a model instance (see :class:`acausal.Model`) into fast numeric functions."""
+    t0 = _time.perf_counter()
+    flat = flatten(model)
+    eliminate_aliases(flat)
+    base = set(flat.variables)
+
+    def var_filter(expr):
+        return {s.name for s in expr.free_symbols
+                if not isinstance(s, ConstantSymbol) and s is not time and split_der(s.name)[0] in base}
+
+    residuals = [eq.residual for eq in flat.equations]
+    origins = [eq.origin for eq in flat.equations]
+    eq_vars = [var_filter(r) for r in residuals]
+    _check_symbols(flat, residuals, origins)
+    check_balance(eq_vars, origins, sorted(base), flat.owner_of)
+    red = reduce_index(residuals, origins, sorted(base),
+                       lambda n: flat.variables[n].state_select if n in flat.variables else 2, var_filter)
+    _check_signal_orders(flat, red.residuals, red.origins)
+    blocks = blt_blocks(red.eq_vars, red.unknowns, red.origins)
+    starts = {n: v.start for n, v in flat.variables.items()}
+    steps = solve_blocks(blocks, red.residuals, red.origins, starts)
+    gen = CodeGenerator(red.states, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs),
+                        red.unknowns, steps)
+    zeros = [_resolve(ev.zero, flat) for ev in flat.events]
+    funcs = gen.generate(zeros)
+    return CompiledModel(flat, red, blocks, steps, gen, funcs, zeros, _time.perf_counter() - t0)
+
+
+def _resolve(expr, flat: FlatModel):
+    """Replace eliminated aliases in an expression by what they stand for."""
+    rep = {s: flat.aliases[s.name] for s in expr.free_symbols if s.name in flat.aliases}
+    return expr.xreplace(rep) if rep else expr
+
+
+def _check_symbols(flat, residuals, origins):
+    known = set(flat.parameters) | set(flat.discretes) | set(flat.inputs)
+    base = set(flat.variables)
+    for r, o in zip(residuals, origins):
+        for s in r.free_symbols:
+            if s is time or split_der(s.name)[0] in base or s.name in known:
+                continue
+            raise ModelError(f"equation from {o} uses {s.name!r}, which is no variable, parameter or input of "
+                             "the model")
+
+
+def _check_signal_orders(flat, residuals, origins):
+    need: dict = {}
+    for r, o in zip(residuals, origins):
+        if r.has(SignalCall):
+            for c in r.atoms(SignalCall):
+                tok, order = c.args[0].name, int(c.args[1])
+                if order > need.get(tok, (-1, ""))[0]:
+                    need[tok] = (order, o)
+    for tok, (order, o) in need.items():
+        info = flat.inputs[tok]
+        mo = info.signal.max_order
+        if mo is not None and order > mo:
+            raise SignalError(
+                f"input {tok!r} of {info.owner}: index reduction needs its derivative of order {order} (for "
+                f"{o}), but its signal {type(info.signal).__name__} provides derivatives only up to order {mo}")
+
+
+class CompiledModel:
+    """A compiled model: numeric functions plus everything needed to name, initialise and simulate."""
+
+    def __init__(self, flat, red, blocks, steps, gen, funcs, zeros, compile_seconds):
+        self.flat = flat
+        self.reduction = red
+        self.blocks = blocks
+        self.steps = steps
+        self.generator = gen
+        self.funcs = funcs
+        self.event_zeros = zeros
+        self.compile_seconds = compile_seconds
+        self.state_names = list(gen.states)
+        self.unknown_names = list(gen.unknowns)
+        self.param_names = list(gen.params)
+        self.discrete_names = list(gen.discretes)
+        self.input_names = list(gen.inputs)
+        self._param_index = {n: i for i, n in enumerate(self.param_names)}
+        self._param_order = _param_eval_order(flat)
+        self._event_assign = _compile_event_assignments(flat, self)
+
+    # ------------------------------------------------------------------ names and values
+    @property
+    def source(self) -> str:
+        """The generated Python source."""
+        return self.generator.source
+
+    def names(self) -> list:
+        """Every variable name the results answer: states, algebraic unknowns and aliases."""
+        return sorted(set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases))
+
+    def _unknown_name_error(self, name, kind, candidates):
+        close = difflib.get_close_matches(name, candidates, n=3)
+        hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
+        return ModelError(f"unknown {kind} {name!r} in model {self.flat.name}{hint}")
+
+    def param_vector(self, params: dict | None = None) -> np.ndarray:
+        """Numeric parameter vector (in :attr:`param_names` order) with ``params`` overriding defaults.
+
+        A value may be an array (a batch of parameter sets): the vector then has dtype object entries that
+        broadcast in the generated code; use :meth:`param_batch` for the usual case.
+        """
+        params = dict(params or {})
+        for k in params:
+            if k not in self._param_index:
+                raise self._unknown_name_error(k, "parameter", self.param_names)
+        values: dict = {}
+        for name in self._param_order:
+            info = self.flat.parameters[name]
+            if name in params:
+                v = params[name]
+            elif isinstance(info.value, sp.Basic) and not info.value.is_number:
+                v = _eval_param_expr(info.value, values)
+            else:
+                v = float(info.value)
+            arr = np.asarray(v, dtype=float)
+            if not np.all(np.isfinite(arr)):
+                raise ModelError(f"parameter {name!r} of {info.owner} is not finite: {v}")
+            if info.min is not None and np.any(arr < info.min):
+                raise ModelError(f"parameter {name!r} of {info.owner} = {v} is below its minimum {info.min} "
+                                 f"[{info.unit}]")
+            if info.max is not None and np.any(arr > info.max):
+                raise ModelError(f"parameter {name!r} of {info.owner} = {v} is above its maximum {info.max} "
+                                 f"[{info.unit}]")
+            values[name] = v
+        if any(np.ndim(values[n]) for n in self.param_names):
+            out = np.empty(len(self.param_names), dtype=object)
+            for i, n in enumerate(self.param_names):
+                out[i] = values[n]
+            return out
+        return np.array([values[n] for n in self.param_names], dtype=float)
+
+    def param_batch(self, sets: list) -> np.ndarray:
+        """Parameter array of shape ``(n_params, B, 1)`` for ``B`` parameter sets: generated functions evaluated
+        with it over ``N`` time samples return arrays of shape ``(B, N)``."""
+        cols = [self.param_vector(s) for s in sets]
+        return np.stack(cols, axis=1)[:, :, None]
+
+    def input_tuple(self, inputs: dict | None = None) -> tuple:
+        inputs = dict(inputs or {})
+        for k, v in inputs.items():
+            if k not in self.flat.inputs:
+                raise self._unknown_name_error(k, "numeric input", self.input_names)
+            if not isinstance(v, Signal):
+                raise ModelError(f"input {k!r}: a replacement must be a Signal, got {type(v).__name__}")
+            need = self.generator.signal_orders.get(k, 0)
+            if v.max_order is not None and v.max_order < need:
+                raise SignalError(f"input {k!r}: the model needs derivatives up to order {need}, the replacement "
+                                  f"{type(v).__name__} provides up to {v.max_order}")
+        return tuple(inputs.get(n, self.flat.inputs[n].signal) for n in self.input_names)
+
+    def discrete_start(self) -> np.ndarray:
+        return np.array([self.flat.discretes[n].start for n in self.discrete_names], dtype=float)
+
+    # ------------------------------------------------------------------ running
+    def simulate(self, t_end: float, **kwargs):
+        """Simulate from ``t_start`` (default 0) to ``t_end``; see :func:`acausal.simulate.simulate`."""
+        from .simulate import simulate
+        return simulate(self, t_end, **kwargs)
+
+    def evaluate(self, t, x=None, params=None, inputs=None, discrete=None):
+        """Every unknown at times ``t`` for given states ``x`` (shape ``(n_states, len(t))``), vectorised.
+
+        For a model without states (everything prescribed) this is the whole solution, no integrator needed.
+        ``params`` may be a dict or a parameter array from :meth:`param_vector` / :meth:`param_batch`.
+        """
+        t = np.asarray(t, dtype=float)
+        p = params if isinstance(params, np.ndarray) else self.param_vector(params)
+        u = self.input_tuple(inputs)
+        d = self.discrete_start() if discrete is None else discrete
+        if x is None:
+            if self.state_names:
+                raise ModelError(f"model {self.flat.name} has states {self.state_names}; pass x or simulate")
+            x = np.zeros((0,) + t.shape)
+        vals = self.funcs["all_values"](t, x, p, d, u)
+        return {n: v for n, v in zip(self.unknown_names, vals)}
+
+    # ------------------------------------------------------------------ report
+    def report(self) -> str:
+        red = self.reduction
+        n_num = sum(isinstance(s, (LinearSolve, NewtonSolve)) for s in self.steps)
+        sizes = [len(b[0]) for b in self.blocks]
+        lines = [
+            f"model {self.flat.name}: compiled in {self.compile_seconds * 1e3:.0f} ms",
+            f"  variables after alias elimination: {len(self.flat.variables)} "
+            f"({len(self.flat.aliases)} aliases removed)",
+            f"  equations after index reduction: {len(red.residuals)} "
+            f"({len(red.residuals) - len(self.flat.equations)} differentiated)",
+            f"  differential index: {red.index} (equations differentiated up to {red.differentiations} times)",
+            f"  states ({len(self.state_names)}): {', '.join(self.state_names) or 'none'}",
+            f"  dummy derivatives: {', '.join(sorted(red.dummies)) or 'none'}",
+            f"  BLT blocks: {len(self.blocks)} (largest {max(sizes, default=0)}), numeric blocks: {n_num}",
+        ]
+        for s in self.steps:
+            if isinstance(s, NewtonSolve):
+                lines.append(f"    Newton on {s.vars} (from {sorted(set(s.origins))})")
+            elif isinstance(s, LinearSolve):
+                lines.append(f"    linear solve for {s.vars}")
+        if self.generator.signal_orders:
+            lines.append("  input derivatives used: " + ", ".join(
+                f"{k} up to order {v}" for k, v in sorted(self.generator.signal_orders.items())))
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return f"<CompiledModel {self.flat.name}: {len(self.state_names)} states, {len(self.unknown_names)} unknowns>"
+
+
+def _param_eval_order(flat) -> list:
+    deps = {}
+    for n, info in flat.parameters.items():
+        deps[n] = {s.name for s in info.value.free_symbols} if isinstance(info.value, sp.Basic) else set()
+    order, done = [], set()
+
+    def visit(n, stack=()):
+        if n in done:
+            return
+        if n in stack:
+            raise ModelError(f"parameter bindings form a cycle: {' -> '.join(stack + (n,))}")
+        for m in sorted(deps[n]):
+            visit(m, stack + (n,))
+        done.add(n)
+        order.append(n)
+
+    for n in sorted(deps):
+        visit(n)
+    return order
+
+
+def _eval_param_expr(expr, values):
+    f = sp.lambdify([sp.Symbol(n) for n in sorted(s.name for s in expr.free_symbols)],
+                    expr.xreplace({s: sp.Symbol(s.name) for s in expr.free_symbols}), "numpy")
+    return f(*[values[n] for n in sorted(s.name for s in expr.free_symbols)])
+
+
+def _compile_event_assignments(flat, cm):
+    """Event assignments as numeric functions of (values dict) -> new mode value."""
+    out = []
+    for ev in flat.events:
+        entry = {}
+        for direction, table in (("rising", ev.on_rising), ("falling", ev.on_falling)):
+            fs = []
+            for sym, expr in table.items():
+                name = sym.name if hasattr(sym, "name") else str(sym)
+                if name not in flat.discretes:
+                    raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
+                e = _resolve(sp.sympify(expr), flat)
+                e = e.xreplace({s: sp.Symbol(s.name) for s in e.free_symbols})
+                syms = sorted(s.name for s in e.free_symbols)
+                fs.append((name, syms, sp.lambdify([sp.Symbol(s) for s in syms], e, "numpy")))
+            entry[direction] = fs
+        out.append(entry)
+    return out

@@ -1,0 +1,359 @@
+"""Components, their declarations (parameters, variables, discrete modes, prescribed inputs) and ``connect``.
+
+A component is a Python class. Class attributes declare what it has::
+
+    class Resistor(OnePort):
+        R = Parameter(1.0, unit="Ohm", min=0.0, doc="resistance")
+
+        def equations(self):
+            return [*super().equations(), Eq(self.v, self.R * self.i)]
+
+* :class:`Parameter` - constant during a run, overridable per run without recompiling.
+* :class:`Variable` - a continuous unknown with a start value (``fixed=True`` makes it an initial condition).
+* :class:`Discrete` - a piecewise-constant mode changed only by events (ideal diode on/off, friction mode).
+* :class:`Input` - a prescribed signal (number, sympy expression of time, or :class:`acausal.signals.Signal`).
+* A connector instance (``p = Pin()``) declares a port; each component instance gets its own copy.
+
+Composite models create sub-components and connections in :meth:`Component.build`::
+
+    class Circuit(Model):
+        def build(self):
+            self.R = Resistor(R=10.0)
+            self.C = Capacitor(C=1e-3)
+            connect(self.R.n, self.C.p)
+
+``build`` runs when the model is compiled, top-down, once every instance knows its hierarchical name; a
+parameter may then be bound to an expression of the enclosing model's parameters (``Resistor(R=2 * self.R0)``).
+Inside ``equations`` and ``build``, ``self.x`` is the sympy symbol of ``x`` named by its path (``"motor.R.i"``).
+"""
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from .errors import ConnectError, ModelError
+from .signals import Signal, as_signal_expr
+from .symbols import par_symbol, time, var_symbol
+
+__all__ = ["Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start", "Event",
+           "Component", "Model", "Connector", "connect"]
+
+
+# --------------------------------------------------------------------------------------------- declarations
+class _Declaration:
+    """Base of class-level declarations; knows its attribute name and owning class."""
+
+    name: str = "?"
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+
+class Parameter(_Declaration):
+    """A constant of the model with an SI unit; its value can be changed per run without recompiling.
+
+    ``default`` may be a number or ``None`` (then the user must give a value). ``min``/``max`` are checked on
+    every run; a value outside them is a :class:`~acausal.errors.ModelError` naming the parameter.
+    """
+
+    def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
+                 max: float | None = None):
+        self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        return par_symbol(obj._child_path(self.name))
+
+
+class Variable(_Declaration):
+    """A continuous unknown of time.
+
+    ``start`` is the initial value (used as an initial condition when ``fixed=True``, else as a guess);
+    ``state_select`` ("never", "avoid", "default", "prefer", "always") guides which variables index reduction
+    keeps as states, as in Modelica.
+    """
+
+    kind = "variable"
+
+    def __init__(self, start: float = 0.0, unit: str = "1", doc: str = "", fixed: bool = False,
+                 state_select: str = "default", nominal: float = 1.0):
+        if state_select not in _STATE_SELECT:
+            raise ModelError(f"state_select must be one of {sorted(_STATE_SELECT)}, got {state_select!r}")
+        self.start, self.unit, self.doc, self.fixed = start, unit, doc, fixed
+        self.state_select, self.nominal = state_select, nominal
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        return var_symbol(obj._child_path(self.name))
+
+
+_STATE_SELECT = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
+
+
+class Potential(Variable):
+    """Across variable of a connector (voltage, angle, temperature, signal value): equal when connected."""
+
+    kind = "potential"
+
+
+class Flow(Variable):
+    """Through variable of a connector (current, torque, heat flow), positive into the component.
+
+    Connected flows sum to zero; a flow whose port is connected to nothing is zero (the Modelica rule).
+    """
+
+    kind = "flow"
+
+
+class Discrete(_Declaration):
+    """A piecewise-constant mode variable, changed only by :class:`Event` assignments."""
+
+    def __init__(self, start: float = 0.0, doc: str = ""):
+        self.start, self.doc = start, doc
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        return par_symbol(obj._child_path(self.name))
+
+
+class Input(_Declaration):
+    """A prescribed signal: a number, a sympy expression of :data:`acausal.time`, or a numeric
+    :class:`~acausal.signals.Signal`. In equations ``self.u`` is the signal as a sympy expression; index
+    reduction differentiates it as often as the structure needs."""
+
+    def __init__(self, default=None, unit: str = "1", doc: str = ""):
+        self.default, self.unit, self.doc = default, unit, doc
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        value = obj._inputs.get(self.name, self.default)
+        if value is None:
+            raise ModelError(f"{obj._describe()}: input {self.name!r} has no signal; pass {self.name}=...")
+        return as_signal_expr(value, obj._child_path(self.name))
+
+
+@dataclass(frozen=True)
+class Start:
+    """A start value for a variable given at construction: ``Inertia(w=Start(1.0, fixed=True))``."""
+
+    value: float
+    fixed: bool = True
+
+
+@dataclass
+class Event:
+    """A state event: when ``zero`` crosses zero, apply the assignments to discrete modes.
+
+    ``on_rising`` is applied when ``zero`` goes from negative to positive, ``on_falling`` the other way. Each
+    maps a discrete symbol to an expression evaluated just before the event (pre-values of modes, values of
+    continuous variables at the crossing). At initialisation the rising set is applied where ``zero > 0`` and
+    the falling set where ``zero < 0`` until the modes stop changing.
+    """
+
+    zero: sp.Expr
+    on_rising: dict = field(default_factory=dict)
+    on_falling: dict = field(default_factory=dict)
+    doc: str = ""
+
+
+# --------------------------------------------------------------------------------------------- components
+_BUILDING: list["Component"] = []  # stack of models whose build() is running (for connect)
+
+
+class Component:
+    """Base class of every component, connector and model (see the module docstring)."""
+
+    doc_string = ""
+
+    def __init__(self, doc: str = "", **values):
+        object.__setattr__(self, "_path", "")
+        object.__setattr__(self, "_parent", None)
+        object.__setattr__(self, "_attr_name", None)
+        object.__setattr__(self, "_children", {})
+        object.__setattr__(self, "_connections", [])
+        object.__setattr__(self, "_built", False)
+        object.__setattr__(self, "_init_kwargs", dict(values, doc=doc))
+        self._values: dict = {}
+        self._starts: dict = {}
+        self._inputs: dict = {}
+        self.doc = doc
+        for name, tpl in self._declared_ports():
+            setattr(self, name, tpl._clone())
+        decl = self.declarations()
+        for key, value in values.items():
+            d = decl.get(key)
+            if isinstance(d, Parameter):
+                self._values[key] = value
+            elif isinstance(d, (Variable, Discrete)):
+                self._starts[key] = value if isinstance(value, Start) else Start(float(value), getattr(d, "fixed", False))
+            elif isinstance(d, Input):
+                self._inputs[key] = value
+            else:
+                known = ", ".join(sorted(k for k, v in decl.items() if not isinstance(v, Component)))
+                raise ModelError(f"{type(self).__name__}: unknown parameter, variable or input {key!r}; "
+                                 f"known: {known}")
+
+    # ---- declarations
+    @classmethod
+    def declarations(cls) -> dict:
+        """All class-level declarations (parameters, variables, modes, inputs, port templates), base classes first."""
+        out = {}
+        for klass in reversed(cls.__mro__):
+            for k, v in vars(klass).items():
+                if isinstance(v, (_Declaration, Component)):
+                    out[k] = v
+        return out
+
+    @classmethod
+    def _declared_ports(cls):
+        return [(k, v) for k, v in cls.declarations().items() if isinstance(v, Component)]
+
+    def __set_name__(self, owner, name):  # a connector/component declared as a class attribute
+        object.__setattr__(self, "_attr_name", name)
+
+    def _clone(self):
+        return type(self)(**self._init_kwargs)
+
+    # ---- hierarchy
+    def __setattr__(self, name, value):
+        if isinstance(value, Component) and not name.startswith("_"):
+            if value._parent is not None and value._parent is not self:
+                raise ModelError(f"{value._describe()} is already part of {value._parent._describe()}; "
+                                 f"create a new instance for {self._child_path(name)!r}")
+            object.__setattr__(value, "_parent", self)
+            object.__setattr__(value, "_attr_name", name)
+            self._children[name] = value
+            value._set_path(self._child_path(name))
+        object.__setattr__(self, name, value)
+
+    def _set_path(self, path: str):
+        object.__setattr__(self, "_path", path)
+        for name, child in self._children.items():
+            child._set_path(self._child_path(name))
+
+    def _child_path(self, name: str) -> str:
+        return f"{self._path}.{name}" if self._path else name
+
+    def _describe(self) -> str:
+        return f"{type(self).__name__} {self._path!r}" if self._path else f"{type(self).__name__} (top level)"
+
+    @property
+    def path(self) -> str:
+        """Hierarchical name of this instance ("" for the top-level model)."""
+        return self._path
+
+    @property
+    def children(self) -> dict:
+        return dict(self._children)
+
+    def _ensure_built(self):
+        if not self._built:
+            object.__setattr__(self, "_built", True)
+            _BUILDING.append(self)
+            try:
+                self.build()
+            finally:
+                _BUILDING.pop()
+        for child in list(self._children.values()):
+            child._ensure_built()
+
+    # ---- what subclasses write
+    def build(self):
+        """Create sub-components and connections (composite models)."""
+
+    def equations(self) -> list:
+        """Equations as ``sympy.Eq`` or residual expressions (``expr == 0``)."""
+        return []
+
+    def events(self) -> list:
+        """State events (:class:`Event`) of this component."""
+        return []
+
+    # ---- values
+    def parameter_value(self, name: str):
+        d = self.declarations()[name]
+        return self._values.get(name, d.default)
+
+    def start_of(self, name: str) -> Start | None:
+        return self._starts.get(name)
+
+    def input_value(self, name: str):
+        d = self.declarations()[name]
+        return self._inputs.get(name, d.default)
+
+    # sympy helpers usable in equations
+    @property
+    def time(self):
+        return time
+
+
+class Model(Component):
+    """A component made of components: override :meth:`build`; may also add equations of its own."""
+
+
+class Connector(Component):
+    """A port. Subclasses declare :class:`Potential` and :class:`Flow` variables and a ``domain``.
+
+    Ports of the same domain can be connected. ``required=True`` makes leaving the port unconnected an error
+    (default for causal inputs).
+    """
+
+    domain = "abstract"
+    required_default = False
+
+    def __init__(self, doc: str = "", required: bool | None = None, **values):
+        super().__init__(doc=doc, **values)
+        self._init_kwargs["required"] = required
+        self.required = self.required_default if required is None else required
+
+    def __repr__(self):
+        return f"<{type(self).__name__} {self._path!r}>"
+
+
+def connect(*ports: Connector):
+    """Connect ports: their potentials are equal and their flows sum to zero (flow into a component positive).
+
+    Must be called inside a model's :meth:`~Component.build`. Ports of different domains (a pin and a flange)
+    raise :class:`~acausal.errors.ConnectError` naming both.
+    """
+    if not _BUILDING:
+        raise ConnectError("connect() must be called inside a model's build() method")
+    model = _BUILDING[-1]
+    if len(ports) < 2:
+        raise ConnectError(f"{model._describe()}: connect() needs at least two ports")
+    for p in ports:
+        if not isinstance(p, Connector):
+            raise ConnectError(f"{model._describe()}: connect() got {p!r}, which is not a port")
+    first = ports[0]
+    for p in ports[1:]:
+        if p.domain != first.domain:
+            raise ConnectError(
+                f"cannot connect {type(first).__name__} {first.path!r} ({first.domain}) with "
+                f"{type(p).__name__} {p.path!r} ({p.domain}): ports of different kinds")
+    for p in ports:
+        owner = p._parent
+        if owner is not model and (owner is None or owner._parent is not model):
+            raise ConnectError(f"{model._describe()}: port {p.path!r} is neither a port of this model nor of one of "
+                               "its direct sub-components")
+    for p in ports[1:]:
+        model._connections.append((first, p))
+
+
+@contextlib.contextmanager
+def building(model: Component):
+    """Context in which ``connect`` attaches connections to ``model`` (for models built outside ``build``)."""
+    _BUILDING.append(model)
+    try:
+        yield model
+    finally:
+        _BUILDING.pop()
+
+
+def is_signal(value) -> bool:
+    return isinstance(value, Signal)

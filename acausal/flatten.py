@@ -1,0 +1,237 @@
+"""Flatten a hierarchical model into one list of equations over hierarchically named variables.
+
+Connection semantics (as in Modelica), level by level: at each composite model, the ports of its direct
+sub-components are *inside* connectors and its own ports are *outside* connectors. Connected ports form
+connection sets; in each set the potentials are equal and ``sum(inside flows) - sum(outside flows) = 0``. An
+inside port connected to nothing forms a set of its own, so its flow is zero (the Modelica rule); the top-level
+model's own ports are likewise treated as unconnected. A ``required`` port left unconnected is an error.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from .components import Component, Connector, Discrete, Flow, Input, Parameter, Potential, Variable, _STATE_SELECT
+from .errors import ConnectError, ModelError
+from .signals import Signal, SignalCall
+from .symbols import split_der, var_symbol
+
+
+@dataclass
+class VarInfo:
+    name: str
+    owner: str
+    unit: str = "1"
+    doc: str = ""
+    start: float = 0.0
+    fixed: bool = False
+    start_given: bool = False
+    state_select: int = 2
+    nominal: float = 1.0
+    kind: str = "variable"  # "variable", "potential" or "flow"
+
+
+@dataclass
+class ParInfo:
+    name: str
+    owner: str
+    value: object  # float or sympy expression of other parameters
+    unit: str = "1"
+    doc: str = ""
+    min: float | None = None
+    max: float | None = None
+
+
+@dataclass
+class DiscreteInfo:
+    name: str
+    owner: str
+    start: float = 0.0
+    doc: str = ""
+
+
+@dataclass
+class InputInfo:
+    name: str  # token, e.g. "pos.phi_ref"
+    owner: str
+    signal: Signal
+    unit: str = "1"
+    doc: str = ""
+
+
+@dataclass
+class FlatEquation:
+    residual: sp.Expr
+    origin: str  # "Resistor 'R1'" or "connect(a, b)"
+
+
+@dataclass
+class FlatEvent:
+    zero: sp.Expr
+    on_rising: dict
+    on_falling: dict
+    origin: str
+
+
+@dataclass
+class FlatModel:
+    name: str
+    variables: dict = field(default_factory=dict)
+    parameters: dict = field(default_factory=dict)
+    discretes: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
+    equations: list = field(default_factory=list)
+    events: list = field(default_factory=list)
+    components: dict = field(default_factory=dict)  # path -> class name
+    aliases: dict = field(default_factory=dict)  # name -> expression in kept variables / parameters
+
+    def owner_of(self, name: str) -> str:
+        base, _ = split_der(name)
+        if base in self.variables:
+            return self.variables[base].owner
+        return base.rsplit(".", 1)[0] if "." in base else ""
+
+
+def _walk(root: Component):
+    """All components below ``root`` (root included), sorted by path."""
+    out, stack = [], [root]
+    while stack:
+        c = stack.pop()
+        out.append(c)
+        stack.extend(c._children.values())
+    return sorted(out, key=lambda c: c._path)
+
+
+def flatten(model: Component) -> FlatModel:
+    if model._parent is not None:
+        raise ModelError(f"{model._describe()} is part of another model; compile the top-level model")
+    model._set_path("")
+    model._ensure_built()
+    flat = FlatModel(name=type(model).__name__)
+    comps = _walk(model)
+    for c in comps:
+        flat.components[c._path] = type(c).__name__
+        _collect_declarations(c, flat)
+    for c in comps:
+        origin = c._describe()
+        for eq in c.equations():
+            res = _residual(eq, origin)
+            flat.equations.append(FlatEquation(res, origin))
+        for ev in c.events():
+            flat.events.append(FlatEvent(sp.sympify(ev.zero), dict(ev.on_rising), dict(ev.on_falling), origin))
+    for c in comps:
+        if not isinstance(c, Connector):
+            _connection_equations(c, flat, is_root=c is model)
+    _check_parameter_bindings(flat)
+    return flat
+
+
+def _residual(eq, origin):
+    if isinstance(eq, sp.Equality):
+        return eq.lhs - eq.rhs
+    if isinstance(eq, bool) or eq in (sp.true, sp.false):
+        raise ModelError(f"{origin}: an equation evaluated to {eq}; write equations with sympy.Eq(lhs, rhs)")
+    try:
+        return sp.sympify(eq)
+    except (sp.SympifyError, TypeError) as exc:
+        raise ModelError(f"{origin}: cannot read equation {eq!r}: {exc}") from None
+
+
+def _collect_declarations(c: Component, flat: FlatModel):
+    origin = c._path or "(top level)"
+    for name, d in c.declarations().items():
+        path = c._child_path(name)
+        if isinstance(d, Parameter):
+            value = c._values.get(name, d.default)
+            if value is None:
+                raise ModelError(f"{c._describe()}: parameter {name!r} has no value and no default")
+            if not isinstance(value, (sp.Basic, int, float)):
+                try:
+                    value = float(value)
+                except (TypeError, ValueError):
+                    raise ModelError(f"{c._describe()}: parameter {name!r} = {value!r} is not a number "
+                                     "or an expression of parameters") from None
+            flat.parameters[path] = ParInfo(path, origin, value, d.unit, d.doc, d.min, d.max)
+        elif isinstance(d, Variable):
+            st = c._starts.get(name)
+            kind = "flow" if isinstance(d, Flow) else "potential" if isinstance(d, Potential) else "variable"
+            flat.variables[path] = VarInfo(
+                path, origin, d.unit, d.doc,
+                start=float(st.value) if st else float(d.start),
+                fixed=st.fixed if st else d.fixed,
+                start_given=st is not None or d.fixed or d.start != 0.0,
+                state_select=_STATE_SELECT[d.state_select], nominal=d.nominal, kind=kind)
+        elif isinstance(d, Discrete):
+            st = c._starts.get(name)
+            flat.discretes[path] = DiscreteInfo(path, origin, float(st.value) if st else float(d.start), d.doc)
+        elif isinstance(d, Input):
+            value = c._inputs.get(name, d.default)
+            if isinstance(value, Signal):
+                flat.inputs[path] = InputInfo(path, origin, value, d.unit, d.doc)
+
+
+def _connector_vars(port: Connector):
+    pots, flows = [], []
+    for name, d in type(port).declarations().items():
+        if isinstance(d, Flow):
+            flows.append(name)
+        elif isinstance(d, Potential):
+            pots.append(name)
+    return pots, flows
+
+
+def _connection_equations(m: Component, flat: FlatModel, is_root: bool):
+    inside = [p for child in m._children.values() if not isinstance(child, Connector)
+              for p in child._children.values() if isinstance(p, Connector)]
+    outside = [p for p in m._children.values() if isinstance(p, Connector)]
+    parent = {id(p): id(p) for p in inside + outside}
+    ports = {id(p): p for p in inside + outside}
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    connected = set()
+    for a, b in m._connections:
+        connected.update((id(a), id(b)))
+        parent[find(id(a))] = find(id(b))
+    sets: dict[int, list] = {}
+    for p in inside + outside:
+        if id(p) in connected or p in inside or is_root:
+            sets.setdefault(find(id(p)), []).append(p)
+    is_outside = {id(p) for p in outside}
+    for members in sorted(sets.values(), key=lambda ms: min(p._path for p in ms)):
+        members.sort(key=lambda p: p._path)
+        if len(members) == 1 and id(members[0]) not in connected:
+            p = members[0]
+            if p.required and id(p) not in is_outside:
+                raise ConnectError(f"port {p._path!r} ({type(p).__name__}) of {p._parent._describe()} "
+                                   "is required but not connected")
+        origin = "connect(" + ", ".join(p._path for p in members) + ")"
+        pots, flows = _connector_vars(members[0])
+        for name in pots:
+            ref = var_symbol(members[0]._child_path(name))
+            for p in members[1:]:
+                flat.equations.append(FlatEquation(var_symbol(p._child_path(name)) - ref, origin))
+        for name in flows:
+            total = sum((-1 if id(p) in is_outside else 1) * var_symbol(p._child_path(name)) for p in members)
+            flat.equations.append(FlatEquation(sp.sympify(total), origin if len(members) > 1 or id(members[0]) in connected
+                                               else f"unconnected port {members[0]._path!r} (flow = 0)"))
+
+
+def _check_parameter_bindings(flat: FlatModel):
+    names = set(flat.parameters)
+    for p in flat.parameters.values():
+        if isinstance(p.value, sp.Basic):
+            unknown = {s.name for s in p.value.free_symbols} - names
+            if unknown:
+                raise ModelError(f"parameter {p.name!r} is bound to {p.value}, which uses {sorted(unknown)}: "
+                                 "not parameters of the model")
+
+
+def signal_calls(expr) -> set:
+    """All SignalCall nodes in an expression."""
+    return set(expr.atoms(SignalCall)) if expr.has(SignalCall) else set()

@@ -1,0 +1,195 @@
+"""Simulation results: every variable and alias by hierarchical name, powers, energies, CSV, plots."""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import cumulative_trapezoid
+
+from .errors import ModelError
+from .signals import SignalCall
+from .symbols import der_name, split_der, time
+
+
+def eval_expr(expr, values: dict, cm, p, d, t=None, u=None):
+    """Evaluate an expression of variables, parameters and modes given numeric ``values`` by name."""
+    syms = sorted(expr.free_symbols, key=lambda s: s.name)
+    if not syms and not expr.has(SignalCall):
+        return float(expr)
+    args = []
+    for s in syms:
+        if s is time:
+            args.append(t)
+        elif s.name in values:
+            args.append(values[s.name])
+        elif s.name in cm._param_index:
+            args.append(p[cm._param_index[s.name]])
+        elif s.name in cm.discrete_names:
+            args.append(d[cm.discrete_names.index(s.name)])
+        else:
+            raise KeyError(s.name)
+    plain = [sp.Symbol(f"a{i}") for i in range(len(syms))]
+    f = sp.lambdify(plain, expr.xreplace(dict(zip(syms, plain))), "numpy")
+    return f(*args)
+
+
+class Result:
+    """Output of a simulation.
+
+    ``res["motor.i"]`` gives any state, algebraic variable or eliminated alias (an array over :attr:`t`);
+    ``res["R.R"]`` a parameter value; ``res["pos.phi_ref"]`` a numeric input signal and ``res.der(name, k)`` its
+    k-th derivative (or a variable's derivative when the model has it). Derived quantities: :meth:`power`,
+    :meth:`energy`; export: :meth:`to_csv`, :meth:`plot`.
+    """
+
+    def __init__(self, cm, t, X, p, u, D, events):
+        self.model = cm
+        self.t = np.asarray(t)
+        self.states = X
+        self.params = p
+        self.inputs = u
+        self.modes = D
+        self.events = events
+        self._unknowns = dict(zip(cm.unknown_names, _as_rows(cm.funcs["all_values"](self.t, X, p, D, u),
+                                                            self.t.shape)))
+        for i, n in enumerate(cm.state_names):
+            self._unknowns[n] = X[i]
+        self._cache: dict = {}
+
+    # ------------------------------------------------------------------ access
+    def names(self) -> list:
+        return self.model.names()
+
+    def __contains__(self, name):
+        try:
+            self[name]
+            return True
+        except KeyError:
+            return False
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name in self._unknowns:
+            return self._unknowns[name]
+        if name in self._cache:
+            return self._cache[name]
+        cm = self.model
+        if name in cm.flat.aliases:
+            v = eval_expr(cm.flat.aliases[name], self._unknowns, cm, self.params, self._mode_rows(), self.t)
+            v = np.broadcast_to(np.asarray(v, dtype=float), self.t.shape)
+        elif name in cm._param_index:
+            v = np.broadcast_to(np.asarray(self.params[cm._param_index[name]], dtype=float), self.t.shape)
+        elif name in cm.discrete_names:
+            v = self.modes[cm.discrete_names.index(name)] if np.ndim(self.modes) == 2 else \
+                np.full(self.t.shape, self.modes[cm.discrete_names.index(name)])
+        elif name in cm.input_names:
+            v = self.inputs[cm.input_names.index(name)](self.t, 0)
+        else:
+            base, order = split_der(name)
+            if order:
+                return self.der(base, order)
+            raise KeyError(self._missing(name))
+        self._cache[name] = v
+        return v
+
+    def _missing(self, name):
+        import difflib
+        close = difflib.get_close_matches(name, self.names(), n=3)
+        return f"no variable {name!r} in the result of {self.model.flat.name}" + (
+            f"; did you mean {', '.join(map(repr, close))}?" if close else "")
+
+    def _mode_rows(self):
+        D = self.modes
+        if np.ndim(D) == 2:
+            return [D[i] for i in range(D.shape[0])]
+        return list(D)
+
+    def der(self, name: str, order: int = 1) -> np.ndarray:
+        """Exact time derivative of a numeric input or of a variable whose derivative the model computes;
+        otherwise a finite-difference estimate over the output grid."""
+        cm = self.model
+        if name in cm.input_names:
+            return self.inputs[cm.input_names.index(name)](self.t, order)
+        target = der_name(name, order)
+        if target in self._unknowns:
+            return self._unknowns[target]
+        if name in cm.flat.aliases:
+            expr = cm.flat.aliases[name]
+            syms = [s for s in expr.free_symbols if s.name in self._unknowns]
+            if all(der_name(s.name, order) in self._unknowns for s in syms):
+                from .symbols import der
+                d_expr = der(expr, order)
+                return np.broadcast_to(np.asarray(
+                    eval_expr(d_expr, self._unknowns, cm, self.params, self._mode_rows(), self.t), dtype=float),
+                    self.t.shape)
+        y = self[name]
+        for _ in range(order):
+            y = np.gradient(y, self.t)
+        return y
+
+    # ------------------------------------------------------------------ derived quantities
+    def power(self, port: str) -> np.ndarray:
+        """Power flowing *into* the component through a port [W]: ``v*i`` for a pin, ``tau*der(phi)`` for a
+        flange, ``Q_flow`` for a heat port."""
+        names = set(self.names())
+        if f"{port}.v" in names and f"{port}.i" in names:
+            return self[f"{port}.v"] * self[f"{port}.i"]
+        if f"{port}.phi" in names and f"{port}.tau" in names:
+            return self[f"{port}.tau"] * self.der(f"{port}.phi")
+        if f"{port}.Q_flow" in names:
+            return self[f"{port}.Q_flow"]
+        raise KeyError(f"{port!r} is not a pin, flange or heat port of {self.model.flat.name}")
+
+    def energy(self, what: str) -> np.ndarray:
+        """Cumulative time integral [J] of a port's power (``what`` a port) or of a power variable."""
+        try:
+            y = self.power(what)
+        except KeyError:
+            y = self[what]
+        return cumulative_trapezoid(y, self.t, initial=0.0)
+
+    def integral(self, name: str) -> float:
+        """Integral of a variable over the whole result (trapezoidal on the output grid)."""
+        return float(np.trapezoid(self[name], self.t))
+
+    # ------------------------------------------------------------------ export
+    def to_csv(self, path, names=None) -> None:
+        """Write ``time`` and the named variables (default: all) as CSV, one row per output time."""
+        names = list(names) if names is not None else self.names()
+        cols = [self[n] for n in names]
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["time"] + names)
+            for k in range(self.t.size):
+                w.writerow([repr(float(self.t[k]))] + [repr(float(c[k])) for c in cols])
+
+    def plot(self, *names, ax=None, **kwargs):
+        """Plot variables over time with matplotlib; returns the axes."""
+        import matplotlib
+        if ax is None:
+            matplotlib.use(matplotlib.get_backend())
+            import matplotlib.pyplot as plt
+            _, ax = plt.subplots()
+        for n in names:
+            unit = self._unit(n)
+            ax.plot(self.t, self[n], label=f"{n} [{unit}]" if unit else n, **kwargs)
+        ax.set_xlabel("time [s]")
+        ax.legend()
+        ax.grid(True, alpha=0.3)
+        return ax
+
+    def _unit(self, name):
+        flat = self.model.flat
+        base = split_der(name)[0]
+        if base in flat.variables:
+            return flat.variables[base].unit
+        if base in flat.parameters:
+            return flat.parameters[base].unit
+        return ""
+
+    def __repr__(self):
+        return f"<Result {self.model.flat.name}: {self.t.size} samples, t = {self.t[0]:g}..{self.t[-1]:g} s>"
+
+
+def _as_rows(vals, shape):
+    return [np.broadcast_to(np.asarray(v, dtype=float), shape) for v in vals]

@@ -1,0 +1,323 @@
+"""Simulation: consistent initialisation, stiff integration with scipy, state events, algebraic models.
+
+The integrators are scipy's (``BDF``, ``Radau``, ``LSODA``, ``RK45``...), driven step by step so that a failure
+can be reported with the time, the step size and the variable, and so that events stop the step exactly at the
+zero crossing (located by Brent's method on the dense output). A model with no states after index reduction is
+evaluated algebraically at the output times.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import integrate, optimize
+
+from .errors import ModelError, SimulationError
+
+METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
+           "RK23": integrate.RK23, "DOP853": integrate.DOP853}
+IMPLICIT = {"BDF", "Radau", "LSODA"}
+
+
+def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
+             starts: dict | None = None, method: str = "BDF", rtol: float = 1e-6, atol: float = 1e-9,
+             t_eval=None, n_points: int = 501, max_step: float = np.inf, first_step: float | None = None,
+             max_events: int = 10_000):
+    """Simulate a :class:`~acausal.compiler.CompiledModel` and return a :class:`~acausal.result.Result`.
+
+    ``params``: parameter overrides by name (no recompilation). ``inputs``: replacement :class:`Signal` s for
+    numeric inputs by name. ``starts``: start values by variable name (fixed initial conditions).
+    ``t_eval``: output times (default ``n_points`` evenly spaced). ``method``: a scipy integrator name.
+    """
+    from .result import Result
+
+    if method not in METHODS:
+        raise ModelError(f"unknown integration method {method!r}; choose one of {sorted(METHODS)}")
+    if not t_end > t_start:
+        raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
+    p = cm.param_vector(params)
+    u = cm.input_tuple(inputs)
+    d = cm.discrete_start()
+    t_out = np.linspace(t_start, t_end, n_points) if t_eval is None else np.asarray(t_eval, dtype=float)
+    if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
+        raise ModelError("t_eval must be increasing and within [t_start, t_end]")
+    n = len(cm.state_names)
+    if n == 0:
+        d_arr = _algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else None
+        X = np.zeros((0, t_out.size))
+        return Result(cm, t_out, X, p, u, d if d_arr is None else d_arr, events=[])
+    x0 = initialize(cm, t_start, p, d, u, starts)
+    d = _settle_modes(cm, t_start, x0, p, d, u)
+    x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
+    X = np.empty((n, t_out.size))
+    D = np.empty((len(d), t_out.size))
+    events = []
+    t, x = t_start, x0
+    k_out = 0
+    solver_cls = METHODS[method]
+    while True:
+        fun, jac = _make_functions(cm, p, d, u, rtol, atol)
+        opts = dict(rtol=rtol, atol=atol, max_step=max_step)
+        if first_step is not None:
+            opts["first_step"] = first_step
+        if method in IMPLICIT:
+            opts["jac"] = jac
+        solver = solver_cls(fun, t, x, t_end, **opts)
+        z_old = _zeros(cm, t, x, p, d, u)
+        restarted = False
+        while solver.status == "running":
+            t_prev = solver.t
+            try:
+                msg = solver.step()
+            except _NonFinite as exc:
+                raise _non_finite_error(cm, exc.t, exc.x, p, d, u) from None
+            if solver.status == "failed":
+                raise _failure(cm, solver, msg, p, d, u, rtol, atol)
+            sol = solver.dense_output() if solver.t != t_prev else None
+            t_new = solver.t
+            hit = None
+            if cm.event_zeros and sol is not None:
+                z_new = _zeros(cm, t_new, solver.y, p, d, u)
+                hit = _first_crossing(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
+                z_old = z_new
+            t_stop = hit[0] if hit else t_new
+            while k_out < t_out.size and t_out[k_out] <= t_stop:
+                X[:, k_out] = sol(t_out[k_out]) if sol is not None else solver.y
+                D[:, k_out] = d
+                k_out += 1
+            if hit:
+                t_e, i_ev, rising = hit
+                x_e = sol(t_e)
+                events.append((t_e, i_ev, "rising" if rising else "falling"))
+                if len(events) > max_events:
+                    raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
+                                          f"{cm.flat.events[i_ev].origin}): the model chatters")
+                d = _apply_event(cm, i_ev, rising, t_e, x_e, p, d, u)
+                d = _settle_modes(cm, t_e, x_e, p, d, u, exclude=None)
+                t, x = t_e, x_e
+                restarted = True
+                break
+        if not restarted:
+            break
+        if t >= t_end:
+            break
+    while k_out < t_out.size:  # t_end itself
+        X[:, k_out] = solver.y
+        D[:, k_out] = d
+        k_out += 1
+    return Result(cm, t_out, X, p, u, D, events=events)
+
+
+# ---------------------------------------------------------------------------------------------- functions
+class _NonFinite(Exception):
+    def __init__(self, t, x):
+        self.t, self.x = t, x
+
+
+def _make_functions(cm, p, d, u, rtol, atol):
+    rhs, jacf = cm.funcs["rhs"], cm.funcs["jac"]
+    isfinite = np.isfinite
+
+    def fun(t, x):
+        dx = rhs(t, x, p, d, u)
+        if not isfinite(dx.sum()):
+            raise _NonFinite(t, x.copy())
+        return dx
+
+    def jac(t, x):
+        return jacf(t, x, p, d, u)
+
+    return fun, jac
+
+
+def _zeros(cm, t, x, p, d, u):
+    if not cm.event_zeros:
+        return np.zeros(0)
+    return np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
+
+
+def _first_crossing(cm, sol, t0, t1, z0, z1, p, d, u):
+    """Earliest zero crossing in (t0, t1]: (time, event index, rising?) or None."""
+    best = None
+    for i in range(len(z0)):
+        a, b = z0[i], z1[i]
+        if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
+            g = lambda tt, i=i: float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i])
+            try:
+                te = optimize.brentq(g, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+            except ValueError:
+                te = t1
+            # stop just past the crossing so the new mode starts on the correct side
+            g_te = g(te)
+            if (a < 0 and g_te < 0) or (a > 0 and g_te > 0):
+                te = min(t1, te + 1e-12 * max(1.0, abs(te)))
+            if best is None or te < best[0]:
+                best = (te, i, a < 0)
+    return best
+
+
+def _apply_event(cm, i, rising, t, x, p, d, u):
+    table = cm._event_assign[i]["rising" if rising else "falling"]
+    if not table:
+        return d
+    values = _values_at(cm, t, x, p, d, u)
+    d = d.copy()
+    for name, syms, f in table:
+        d[cm.discrete_names.index(name)] = float(f(*[values[s] for s in syms]))
+    return d
+
+
+def _values_at(cm, t, x, p, d, u) -> dict:
+    vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
+    vals.update(zip(cm.state_names, x))
+    vals.update(zip(cm.param_names, p))
+    vals.update(zip(cm.discrete_names, d))
+    return {k: float(np.asarray(v)) for k, v in vals.items()}
+
+
+def _settle_modes(cm, t, x, p, d, u, exclude=None, max_iter: int = 20):
+    """Apply the rising/falling assignments of every event by the sign of its zero until modes stop changing."""
+    if not cm.event_zeros:
+        return d
+    for _ in range(max_iter):
+        z = _zeros(cm, t, x, p, d, u)
+        new = d.copy()
+        for i, zi in enumerate(z):
+            if zi > 0:
+                new = _apply_event(cm, i, True, t, x, p, new, u)
+            elif zi < 0:
+                new = _apply_event(cm, i, False, t, x, p, new, u)
+        if np.array_equal(new, d):
+            return d
+        d = new
+    raise SimulationError(f"discrete modes do not settle at t = {t:.6g} s: "
+                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
+
+
+def _algebraic_modes(cm, t, p, d, u):
+    """Mode of each output sample of a stateless model: the settled modes, sample by sample."""
+    out = np.empty((len(d), t.size))
+    x = np.zeros(0)
+    cur = d
+    for k, tk in enumerate(t):
+        cur = _settle_modes(cm, tk, x, p, cur, u)
+        out[:, k] = cur
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- initial values
+def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
+    """Consistent initial states.
+
+    States take their start values; variables with ``fixed=True`` (or given in ``starts``) that are not states
+    are met by adjusting the states that are not fixed, by a minimum-norm Gauss-Newton iteration from the
+    start values. Inconsistent or over-specified initial conditions raise an error naming the variables.
+    """
+    flat = cm.flat
+    starts = dict(starts or {})
+    names = set(cm.names()) | set(flat.variables)
+    for k in starts:
+        if k not in names:
+            raise cm._unknown_name_error(k, "variable", sorted(names))
+    x = np.empty(len(cm.state_names))
+    fixed_state = np.zeros(len(cm.state_names), dtype=bool)
+    for i, n in enumerate(cm.state_names):
+        info = flat.variables.get(n)
+        x[i] = info.start if info else 0.0
+        if info is not None and info.fixed:
+            fixed_state[i] = True
+        if n in starts:
+            x[i] = starts.pop(n)
+            fixed_state[i] = True
+    targets = {}  # non-state fixed variables: name -> value
+    for n, info in flat.variables.items():
+        if info.fixed and n not in cm.state_names:
+            targets[n] = info.start
+    for n, v in starts.items():
+        targets[n] = float(v)
+    if not targets:
+        return x
+    free = np.flatnonzero(~fixed_state)
+    names_t = sorted(targets)
+    want = np.array([targets[n] for n in names_t])
+
+    def resid(xf):
+        xx = x.copy()
+        xx[free] = xf
+        vals = _value_lookup(cm, t0, xx, p, d, u)
+        return np.array([vals(n) for n in names_t]) - want
+
+    xf = x[free].copy()
+    scale = np.maximum(1.0, np.abs(want))
+    for _ in range(50):
+        r = resid(xf)
+        if np.all(np.abs(r) <= 1e-10 * scale):
+            break
+        if free.size == 0:
+            break
+        J = np.empty((r.size, free.size))
+        for j in range(free.size):
+            h = 1e-7 * max(1.0, abs(xf[j]))
+            e = xf.copy()
+            e[j] += h
+            J[:, j] = (resid(e) - r) / h
+        step, *_ = np.linalg.lstsq(J, -r, rcond=None)
+        xf = xf + step
+        if np.max(np.abs(step)) < 1e-14 * max(1.0, np.max(np.abs(xf))):
+            break
+    r = resid(xf)
+    if not np.all(np.abs(r) <= 1e-7 * scale):
+        bad = [f"{n} (wanted {targets[n]:.6g}, got {targets[n] + ri:.6g})" for n, ri in zip(names_t, r)
+               if abs(ri) > 1e-7 * max(1.0, abs(targets[n]))]
+        fixed_states = [cm.state_names[i] for i in np.flatnonzero(fixed_state)]
+        raise SimulationError(
+            "inconsistent initial conditions: cannot meet " + ", ".join(bad)
+            + (f" with the states {[cm.state_names[i] for i in free]} free" if free.size else " (no state is free)")
+            + (f" and {fixed_states} fixed" if fixed_states else ""))
+    x[free] = xf
+    return x
+
+
+def _value_lookup(cm, t, x, p, d, u):
+    vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
+    vals.update(zip(cm.state_names, x))
+    aliases = cm.flat.aliases
+
+    def get(name):
+        if name in vals:
+            return float(vals[name])
+        if name in aliases:
+            from .result import eval_expr
+            return float(eval_expr(aliases[name], vals, cm, p, d))
+        raise KeyError(name)
+
+    return get
+
+
+# ---------------------------------------------------------------------------------------------- failures
+def _non_finite_error(cm, t, x, p, d, u):
+    try:
+        with np.errstate(all="ignore"):
+            vals = cm.funcs["all_values"](t, x, p, d, u)
+    except Exception:  # pragma: no cover - evaluation itself failed
+        vals = []
+    bad_state = [n for n, v in zip(cm.state_names, x) if not np.isfinite(v)]
+    for n, v in zip(cm.unknown_names, vals):
+        if not np.all(np.isfinite(v)):
+            owner = cm.flat.owner_of(n)
+            return SimulationError(f"non-finite value at t = {t:.9g} s: {n!r} (of {owner or 'the model'}) = {v}"
+                                   + (f"; non-finite states {bad_state}" if bad_state else ""))
+    return SimulationError(f"non-finite value at t = {t:.9g} s" + (f" in states {bad_state}" if bad_state else ""))
+
+
+def _failure(cm, solver, msg, p, d, u, rtol, atol):
+    t, x = solver.t, solver.y
+    culprit = ""
+    try:
+        dx = cm.funcs["rhs"](t, x, p, d, u)
+        scale = atol + rtol * np.abs(x)
+        i = int(np.argmax(np.abs(dx) / scale))
+        culprit = f"; fastest-changing state {cm.state_names[i]!r} = {x[i]:.6g} (d/dt = {dx[i]:.6g})"
+    except Exception:  # pragma: no cover
+        pass
+    h = getattr(solver, "h_abs", None) or solver.step_size or 0.0
+    return SimulationError(f"integration failed at t = {t:.9g} s with step size {h:.3g} s "
+                           f"({solver.__class__.__name__}: {msg}){culprit}")

@@ -1,0 +1,131 @@
+"""Solve BLT blocks symbolically where sympy can, numerically where it cannot.
+
+* one equation, linear in its unknown: explicit assignment ``y = -r(0) / (dr/dy)``;
+* one nonlinear equation with a single closed-form sympy solution: that solution;
+* a block of several equations is torn (see :func:`_tear`): a linear block usually becomes explicit
+  assignments; what cannot be torn is solved by sympy LU (linear, up to :data:`SYMBOLIC_LINEAR_MAX` unknowns),
+  a numeric linear solve ``A y = b`` at run time (larger linear), or Newton's method with the exact sympy
+  Jacobian of the torn residuals (nonlinear).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from .symbols import var_symbol
+
+SYMBOLIC_LINEAR_MAX = 3
+
+
+@dataclass
+class Assign:
+    var: str
+    expr: sp.Expr
+
+
+@dataclass
+class LinearSolve:
+    vars: list
+    A: list  # rows of expressions
+    b: list
+    origins: list
+
+
+@dataclass
+class NewtonSolve:
+    vars: list  # tear variables iterated by Newton
+    residuals: list
+    jac: list
+    origins: list
+    guesses: list
+
+
+def solve_blocks(blocks, residuals, origins, starts) -> list:
+    steps = []
+    for eqs, unknowns in blocks:
+        ys = [var_symbol(u) for u in unknowns]
+        rs = [residuals[e] for e in eqs]
+        orig = [origins[e] for e in eqs]
+        if len(eqs) == 1:
+            steps.extend(_solve_scalar(rs[0], ys[0], unknowns[0], orig, starts))
+        else:
+            steps.extend(_tear(rs, ys, unknowns, orig, starts))
+    return steps
+
+
+def _solve_scalar(r, y, name, orig, starts):
+    a = r.diff(y)
+    if a != 0 and y not in a.free_symbols:
+        return [Assign(name, -r.xreplace({y: 0}) / a)]
+    if sp.count_ops(r) <= 40:
+        try:
+            sols = sp.solve(r, y, dict=False)
+        except (NotImplementedError, ValueError, TypeError):
+            sols = []
+        real = [s for s in sols if not s.has(sp.I)]
+        if len(real) == 1:
+            return [Assign(name, real[0])]
+    return [NewtonSolve([name], [r], [[a]], orig, [starts.get(name, 0.0)])]
+
+
+def _pivot_score(a):
+    if a == 1 or a == -1:
+        return 0
+    if a.is_number:
+        return 1
+    return 2 + len(a.free_symbols)
+
+
+def _tear(rs, ys, unknowns, orig, starts):
+    """Tearing: repeatedly eliminate the unknown that some block equation gives linearly with a coefficient free
+    of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols), substituting it into
+    the other equations. A linear block is solved this way entirely. What remains (the tear variables) is solved
+    by sympy LU (linear, small), a numeric linear solve (linear, large) or Newton (nonlinear); the eliminated
+    unknowns then follow explicitly."""
+    cur = list(rs)
+    eqs = list(range(len(rs)))
+    vars_ = list(range(len(ys)))
+    yset = set(ys)
+    elim = []
+    while vars_:
+        best = None
+        for e in eqs:
+            for v in vars_:
+                a = cur[e].diff(ys[v])
+                if a == 0 or (a.free_symbols & yset):
+                    continue
+                score = _pivot_score(a)
+                if best is None or score < best[0]:
+                    best = (score, e, v, a)
+                    if score == 0:
+                        break
+            if best is not None and best[0] == 0:
+                break
+        if best is None:
+            break
+        _, e, v, a = best
+        expr = -cur[e].xreplace({ys[v]: 0}) / a
+        elim.append(Assign(unknowns[v], expr))
+        eqs.remove(e)
+        vars_.remove(v)
+        for e2 in eqs:
+            cur[e2] = cur[e2].xreplace({ys[v]: expr})
+    if not vars_:
+        return list(reversed(elim))
+    tear = [unknowns[v] for v in vars_]
+    tsyms = [ys[v] for v in vars_]
+    res = [cur[e] for e in eqs]
+    jac = [[r.diff(y) for y in tsyms] for r in res]
+    tset = set(tsyms)
+    if all(not (j.free_symbols & tset) for row in jac for j in row):
+        zero = {y: 0 for y in tsyms}
+        b = [-r.xreplace(zero) for r in res]
+        if len(tear) <= SYMBOLIC_LINEAR_MAX:
+            sol = sp.Matrix(jac).LUsolve(sp.Matrix(b))
+            head = [Assign(u, sol[i]) for i, u in enumerate(tear)]
+        else:
+            head = [LinearSolve(tear, jac, b, [orig[e] for e in eqs])]
+    else:
+        head = [NewtonSolve(tear, res, jac, [orig[e] for e in eqs], [starts.get(u, 0.0) for u in tear])]
+    return head + list(reversed(elim))

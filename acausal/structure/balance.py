@@ -1,0 +1,98 @@
+"""Balance check: as many equations as unknowns, and a complete matching between them.
+
+Before index reduction every variable ``x`` and its derivatives ``der(x)`` count as one unknown. A mismatch is
+reported with the culprits found by the Dulmage-Mendelsohn decomposition of a maximum matching: the equations
+(and their components) of the over-determined part, or the variables (and their components) that no equation
+determines.
+"""
+from __future__ import annotations
+
+import networkx as nx
+
+from ..errors import StructureError
+from ..symbols import split_der
+
+
+def max_matching(eq_vars: list[set], unknowns: list[str]) -> dict:
+    """Maximum bipartite matching; returns {eq index: unknown name}."""
+    g = nx.Graph()
+    eq_nodes = [("e", k) for k in range(len(eq_vars))]
+    g.add_nodes_from(eq_nodes, bipartite=0)
+    g.add_nodes_from((("v", u) for u in unknowns), bipartite=1)
+    known = set(unknowns)
+    for k, vs in enumerate(eq_vars):
+        for v in sorted(vs):
+            if v in known:
+                g.add_edge(("e", k), ("v", v))
+    m = nx.bipartite.hopcroft_karp_matching(g, top_nodes=eq_nodes)
+    return {node[1]: m[node][1] for node in eq_nodes if node in m}
+
+
+def _alternating_reach(start_nodes, eq_vars, match_e2v, from_equations: bool):
+    """Nodes reachable by alternating paths from unmatched equations (or unmatched variables)."""
+    match_v2e = {v: e for e, v in match_e2v.items()}
+    var_eqs: dict[str, list[int]] = {}
+    for k, vs in enumerate(eq_vars):
+        for v in vs:
+            var_eqs.setdefault(v, []).append(k)
+    eqs, vars_ = set(), set()
+    stack = list(start_nodes)
+    while stack:
+        node = stack.pop()
+        if from_equations:
+            if node in eqs:
+                continue
+            eqs.add(node)
+            for v in eq_vars[node]:
+                if v not in vars_:
+                    vars_.add(v)
+                    if v in match_v2e:
+                        stack.append(match_v2e[v])
+        else:
+            if node in vars_:
+                continue
+            vars_.add(node)
+            for e in var_eqs.get(node, []):
+                if e not in eqs:
+                    eqs.add(e)
+                    if e in match_e2v:
+                        stack.append(match_e2v[e])
+    return eqs, vars_
+
+
+def check_balance(eq_vars: list[set], origins: list[str], variables: list[str], owner_of) -> None:
+    """Raise :class:`StructureError` naming the culprits if the system is not balanced and matchable.
+
+    ``eq_vars[k]`` are the variable names (derivatives included) in equation ``k``; ``variables`` the base
+    unknowns; ``owner_of(name)`` the component a variable belongs to.
+    """
+    base_eq_vars = [{split_der(v)[0] for v in vs} for vs in eq_vars]
+    n_eq, n_var = len(eq_vars), len(variables)
+    match = max_matching(base_eq_vars, variables)
+    if len(match) == n_eq == n_var:
+        return
+    unmatched_eqs = [k for k in range(n_eq) if k not in match]
+    matched_vars = set(match.values())
+    unmatched_vars = [v for v in variables if v not in matched_vars]
+    lines = [f"the model has {n_eq} equations for {n_var} unknowns"]
+    if unmatched_vars:
+        _, vs = _alternating_reach(unmatched_vars, base_eq_vars, match, from_equations=False)
+        vs = sorted(vs)
+        comps = sorted({owner_of(v) for v in vs})
+        lines.append(f"under-determined: no equation is left for {_fmt(unmatched_vars)}; the unknowns "
+                     f"{_fmt(vs)} of {_fmt(comps)} lack {len(unmatched_vars)} equation(s)")
+    if unmatched_eqs:
+        es, vs = _alternating_reach(unmatched_eqs, base_eq_vars, match, from_equations=True)
+        comps = sorted({origins[k] for k in es})
+        lines.append(f"over-determined: {len(unmatched_eqs)} equation(s) too many among those of "
+                     f"{_fmt(comps)} (they all constrain {_fmt(sorted(vs))})")
+    if n_eq == n_var:
+        lines[0] += ", but they are structurally singular"
+    raise StructureError("; ".join(lines))
+
+
+def _fmt(items, limit=12):
+    items = list(items)
+    s = ", ".join(repr(i) if not str(i).startswith(("connect", "unconnected")) and " " not in str(i) else str(i)
+                  for i in items[:limit])
+    return s + (f" and {len(items) - limit} more" if len(items) > limit else "")
