@@ -20,12 +20,14 @@ IMPLICIT = {"BDF", "Radau", "LSODA"}
 def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
              starts: dict | None = None, method: str = "BDF", rtol: float = 1e-6, atol: float = 1e-9,
              t_eval=None, n_points: int = 501, max_step: float = np.inf, first_step: float | None = None,
-             max_events: int = 10_000):
+             max_events: int = 10_000, dense_output: bool = True):
     """Simulate a :class:`~acausal.compiler.CompiledModel` and return a :class:`~acausal.result.Result`.
 
     ``params``: parameter overrides by name (no recompilation). ``inputs``: replacement :class:`Signal` s for
     numeric inputs by name. ``starts``: start values by variable name (fixed initial conditions).
     ``t_eval``: output times (default ``n_points`` evenly spaced). ``method``: a scipy integrator name.
+    ``dense_output``: keep every step's interpolant so that :meth:`Result.energy` integrates to solver accuracy
+    (set False for the fastest runs; energies then use Simpson's rule on the output grid).
     """
     from .result import Result
 
@@ -43,46 +45,55 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     if n == 0:
         d_arr = _algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else None
         X = np.zeros((0, t_out.size))
-        return Result(cm, t_out, X, p, u, d if d_arr is None else d_arr, events=[])
+        return Result(cm, t_out, X, p, u, d if d_arr is None else d_arr, events=[], exact_time_function=True)
     x0 = initialize(cm, t_start, p, d, u, starts)
     d = _settle_modes(cm, t_start, x0, p, d, u)
     x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
     X = np.empty((n, t_out.size))
     D = np.empty((len(d), t_out.size))
     events = []
+    segments = []  # (t0, t1, dense interpolant, modes) of every accepted step, for exact energy integrals
     t, x = t_start, x0
     k_out = 0
+    n_out = t_out.size
     solver_cls = METHODS[method]
+    has_events = bool(cm.event_zeros)
     while True:
-        fun, jac = _make_functions(cm, p, d, u, rtol, atol)
+        fun, jac = _make_functions(cm, p, d, u)
         opts = dict(rtol=rtol, atol=atol, max_step=max_step)
         if first_step is not None:
             opts["first_step"] = first_step
         if method in IMPLICIT:
             opts["jac"] = jac
         solver = solver_cls(fun, t, x, t_end, **opts)
-        z_old = _zeros(cm, t, x, p, d, u)
+        z_old = _zeros(cm, t, x, p, d, u) if has_events else None
         restarted = False
         while solver.status == "running":
             t_prev = solver.t
-            try:
-                msg = solver.step()
-            except _NonFinite as exc:
-                raise _non_finite_error(cm, exc.t, exc.x, p, d, u) from None
-            if solver.status == "failed":
-                raise _failure(cm, solver, msg, p, d, u, rtol, atol)
-            sol = solver.dense_output() if solver.t != t_prev else None
+            msg = solver.step()
+            y_sum = float(solver.y.sum())
+            if solver.status == "failed" or y_sum - y_sum != 0.0:  # failed, or NaN/inf in the states
+                bad = _find_non_finite(cm, solver, t_prev, p, d, u)
+                raise bad if bad is not None else _failure(cm, solver, msg, p, d, u, rtol, atol)
             t_new = solver.t
+            if t_new == t_prev:
+                continue
+            need_out = k_out < n_out and t_out[k_out] <= t_new
+            sol = solver.dense_output() if (need_out or has_events or dense_output) else None
             hit = None
-            if cm.event_zeros and sol is not None:
+            if has_events:
                 z_new = _zeros(cm, t_new, solver.y, p, d, u)
                 hit = _first_crossing(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
                 z_old = z_new
             t_stop = hit[0] if hit else t_new
-            while k_out < t_out.size and t_out[k_out] <= t_stop:
-                X[:, k_out] = sol(t_out[k_out]) if sol is not None else solver.y
-                D[:, k_out] = d
-                k_out += 1
+            if dense_output:
+                segments.append((t_prev, t_stop, sol, d.copy()))
+            if need_out:
+                k_end = np.searchsorted(t_out, t_stop, side="right")
+                if k_end > k_out:
+                    X[:, k_out:k_end] = sol(t_out[k_out:k_end])
+                    D[:, k_out:k_end] = d[:, None]
+                    k_out = k_end
             if hit:
                 t_e, i_ev, rising = hit
                 x_e = sol(t_e)
@@ -91,46 +102,53 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                     raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
                                           f"{cm.flat.events[i_ev].origin}): the model chatters")
                 d = _apply_event(cm, i_ev, rising, t_e, x_e, p, d, u)
-                d = _settle_modes(cm, t_e, x_e, p, d, u, exclude=None)
+                d = _settle_modes(cm, t_e, x_e, p, d, u)
                 t, x = t_e, x_e
                 restarted = True
                 break
-        if not restarted:
+        if not restarted or t >= t_end:
             break
-        if t >= t_end:
-            break
-    while k_out < t_out.size:  # t_end itself
-        X[:, k_out] = solver.y
-        D[:, k_out] = d
-        k_out += 1
-    return Result(cm, t_out, X, p, u, D, events=events)
+    if k_out < n_out:  # t_end itself
+        X[:, k_out:] = solver.y[:, None]
+        D[:, k_out:] = d[:, None]
+    return Result(cm, t_out, X, p, u, D, events=events, segments=segments)
 
 
 # ---------------------------------------------------------------------------------------------- functions
-class _NonFinite(Exception):
-    def __init__(self, t, x):
-        self.t, self.x = t, x
-
-
-def _make_functions(cm, p, d, u, rtol, atol):
+def _make_functions(cm, p, d, u):
+    """Right-hand side and Jacobian for the integrator. Scalar runs pass plain Python floats to the generated
+    code (several times faster arithmetic than numpy scalars)."""
     rhs, jacf = cm.funcs["rhs"], cm.funcs["jac"]
-    isfinite = np.isfinite
+    pl = p.tolist()
+    dl = d.tolist()
 
     def fun(t, x):
-        dx = rhs(t, x, p, d, u)
-        if not isfinite(dx.sum()):
-            raise _NonFinite(t, x.copy())
-        return dx
+        return rhs(t, x.tolist(), pl, dl, u)
 
     def jac(t, x):
-        return jacf(t, x, p, d, u)
+        return jacf(t, x.tolist(), pl, dl, u)
 
     return fun, jac
 
 
+def _find_non_finite(cm, solver, t_prev, p, d, u):
+    """After a failed or non-finite step: find a time in the step where some variable is not finite."""
+    with np.errstate(all="ignore"):
+        for t, x in ((solver.t, solver.y), (t_prev, getattr(solver, "y_old", None))):
+            if x is None:
+                continue
+            try:
+                vals = cm.funcs["all_values"](t, x, p, d, u)
+                dx = cm.funcs["rhs"](t, x, p, d, u)
+            except (ZeroDivisionError, OverflowError, ValueError, FloatingPointError):
+                continue
+            if not (np.all(np.isfinite(x)) and np.all(np.isfinite(dx))
+                    and all(np.all(np.isfinite(v)) for v in vals)):
+                return _non_finite_error(cm, t, x, p, d, u)
+    return None
+
+
 def _zeros(cm, t, x, p, d, u):
-    if not cm.event_zeros:
-        return np.zeros(0)
     return np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
 
 
