@@ -16,6 +16,7 @@ its first use, so it never runs ahead of the block that defines its inputs.
 """
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -308,7 +309,7 @@ class CodeGenerator:
         zs = ", ".join(f"_z{i}" for i in range(len(zeros)))
         srcs.append(self._render("zeros", items, [f"    return [{zs}{',' if len(zeros) == 1 else ''}]"]))
         self.source = "\n\n".join(self._blocks + srcs) + "\n"
-        ns = {"numpy": np, "_np_array": np.array, "_bstack": runtime.bstack, "_linsolve": runtime.linsolve,
+        ns = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack, "_linsolve": runtime.linsolve,
               "_newton": runtime.newton, "_labels": getattr(self, "_labels", {})}
         code = compile(self.source, "<acausal generated>", "exec")
         exec(code, ns)

@@ -1,10 +1,12 @@
 """Analog electrical components (MSL ``Modelica.Electrical.Analog`` names and sign conventions).
 
 Current flows from pin ``p`` through the component to pin ``n``; power into a one-port is ``v*i``.
+Also the supply side of a drive: :class:`Supply`, :class:`IdealDiode`, :class:`BrakeChopper` and the
+:class:`NonRegenerativeRectifier` built from them.
 """
 from sympy import Eq
 
-from acausal import Component, Input, Parameter, RealInput, RealOutput, Variable, der
+from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange, Pin
 from acausal.partials import OnePort
 
@@ -148,3 +150,109 @@ class EMF(OnePort):
         if self.use_support:
             eqs.append(Eq(self.support.tau, -self.flange.tau))
         return eqs
+
+
+class Supply(OnePort):
+    """DC supply: ideal voltage ``V`` behind an internal resistance ``R_int`` (p is the + terminal).
+
+    With the OnePort convention (``i`` from p through the supply to n) a supply that delivers current has
+    ``i < 0``: ``v = V + R_int i``. ``power`` is the power delivered to the circuit, ``-v i``; ``loss_power`` the
+    internal dissipation ``R_int i^2``; ``source_power`` the power of the ideal source ``-V i``.
+    Defaults: 48 V (the motor's nominal voltage; the paper does not state the bench supply voltage, the EPOS2
+    70/10 accepts 11-70 V) and 0.05 ohm (assumption: a laboratory supply plus leads).
+    """
+
+    V = Parameter(48.0, unit="V", min=0.0, doc="no-load voltage (assumption: motor nominal 48 V)")
+    R_int = Parameter(0.05, unit="Ohm", min=0.0, doc="internal resistance (assumption)")
+    power = Variable(unit="W", doc="power delivered at the terminals")
+    source_power = Variable(unit="W", doc="power of the ideal internal source")
+    loss_power = Variable(unit="W", doc="dissipated in the internal resistance")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.v, self.V + self.R_int * self.i), Eq(self.power, -self.v * self.i),
+                Eq(self.source_power, -self.V * self.i), Eq(self.loss_power, self.R_int * self.i**2)]
+
+
+class IdealDiode(OnePort):
+    """Ideal diode with state events (MSL ``IdealDiode`` with Vknee = 0), conducting from p to n.
+
+    Written with the curve parameter ``s`` so that both modes have the same structure::
+
+        v = s * (off + (1 - off) R_on)       i = s * (off G_off + (1 - off))
+
+    ``off`` switches when ``s`` crosses zero: falling -> blocking (off = 1), rising -> conducting (off = 0).
+    ``loss_power = v i >= 0`` in both modes. R_on and G_off are small leakage values (assumptions).
+    """
+
+    R_on = Parameter(1e-5, unit="Ohm", min=0.0, doc="forward state-on resistance")
+    G_off = Parameter(1e-5, unit="S", min=0.0, doc="backward state-off conductance")
+    s = Variable(doc="curve parameter: current (on) or voltage (off)")
+    loss_power = Variable(unit="W", doc="dissipated power v*i")
+    off = Discrete(start=0.0, doc="1 while blocking")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.v, self.s * (self.off + (1 - self.off) * self.R_on)),
+                Eq(self.i, self.s * (self.off * self.G_off + (1 - self.off))), Eq(self.loss_power, self.v * self.i)]
+
+    def events(self):
+        return [Event(self.s, on_rising={self.off: 0}, on_falling={self.off: 1}, doc="diode switches")]
+
+
+class BrakeChopper(OnePort):
+    """Averaged brake chopper across a DC bus: above the threshold ``V_on`` it conducts ``i = G (v - V_on)``
+    (the average current of a chopper whose duty grows with the over-voltage), below it nothing. The switch is
+    a state event on ``v - V_on``; the current is continuous there. ``loss_power = v i >= 0``.
+    Defaults (assumptions): 50 V threshold for a 48 V bus, G = 2 S (50 W at 0.5 V over-voltage)."""
+
+    V_on = Parameter(50.0, unit="V", min=0.0, doc="bus voltage where braking starts")
+    G = Parameter(2.0, unit="S", min=0.0, doc="braking conductance above the threshold")
+    loss_power = Variable(unit="W", doc="dissipated power v*i")
+    on = Discrete(start=0.0, doc="1 while braking")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.i, self.on * self.G * (self.v - self.V_on)),
+                Eq(self.loss_power, self.v * self.i)]
+
+    def events(self):
+        return [Event(self.v - self.V_on, on_rising={self.on: 1}, on_falling={self.on: 0}, doc="chopper switches")]
+
+
+class NonRegenerativeRectifier(Model):
+    """Supply front end that cannot return energy to the supply (paper Fig. 8: while the driver power dips to
+    -50 W the source power only drops to about 0 W).
+
+    ::
+
+        p_in ->|- p_bus ---+-----------+
+              diode        |           |
+                         C_bus    brake chopper
+                           |           |
+        n_in ------------ n_bus -------+
+
+    Energy fed back by the driver charges the bus capacitor; above ``V_brake`` the chopper burns it. So the
+    returned energy shows up as ``loss_power`` (diode + chopper) or as stored bus energy, never vanishes.
+    ``bus_energy`` is the capacitor's stored energy. Defaults (assumptions): 470 uF bus capacitance, brake
+    threshold 50 V.
+    """
+
+    C_bus = Parameter(470e-6, unit="F", min=0.0, doc="bus capacitance (assumption)")
+    V_brake = Parameter(50.0, unit="V", min=0.0, doc="brake chopper threshold (assumption)")
+    G_brake = Parameter(2.0, unit="S", min=0.0, doc="brake chopper conductance above threshold (assumption)")
+    p_in = Pin(doc="+ from the supply")
+    n_in = Pin(doc="- from the supply")
+    p_bus = Pin(doc="+ of the DC bus (to the driver)")
+    n_bus = Pin(doc="- of the DC bus")
+    loss_power = Variable(unit="W", doc="diode + brake chopper dissipation")
+    bus_energy = Variable(unit="J", doc="energy stored in the bus capacitor")
+
+    def build(self):
+        self.diode = IdealDiode()
+        self.capacitor = Capacitor(C=self.C_bus)
+        self.chopper = BrakeChopper(V_on=self.V_brake, G=self.G_brake)
+        connect(self.p_in, self.diode.p)
+        connect(self.diode.n, self.capacitor.p, self.chopper.p, self.p_bus)
+        connect(self.n_in, self.capacitor.n, self.chopper.n, self.n_bus)
+
+    def equations(self):
+        return [Eq(self.loss_power, self.diode.loss_power + self.chopper.loss_power),
+                Eq(self.bus_energy, self.capacitor.energy)]

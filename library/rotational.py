@@ -3,9 +3,10 @@
 A flange torque acts *on* the component; power flowing into a component through a flange is
 ``flange.tau * der(flange.phi)``.
 """
+import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Input, Parameter, RealInput, RealOutput, Variable, der
+from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange
 from acausal.partials import PartialCompliant, PartialCompliantWithRelativeStates, PartialTwoFlanges
 
@@ -188,3 +189,121 @@ class TorqueSensor(PartialTwoFlanges):
     def equations(self):
         return [Eq(self.flange_a.phi, self.flange_b.phi), Eq(self.flange_a.tau + self.flange_b.tau, 0),
                 Eq(self.tau.value, self.flange_a.tau)]
+
+
+class BearingFriction(PartialTwoFlanges, _OptionalSupport):
+    """Rigid shaft with bearing friction to the support: ``tau_f = tau_c tanh(w / w_c) + d w``.
+
+    ``flange_a.tau + flange_b.tau = tau_f`` (the friction torque flows to the support), ``loss_power = tau_f w >= 0``.
+    Coulomb friction uses the documented smooth law (see :class:`acausal.library.drives.DCMotor`).
+    """
+
+    tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
+    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="viscous friction coefficient")
+    w_c = Parameter(1e-3, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
+    phi = Variable(unit="rad", doc="shaft angle")
+    w = Variable(unit="rad/s", doc="shaft speed relative to the support")
+    tau_f = Variable(unit="N.m", doc="friction torque opposing w")
+    loss_power = Variable(unit="W", doc="dissipated power tau_f w")
+
+    def __init__(self, use_support: bool = False, **kw):
+        super().__init__(**kw)
+        self._init_support(use_support)
+
+    def equations(self):
+        eqs = [Eq(self.phi, self.flange_a.phi), Eq(self.phi, self.flange_b.phi),
+               Eq(self.w, der(self.phi - self.support_phi())),
+               Eq(self.tau_f, self.tau_c * sp.tanh(self.w / self.w_c) + self.d * self.w),
+               Eq(self.flange_a.tau + self.flange_b.tau, self.tau_f), Eq(self.loss_power, self.tau_f * self.w)]
+        if self.use_support:
+            eqs.append(Eq(self.support.tau, -self.tau_f))
+        return eqs
+
+
+class LossyGear(PartialTwoFlanges, _OptionalSupport):
+    """Gear mesh with a power-flow-dependent efficiency (MSL ``LossyGear`` without locking), massless.
+
+    Kinematics ``phi_a = ratio * phi_b`` (relative to the support). Torques, with ``tau_a = flange_a.tau`` and the
+    mode ``backdriven``::
+
+        driving    (tau_a w_a >= 0, power flows a -> b):  tau_out = eta * ratio * tau_a
+        back-driven (tau_a w_a < 0, power flows b -> a):  tau_out = ratio * tau_a / eta
+        flange_b.tau = -tau_out
+
+    so the mesh loses ``(1 - eta)`` of its input power when driven and ``(1/eta - 1)`` of its output power when
+    back-driven: ``loss_power = tau_a w_a (1 - eff) >= 0`` in both. The mode switches by state events on the
+    zero crossings of ``w_a`` and of ``tau_a`` (the direction of the crossing and the other factor's sign
+    decide the new mode), so a reversal of motion or of load is exact and does not chatter.
+    """
+
+    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
+    eta = Parameter(1.0, unit="1", min=1e-6, max=1.0, doc="mesh efficiency")
+    phi_a = Variable(unit="rad", doc="input angle relative to the support")
+    phi_b = Variable(unit="rad", doc="output angle relative to the support")
+    w_a = Variable(unit="rad/s", doc="input speed")
+    eff = Variable(unit="1", doc="torque efficiency factor in the present mode (eta or 1/eta)")
+    input_power = Variable(unit="W", doc="power into the mesh at flange_a, tau_a w_a")
+    loss_power = Variable(unit="W", doc="mesh loss (>= 0)")
+    backdriven = Discrete(start=0.0, doc="1 while power flows from flange_b to flange_a")
+
+    def __init__(self, use_support: bool = False, **kw):
+        super().__init__(**kw)
+        self._init_support(use_support)
+
+    def equations(self):
+        m = self.backdriven
+        tau_a = self.flange_a.tau
+        eqs = [Eq(self.phi_a, self.flange_a.phi - self.support_phi()), Eq(self.phi_b, self.flange_b.phi - self.support_phi()),
+               Eq(self.phi_a, self.ratio * self.phi_b), Eq(self.w_a, der(self.phi_a)),
+               Eq(self.eff, (1 - m) * self.eta + m / self.eta),
+               Eq(self.flange_b.tau, -self.eff * self.ratio * tau_a),
+               Eq(self.input_power, tau_a * self.w_a),
+               Eq(self.loss_power, self.input_power * (1 - self.eff))]
+        if self.use_support:
+            eqs.append(Eq(self.support.tau, -tau_a - self.flange_b.tau))
+        return eqs
+
+    def events(self):
+        tau_a, w_a = self.flange_a.tau, self.w_a
+        m = self.backdriven
+        return [Event(w_a, on_rising={m: sp.StrictLessThan(tau_a, 0)}, on_falling={m: sp.StrictGreaterThan(tau_a, 0)},
+                      doc="motion reverses"),
+                Event(tau_a, on_rising={m: sp.StrictLessThan(w_a, 0)}, on_falling={m: sp.StrictGreaterThan(w_a, 0)},
+                      doc="load reverses")]
+
+
+class Gearbox(Model):
+    """A gear stage: input inertia, lossy mesh, output bearing friction and output inertia::
+
+        flange_a -- [J_a] -- LossyGear(ratio, eta) -- BearingFriction(tau_c, d) -- [J_b] -- flange_b
+
+    ``loss_power`` = mesh + bearing loss; ``energy`` = kinetic energy of both inertias. Stages compose by
+    connecting ``flange_b`` of one to ``flange_a`` of the next (the paper: planetary 86:1, max. efficiency 70 %,
+    input inertia 0.7 g cm2, then helical 10:1).
+    """
+
+    ratio = Parameter(1.0, unit="1", doc="transmission ratio")
+    eta = Parameter(1.0, unit="1", min=1e-6, max=1.0, doc="mesh efficiency")
+    J_a = Parameter(0.0, unit="kg.m2", min=0.0, doc="inertia on the input side")
+    J_b = Parameter(0.0, unit="kg.m2", min=0.0, doc="inertia on the output side")
+    tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="output bearing Coulomb friction")
+    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="output bearing viscous friction")
+    flange_a = Flange(doc="input (fast) side")
+    flange_b = Flange(doc="output (slow) side")
+    loss_power = Variable(unit="W", doc="mesh + bearing losses")
+    energy = Variable(unit="J", doc="kinetic energy of J_a and J_b")
+
+    def build(self):
+        self.inertia_a = Inertia(J=self.J_a)
+        self.mesh = LossyGear(ratio=self.ratio, eta=self.eta)
+        self.bearing = BearingFriction(tau_c=self.tau_c, d=self.d)
+        self.inertia_b = Inertia(J=self.J_b)
+        connect(self.flange_a, self.inertia_a.flange_a)
+        connect(self.inertia_a.flange_b, self.mesh.flange_a)
+        connect(self.mesh.flange_b, self.bearing.flange_a)
+        connect(self.bearing.flange_b, self.inertia_b.flange_a)
+        connect(self.inertia_b.flange_b, self.flange_b)
+
+    def equations(self):
+        return [Eq(self.loss_power, self.mesh.loss_power + self.bearing.loss_power),
+                Eq(self.energy, self.inertia_a.energy + self.inertia_b.energy)]

@@ -1,0 +1,156 @@
+"""Electromechanical drive components: the averaged PWM motor driver and the DC motor.
+
+Sign conventions: a pin's current is positive *into* the component; power into a component through a pin pair
+is ``v*i``. The motor's ``flange.tau`` is the torque acting on the motor at its shaft (so the torque the motor
+delivers to its load is ``-flange.tau``).
+"""
+import sympy as sp
+from sympy import Eq
+
+from acausal import Component, Parameter, RealInput, Variable, der
+from acausal.connectors import Flange, HeatPort, Pin
+
+
+class _OptionalHeatPort:
+    """Mixin: ``use_heat_port=True`` adds ``heat_port`` through which the dissipated heat leaves."""
+
+    def _init_heat_port(self, use_heat_port):
+        self.use_heat_port = use_heat_port
+        if use_heat_port:
+            self.heat_port = HeatPort(doc="dissipated heat leaves here")
+
+
+class PWMDriver(Component, _OptionalHeatPort):
+    """Averaged four-quadrant H-bridge (e.g. maxon EPOS2 70/10), duty-cycle or voltage command.
+
+    Ports: DC bus ``bus_p``/``bus_n``, motor side ``mot_p``/``mot_n``, command input ``u``. With
+    ``command="duty"`` the duty cycle is ``d = clamp(u, -d_max, d_max)``; with ``command="voltage"`` it is
+    ``d = clamp(u / v_bus, -d_max, d_max)`` (``u`` in volts). Equations (``i_m`` motor current, out of
+    ``mot_p``; ``i_bus`` into ``bus_p``)::
+
+        v_m   = d v_bus - R_on i_m                                    (averaged bridge + conduction drop)
+        v_bus i_bus = d v_bus i_m + P_q + k_sw |i_m| v_bus            (power balance)
+        loss_power  = P_q + R_on i_m^2 + k_sw |i_m| v_bus  >= 0
+
+    so ``v_bus i_bus = v_m i_m + loss_power`` holds exactly. The motor terminals are referenced to the bus as in
+    a bridge with symmetric PWM (``mot_n.v = bus_n.v + (v_bus - v_m)/2``) and the four terminal currents sum to
+    zero, so the motor circuit needs no ground of its own (do not ground it separately). ``P_q`` is the constant quiescent consumption the
+    paper measured (10-15 W, section 4.2.1; default 12.5 W). ``R_on`` (0.05 ohm) and ``k_sw`` (0.004, switching
+    loss per unit of ``|i_m| v_bus``) are assumptions of the order that gives the EPOS2's ~94 % peak efficiency.
+    ``d_max`` = 0.9: the EPOS2 output voltage is at most about 0.9 of the supply. The bridge passes power both
+    ways; whether the supply can take it back is decided upstream (see ``NonRegenerativeRectifier``).
+    """
+
+    P_q = Parameter(12.5, unit="W", min=0.0, doc="quiescent consumption (paper: 10-15 W measured)")
+    R_on = Parameter(0.05, unit="Ohm", min=0.0, doc="bridge conduction resistance (assumption)")
+    k_sw = Parameter(0.004, unit="1", min=0.0, doc="switching loss coefficient, P_sw = k_sw |i_m| v_bus (assumption)")
+    d_max = Parameter(0.9, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude (EPOS2: ~0.9)")
+    bus_p = Pin(doc="DC bus +")
+    bus_n = Pin(doc="DC bus -")
+    mot_p = Pin(doc="motor +")
+    mot_n = Pin(doc="motor -")
+    u = RealInput(doc="command: duty cycle [1] or voltage [V]")
+    d = Variable(unit="1", doc="duty cycle after saturation")
+    v_bus = Variable(start=48.0, unit="V", doc="bus voltage")
+    i_bus = Variable(unit="A", doc="current drawn from the bus")
+    v_m = Variable(unit="V", doc="motor terminal voltage")
+    i_m = Variable(unit="A", doc="motor current (out of mot_p)")
+    loss_power = Variable(unit="W", doc="dissipated power (quiescent + conduction + switching)")
+    bus_power = Variable(unit="W", doc="power drawn from the bus v_bus*i_bus")
+    motor_power = Variable(unit="W", doc="power delivered to the motor v_m*i_m")
+
+    def __init__(self, command: str = "duty", use_heat_port: bool = False, **kw):
+        super().__init__(**kw)
+        if command not in ("duty", "voltage"):
+            raise ValueError(f"PWMDriver: command must be 'duty' or 'voltage', got {command!r}")
+        self.command = command
+        self._init_heat_port(use_heat_port)
+
+    def equations(self):
+        raw = self.u.value if self.command == "duty" else self.u.value / self.v_bus
+        eqs = [Eq(self.v_bus, self.bus_p.v - self.bus_n.v), Eq(self.i_bus, self.bus_p.i),
+               Eq(0, self.bus_p.i + self.bus_n.i + self.mot_p.i + self.mot_n.i),
+               Eq(self.v_m, self.mot_p.v - self.mot_n.v), Eq(self.i_m, -self.mot_p.i),
+               Eq(self.mot_n.v, self.bus_n.v + (self.v_bus - self.v_m) / 2),
+               Eq(self.d, sp.Max(-self.d_max, sp.Min(self.d_max, raw))),
+               Eq(self.v_m, self.d * self.v_bus - self.R_on * self.i_m),
+               Eq(self.loss_power, self.P_q + self.R_on * self.i_m**2 + self.k_sw * sp.Abs(self.i_m) * self.v_bus),
+               Eq(self.v_bus * self.i_bus, self.d * self.v_bus * self.i_m + self.P_q
+                  + self.k_sw * sp.Abs(self.i_m) * self.v_bus),
+               Eq(self.bus_power, self.v_bus * self.i_bus), Eq(self.motor_power, self.v_m * self.i_m)]
+        if self.use_heat_port:
+            eqs.append(Eq(self.heat_port.Q_flow, -self.loss_power))
+        return eqs
+
+
+class DCMotor(Component, _OptionalHeatPort):
+    """Permanent-magnet DC motor (a brushless EC motor driven as a DC machine), paper Eq. (4) per component::
+
+        v = R(T) i + L di/dt + k w                       R(T) = R (1 + alpha_R (T - T_ref))
+        J dw/dt = k i - b w - tau_c tanh(w / w_c) + flange.tau
+
+    ``k`` is both the torque and the back-EMF constant (SI units). Coulomb (no-load) friction uses the smooth law
+    ``tau_c tanh(w / w_c)``: it opposes motion, dissipates ``tau_c tanh(w/w_c) w >= 0``, and differs from the
+    ideal sign law only for ``|w| <~ 3 w_c`` (w_c = 1 rad/s, against speeds of ~10^3 rad/s here).
+    ``loss_power`` = copper ``R(T) i^2`` + friction. With ``use_heat_port=True`` the winding temperature is the
+    port's temperature and the copper loss leaves through it (friction heat is not routed); otherwise the
+    winding stays at ``T_ref``. ``energy`` = ``L i^2/2 + J w^2/2``.
+
+    Defaults: maxon EC-4pole 30, 200 W, 48 V winding (part 305015): R = 0.386 ohm and L = 6.53e-5 H (paper,
+    Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, ../shared/data/parameters.md), J = 3.33e-6
+    kg m2 rotor inertia (datasheet; Table 2 lists it swapped with friction), b = 5.66e-6 N m s/rad (no-load
+    friction 9.9 mN m / no-load speed 1749 rad/s), tau_c = 0 (all no-load friction is put in b by default),
+    alpha_R = 0.00393 1/K (copper), T_ref = 298.15 K (datasheet values at 25 C).
+    """
+
+    R = Parameter(0.386, unit="Ohm", min=0.0, doc="terminal resistance at T_ref (paper Table 2)")
+    L = Parameter(6.53e-5, unit="H", min=0.0, doc="terminal inductance (paper Table 2)")
+    k = Parameter(0.0274, unit="N.m/A", min=0.0, doc="torque = back-EMF constant (derived, parameters.md)")
+    J = Parameter(3.33e-6, unit="kg.m2", min=0.0, doc="rotor inertia (datasheet)")
+    b = Parameter(5.66e-6, unit="N.m.s/rad", min=0.0, doc="viscous friction (no-load torque / no-load speed)")
+    tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
+    w_c = Parameter(1.0, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
+    alpha_R = Parameter(0.00393, unit="1/K", doc="resistance temperature coefficient (copper)")
+    T_ref = Parameter(298.15, unit="K", doc="reference temperature of R")
+    p = Pin(doc="positive terminal")
+    n = Pin(doc="negative terminal")
+    flange = Flange(doc="shaft")
+    v = Variable(unit="V", doc="terminal voltage p - n")
+    i = Variable(start=0.0, unit="A", doc="current p -> n", fixed=True)
+    phi = Variable(unit="rad", doc="shaft angle relative to the housing")
+    w = Variable(unit="rad/s", doc="shaft speed relative to the housing", state_select="prefer")
+    tau_e = Variable(unit="N.m", doc="electromagnetic torque k i")
+    tau_f = Variable(unit="N.m", doc="friction torque (viscous + Coulomb), opposing w")
+    R_T = Variable(unit="Ohm", doc="winding resistance at the winding temperature")
+    copper_loss = Variable(unit="W", doc="R(T) i^2")
+    friction_loss = Variable(unit="W", doc="tau_f w >= 0")
+    loss_power = Variable(unit="W", doc="copper + friction loss")
+    shaft_power = Variable(unit="W", doc="mechanical power delivered at the shaft, -flange.tau * w")
+    energy = Variable(unit="J", doc="stored energy L i^2/2 + J w^2/2")
+
+    def __init__(self, use_support: bool = False, use_heat_port: bool = False, **kw):
+        super().__init__(**kw)
+        self.use_support = use_support
+        if use_support:
+            self.support = Flange(doc="housing")
+        self._init_heat_port(use_heat_port)
+
+    def equations(self):
+        T = self.heat_port.T if self.use_heat_port else self.T_ref
+        support_phi = self.support.phi if self.use_support else 0
+        eqs = [Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i), Eq(self.i, self.p.i),
+               Eq(self.R_T, self.R * (1 + self.alpha_R * (T - self.T_ref))),
+               Eq(self.v, self.R_T * self.i + self.L * der(self.i) + self.k * self.w),
+               Eq(self.phi, self.flange.phi - support_phi), Eq(self.w, der(self.phi)),
+               Eq(self.tau_e, self.k * self.i),
+               Eq(self.tau_f, self.b * self.w + self.tau_c * sp.tanh(self.w / self.w_c)),
+               Eq(self.J * der(self.w), self.tau_e - self.tau_f + self.flange.tau),
+               Eq(self.copper_loss, self.R_T * self.i**2), Eq(self.friction_loss, self.tau_f * self.w),
+               Eq(self.loss_power, self.copper_loss + self.friction_loss),
+               Eq(self.shaft_power, -self.flange.tau * self.w),
+               Eq(self.energy, self.L * self.i**2 / 2 + self.J * self.w**2 / 2)]
+        if self.use_support:
+            eqs.append(Eq(self.support.tau, -(self.tau_e - self.tau_f)))
+        if self.use_heat_port:
+            eqs.append(Eq(self.heat_port.Q_flow, -self.copper_loss))
+        return eqs
