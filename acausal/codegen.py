@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import re
 
 import numpy as np
 import sympy as sp
@@ -56,6 +57,7 @@ class CodeGenerator:
         for i, n in enumerate(self.discretes):
             self.names[par_symbol(n)] = f"_d{i}"
         self._input_index = {n: i for i, n in enumerate(self.inputs)}
+        self._signal_idents: dict = {}  # (input index, order, argument) -> identifier
         self._blocks: list[str] = []  # source of Newton residual functions
         self._block_count = itertools.count()
         self.source = ""
@@ -67,14 +69,21 @@ class CodeGenerator:
 
     # ------------------------------------------------------------------ helpers
     def _signal_symbols(self, expr):
+        """Replace every ``SignalCall(token, order, arg)`` by a symbol evaluated once per call as
+        ``u[k](arg, order)``; ``arg`` is time or an expression of time and parameters (e.g. ``time/T_stride``)."""
         if not expr.has(SignalCall):
             return expr
         rep = {}
         for call in expr.atoms(SignalCall):
-            token, order = call.args[0].name, int(call.args[1])
+            token, order, arg = call.args[0].name, int(call.args[1]), call.args[2]
             k = self._input_index[token]
-            sym = sp.Symbol(f"_u{k}_{order}", real=True)
-            self.names[sym] = f"_u{k}_{order}"
+            key = (k, order, arg)
+            ident = self._signal_idents.get(key)
+            if ident is None:
+                ident = f"_u{k}_{order}" + ("" if arg == time else f"_a{len(self._signal_idents)}")
+                self._signal_idents[key] = ident
+            sym = sp.Symbol(ident, real=True)
+            self.names[sym] = ident
             rep[call] = sym
             self.signal_orders[token] = max(self.signal_orders.get(token, 0), order)
         return expr.xreplace(rep)
@@ -262,22 +271,17 @@ class CodeGenerator:
             else:
                 used |= payload
                 lines.append(f"    {ident}")
-        # prologue: unpack what is used (states, parameters, modes, signals)
+        # prologue: unpack what is used (states, parameters, modes, signals); signal arguments may use parameters
         text = "\n".join(lines) + "\n" + "\n".join(result_lines)
+        pr = _Printer(self.names)
+        sig = [f"    {ident} = u[{k}]({pr.doprint(arg)}, {o})"
+               for (k, o, arg), ident in self._signal_idents.items() if re.search(rf"\b{ident}\b", text)]
+        used_ids = set(re.findall(r"\b_[xpd]\d+\b", text + "\n".join(sig)))
         head = [f"def {fname}(t, x, p, d, u):"]
-        for i in range(len(self.states)):
-            if f"_x{i}" in text:
-                head.append(f"    _x{i} = x[{i}]")
-        for i in range(len(self.params)):
-            if f"_p{i}" in text:
-                head.append(f"    _p{i} = p[{i}]")
-        for i in range(len(self.discretes)):
-            if f"_d{i}" in text:
-                head.append(f"    _d{i} = d[{i}]")
-        for sym, ident in self.names.items():
-            if ident.startswith("_u") and ident in text:
-                k, o = ident[2:].split("_")
-                head.append(f"    {ident} = u[{k}](t, {o})")
+        head += [f"    _x{i} = x[{i}]" for i in range(len(self.states)) if f"_x{i}" in used_ids]
+        head += [f"    _p{i} = p[{i}]" for i in range(len(self.params)) if f"_p{i}" in used_ids]
+        head += [f"    _d{i} = d[{i}]" for i in range(len(self.discretes)) if f"_d{i}" in used_ids]
+        head += sig
         return "\n".join(head + lines + list(result_lines))
 
     def generate(self, event_zeros=()):

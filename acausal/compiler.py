@@ -36,7 +36,7 @@ def compile_model(model) -> "CompiledModel":
     origins = [eq.origin for eq in flat.equations]
     eq_vars = [var_filter(r) for r in residuals]
     _check_symbols(flat, residuals, origins)
-    check_balance(eq_vars, origins, sorted(base), flat.owner_of)
+    check_balance(eq_vars, origins, sorted(base), flat.owner_of, residuals=residuals)
     red = reduce_index(residuals, origins, sorted(base),
                        lambda n: flat.variables[n].state_select if n in flat.variables else 2, var_filter)
     _check_signal_orders(flat, red.residuals, red.origins)

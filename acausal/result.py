@@ -117,6 +117,11 @@ class Result:
             return self._unknowns[target]
         if name in cm.flat.aliases:
             expr = cm.flat.aliases[name]
+            c, rest = expr.as_coeff_Mul()
+            if isinstance(rest, sp.Symbol) and rest.name not in cm._param_index:
+                return float(c) * self.der(rest.name, order)
+            if all(s.name in cm._param_index for s in expr.free_symbols):
+                return np.zeros(self.t.shape)
             syms = [s for s in expr.free_symbols if s.name in self._unknowns]
             if all(der_name(s.name, order) in self._unknowns for s in syms):
                 from .symbols import der
@@ -124,6 +129,15 @@ class Result:
                 return np.broadcast_to(np.asarray(
                     eval_expr(d_expr, self._unknowns, cm, self.params, self._mode_rows(), self.t), dtype=float),
                     self.t.shape)
+        if self._exact_time_function and order == 1 and name in self._unknowns:
+            # no states: the variable is an explicit function of time; differentiate it off the grid
+            h = 1e-6 * max(1.0, float(np.max(np.abs(self.t))))
+            i = self.model.unknown_names.index(name)
+            x = np.zeros((0,) + self.t.shape)
+            f = self.model.funcs["all_values"]
+            hi = np.asarray(f(self.t + h, x, self.params, self.modes, self.inputs)[i], dtype=float)
+            lo = np.asarray(f(self.t - h, x, self.params, self.modes, self.inputs)[i], dtype=float)
+            return np.broadcast_to((hi - lo) / (2 * h), self.t.shape)
         y = self[name]
         for _ in range(order):
             y = np.gradient(y, self.t)
@@ -193,7 +207,8 @@ class Result:
                 np.repeat(self.modes[:, np.searchsorted(t, a, side="right") - 1][:, :, None], 5, axis=2)
         nd = len(cm.discrete_names)
         Dflat = np.asarray(Dn, dtype=float).reshape(nd, tn.size) if np.ndim(Dn) > 1 else np.asarray(Dn, dtype=float)
-        sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), self.params, self.inputs, Dflat, events=[])
+        sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), self.params, self.inputs, Dflat, events=[],
+                     exact_time_function=self._exact_time_function)
         y = np.asarray(sub._integrand(what), dtype=float).reshape(tn.shape)
         pieces = half * (y @ wg)
         cum = np.concatenate([[0.0], np.cumsum(pieces)])

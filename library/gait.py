@@ -256,3 +256,79 @@ class GaitCycle:
         pos = float(pieces[pieces > 0].sum())
         neg = float(pieces[pieces < 0].sum())
         return GaitWork(pos, neg, pos + neg)
+
+
+# -- components ----------------------------------------------------------------------------------------------------
+from acausal import Component, Input, Parameter, Variable, time  # noqa: E402  (components below use the core)
+from acausal.connectors import Flange  # noqa: E402
+from sympy import Eq  # noqa: E402
+
+_UNIT_CYCLE: dict = {}
+
+
+def unit_cycle() -> GaitCycle:
+    """The packaged cycle normalised to a 1-s stride and 1 kg: signals of the gait fraction, torque per kg."""
+    if "cycle" not in _UNIT_CYCLE:
+        _UNIT_CYCLE["cycle"] = GaitCycle(stride_time=1.0, body_mass=1.0)
+    return _UNIT_CYCLE["cycle"]
+
+
+class _GaitSource(Component):
+    stride_time = Parameter(DEFAULT_STRIDE_TIME, unit="s", min=1e-3, doc="stride duration (Winter: 1.1396 s)")
+    flange = Flange(doc="ankle joint (foot) flange")
+
+    def __init__(self, use_support: bool = False, **kw):
+        super().__init__(**kw)
+        self.use_support = use_support
+        if use_support:
+            self.support = Flange(doc="lower leg")
+
+    def _at_gait_time(self, profile):
+        """The normalised profile evaluated at the gait fraction ``time / stride_time`` (a run-time parameter)."""
+        return profile.xreplace({time: time / self.stride_time})
+
+
+class AnkleAngleSource(_GaitSource):
+    """Moves the ankle joint along the healthy gait angle (the bench's output motor): ``theta(t) =
+    profile(t / stride_time)`` [rad], plantarflexion positive, relative to the support (lower leg).
+
+    ``profile`` is a Signal of the gait fraction (default: the packaged Winter data, periodic quintic spline, so
+    index reduction can ask it for up to 5 derivatives). ``stride_time`` is a parameter: stride times are swept
+    without recompiling. The source supplies whatever torque the motion takes (``flange.tau``).
+    """
+
+    profile = Input(unit="rad", doc="ankle angle over the gait fraction (1-periodic)")
+    theta = Variable(unit="rad", doc="prescribed ankle angle")
+
+    def __init__(self, use_support: bool = False, **kw):
+        kw.setdefault("profile", unit_cycle().angle_signal())
+        super().__init__(use_support=use_support, **kw)
+
+    def equations(self):
+        rel = self.flange.phi - (self.support.phi if self.use_support else 0)
+        eqs = [Eq(self.theta, self._at_gait_time(self.profile)), Eq(rel, self.theta)]
+        if self.use_support:
+            eqs.append(Eq(self.support.tau, -self.flange.tau))
+        return eqs
+
+
+class AnkleTorqueLoad(_GaitSource):
+    """The gait's ankle moment as a load: the ground reaction exerts ``-M(t)`` on the joint, so whatever drives the
+    joint must deliver ``M(t) = body_mass * profile(t / stride_time)`` [N m] (plantarflexor positive) to follow it.
+
+    ``flange.tau = M`` (torque acting on this component), reaction on the optional support.
+    """
+
+    body_mass = Parameter(DEFAULT_BODY_MASS, unit="kg", min=1e-3, doc="body mass (assumption: 60 kg)")
+    profile = Input(unit="N.m/kg", doc="ankle moment per kg over the gait fraction (1-periodic)")
+    M = Variable(unit="N.m", doc="biomechanical ankle moment, plantarflexor positive")
+
+    def __init__(self, use_support: bool = False, **kw):
+        kw.setdefault("profile", unit_cycle().torque_signal())
+        super().__init__(use_support=use_support, **kw)
+
+    def equations(self):
+        eqs = [Eq(self.M, self.body_mass * self._at_gait_time(self.profile)), Eq(self.flange.tau, self.M)]
+        if self.use_support:
+            eqs.append(Eq(self.support.tau, -self.M))
+        return eqs

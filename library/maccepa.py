@@ -294,3 +294,40 @@ def energy_expr(alpha, P, k, A, B):
     """Spring energy ``k (P + A + B - C(alpha))^2 / 2`` [J] as a sympy expression; its alpha-derivative is Eq. 3."""
     _sym_check(k, A, B, P)
     return k * _sym_parts(alpha, P, A, B)[3] ** 2 / 2
+
+
+# ---------------------------------------------------------------------------------------------------- component
+from sympy import Eq  # noqa: E402
+
+from acausal import Parameter, Variable  # noqa: E402
+from acausal.partials import PartialCompliant  # noqa: E402
+
+
+class Maccepa(PartialCompliant):
+    """Sliding-bar MACCEPA linkage (paper Fig. 2, Eq. 1-3) between the foot and the moment arm.
+
+    ``flange_a`` is the foot / ankle joint (angle theta), ``flange_b`` the moment arm (angle phi, driven through
+    the gears); ``alpha = phi - theta = phi_rel``. The linkage exerts ``T(alpha, P)`` (Eq. 3) on the foot, in the
+    plantarflexion sense, and ``-T`` on the moment arm: ``flange_b.tau = T`` acts on the linkage at the arm,
+    ``flange_a.tau = -T`` at the foot. It is conservative: ``T = dE/dalpha`` with the spring energy
+    ``E = k (P + A + B - C(alpha))^2 / 2``, so the power into it equals ``dE/dt``. Both ends turn about the same
+    joint axis, so no torque reaches the lower leg through the linkage itself (no support flange).
+
+    Defaults: k = 132 N/mm die spring (paper, section 2); A = 0.100 m, B = 0.060 m (not published: a proposal
+    of ../shared/data/parameters.md, low-medium confidence); P = 8 mm (the paper's Table 1 condition).
+    """
+
+    k = Parameter(132e3, unit="N/m", min=0.0, doc="spring stiffness (paper: die spring 132 N/mm)")
+    A = Parameter(0.100, unit="m", min=0.0, doc="connecting link length c-b (assumption, parameters.md)")
+    B = Parameter(0.060, unit="m", min=0.0, doc="moment arm length a-c (assumption, parameters.md)")
+    P = Parameter(0.008, unit="m", min=0.0, max=0.018, doc="spring precompression (paper: 0-18 mm)")
+    alpha = Variable(unit="rad", doc="angle between moment arm and foot, phi - theta")
+    T = Variable(unit="N.m", doc="torque on the foot, Eq. 3 (plantarflexion positive)")
+    energy = Variable(unit="J", doc="energy stored in the spring")
+    compression = Variable(unit="m", doc="spring compression P + A + B - C(alpha)")
+
+    def equations(self):
+        k, A, B, P, a = self.k, self.A, self.B, self.P, self.alpha
+        return [*super().equations(), Eq(a, self.phi_rel), Eq(self.T, torque_expr(a, P, k, A, B)),
+                Eq(self.tau, self.T), Eq(self.energy, energy_expr(a, P, k, A, B)),
+                Eq(self.compression, _sym_parts(a, P, A, B)[3])]

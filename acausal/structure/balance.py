@@ -60,11 +60,13 @@ def _alternating_reach(start_nodes, eq_vars, match_e2v, from_equations: bool):
     return eqs, vars_
 
 
-def check_balance(eq_vars: list[set], origins: list[str], variables: list[str], owner_of) -> None:
+def check_balance(eq_vars: list[set], origins: list[str], variables: list[str], owner_of,
+                  residuals: list | None = None) -> None:
     """Raise :class:`StructureError` naming the culprits if the system is not balanced and matchable.
 
     ``eq_vars[k]`` are the variable names (derivatives included) in equation ``k``; ``variables`` the base
-    unknowns; ``owner_of(name)`` the component a variable belongs to.
+    unknowns; ``owner_of(name)`` the component a variable belongs to; ``residuals`` (optional) the equations
+    themselves, quoted when one has no unknown left (e.g. two sources fixing the same voltage).
     """
     base_eq_vars = [{split_der(v)[0] for v in vs} for vs in eq_vars]
     n_eq, n_var = len(eq_vars), len(variables)
@@ -84,8 +86,17 @@ def check_balance(eq_vars: list[set], origins: list[str], variables: list[str], 
     if unmatched_eqs:
         es, vs = _alternating_reach(unmatched_eqs, base_eq_vars, match, from_equations=True)
         comps = sorted({origins[k] for k in es})
-        lines.append(f"over-determined: {len(unmatched_eqs)} equation(s) too many among those of "
-                     f"{_fmt(comps)} (they all constrain {_fmt(sorted(vs))})")
+        line = f"over-determined: {len(unmatched_eqs)} equation(s) too many among those of {_fmt(comps)}"
+        # (fix) an equation left without unknowns after alias elimination used to give an empty
+        # "(they all constrain )"; quote such equations instead, they name the parameters in conflict
+        if vs:
+            line += f" (they all constrain {_fmt(sorted(vs))})"
+        empty = [k for k in unmatched_eqs if not base_eq_vars[k]]
+        if empty:
+            line += "; " + "; ".join(
+                f"the equation from {origins[k]} has no unknown left"
+                + (f" (it reads 0 = {residuals[k]})" if residuals is not None else "") for k in empty)
+        lines.append(line)
     if n_eq == n_var:
         lines[0] += ", but they are structurally singular"
     raise StructureError("; ".join(lines))
