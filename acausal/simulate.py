@@ -45,6 +45,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     if n == 0:
         d_arr = _algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else None
         X = np.zeros((0, t_out.size))
+        initialize(cm, t_start, p, d, u, starts)  # (fix) no states, but fixed starts must still hold
         return Result(cm, t_out, X, p, u, d if d_arr is None else d_arr, events=[], exact_time_function=True)
     x0 = initialize(cm, t_start, p, d, u, starts)
     d = _settle_modes(cm, t_start, x0, p, d, u)
@@ -70,7 +71,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
         restarted = False
         while solver.status == "running":
             t_prev = solver.t
-            msg = solver.step()
+            try:
+                msg = solver.step()
+            except _NonFinite as exc:  # (fix) see _make_functions
+                raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
             y_sum = float(solver.y.sum())
             if solver.status == "failed" or y_sum - y_sum != 0.0:  # failed, or NaN/inf in the states
                 bad = _find_non_finite(cm, solver, t_prev, p, d, u)
@@ -85,6 +89,12 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                 z_new = _zeros(cm, t_new, solver.y, p, d, u)
                 hit = _first_crossing(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
                 z_old = z_new
+            if hit:
+                t_e, i_ev, rising = hit
+                x_e = sol(t_e)
+                d_new = _apply_event(cm, i_ev, rising, t_e, x_e, p, d, u)
+                if np.array_equal(d_new, d):  # the crossing changes no mode: nothing to restart
+                    hit = None
             t_stop = hit[0] if hit else t_new
             if dense_output:
                 segments.append((t_prev, t_stop, sol, d.copy()))
@@ -95,14 +105,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                     D[:, k_out:k_end] = d[:, None]
                     k_out = k_end
             if hit:
-                t_e, i_ev, rising = hit
-                x_e = sol(t_e)
                 events.append((t_e, i_ev, "rising" if rising else "falling"))
                 if len(events) > max_events:
                     raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
                                           f"{cm.flat.events[i_ev].origin}): the model chatters")
-                d = _apply_event(cm, i_ev, rising, t_e, x_e, p, d, u)
-                d = _settle_modes(cm, t_e, x_e, p, d, u)
+                d = _cascade(cm, t_e, x_e, p, d, d_new, u)
                 t, x = t_e, x_e
                 restarted = True
                 break
@@ -122,13 +129,35 @@ def _make_functions(cm, p, d, u):
     pl = p.tolist()
     dl = d.tolist()
 
+    # (fix) On Python floats, 1/(1 - t) at t == 1 raises ZeroDivisionError (a huge power OverflowError) instead
+    # of giving inf: report it as a non-finite value with its time and variable instead of letting it escape.
+    # A non-finite Jacobian (e.g. of sqrt(x) at x <= 0) used to escape as a bare ValueError from scipy's LU
+    # factorisation; it is checked here (Jacobians are evaluated rarely, the check is cheap). The try blocks
+    # cost nothing when no exception is raised.
     def fun(t, x):
-        return rhs(t, x.tolist(), pl, dl, u)
+        try:
+            return rhs(t, x.tolist(), pl, dl, u)
+        except ArithmeticError:
+            raise _NonFinite(t, x.copy()) from None
 
     def jac(t, x):
-        return jacf(t, x.tolist(), pl, dl, u)
+        try:
+            J = jacf(t, x.tolist(), pl, dl, u)
+        except ArithmeticError:
+            raise _NonFinite(t, x.copy(), "jac") from None
+        if not np.isfinite(J.sum()):
+            raise _NonFinite(t, x.copy(), "jac")
+        return J
 
     return fun, jac
+
+
+class _NonFinite(Exception):
+    """Raised inside the integrator's callbacks when the model has no finite value at (t, x)."""
+
+    def __init__(self, t, x, where="rhs"):
+        super().__init__(t)
+        self.t, self.x, self.where = t, x, where
 
 
 def _find_non_finite(cm, solver, t_prev, p, d, u):
@@ -157,6 +186,10 @@ def _first_crossing(cm, sol, t0, t1, z0, z1, p, d, u):
     best = None
     for i in range(len(z0)):
         a, b = z0[i], z1[i]
+        if a == 0 and b != 0:  # leaving an exact zero (e.g. starting at rest): decide by the direction now
+            if best is None or t0 < best[0]:
+                best = (t0, i, b > 0)
+            continue
         if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
             g = lambda tt, i=i: float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i])
             try:
@@ -210,6 +243,27 @@ def _settle_modes(cm, t, x, p, d, u, exclude=None, max_iter: int = 20):
                           + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
 
 
+def _cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20):
+    """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
+    those events' assignments, and repeat, until nothing flips."""
+    z_prev = _zeros(cm, t, x, p, d_old, u)
+    d = d_new
+    for _ in range(max_iter):
+        z = _zeros(cm, t, x, p, d, u)
+        flipped = [i for i in range(len(z)) if z[i] != 0 and np.sign(z[i]) != np.sign(z_prev[i])
+                   and z_prev[i] != 0]
+        if not flipped:
+            return d
+        new = d
+        for i in flipped:
+            new = _apply_event(cm, i, z[i] > 0, t, x, p, new, u)
+        if np.array_equal(new, d):
+            return d
+        z_prev, d = z, new
+    raise SimulationError(f"discrete modes do not settle after an event at t = {t:.6g} s: "
+                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
+
+
 def _algebraic_modes(cm, t, p, d, u):
     """Mode of each output sample of a stateless model: the settled modes, sample by sample."""
     out = np.empty((len(d), t.size))
@@ -251,6 +305,9 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
             targets[n] = info.start
     for n, v in starts.items():
         targets[n] = float(v)
+    # (fix) fixed starts of variables that alias elimination found to be constant (parameter expressions)
+    for n, v in getattr(flat, "fixed_constants", {}).items():
+        targets.setdefault(n, v)
     if not targets:
         return x
     free = np.flatnonzero(~fixed_state)
@@ -283,8 +340,10 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
             break
     r = resid(xf)
     if not np.all(np.abs(r) <= 1e-7 * scale):
-        bad = [f"{n} (wanted {targets[n]:.6g}, got {targets[n] + ri:.6g})" for n, ri in zip(names_t, r)
-               if abs(ri) > 1e-7 * max(1.0, abs(targets[n]))]
+        const = getattr(flat, "fixed_constants", {})
+        bad = [f"{n} (wanted {targets[n]:.6g}, got {targets[n] + ri:.6g}"
+               + (f", which the equations make the constant {flat.aliases.get(n)})" if n in const else ")")
+               for n, ri in zip(names_t, r) if abs(ri) > 1e-7 * max(1.0, abs(targets[n]))]
         fixed_states = [cm.state_names[i] for i in np.flatnonzero(fixed_state)]
         raise SimulationError(
             "inconsistent initial conditions: cannot meet " + ", ".join(bad)
@@ -311,18 +370,36 @@ def _value_lookup(cm, t, x, p, d, u):
 
 
 # ---------------------------------------------------------------------------------------------- failures
-def _non_finite_error(cm, t, x, p, d, u):
+def _non_finite_error(cm, t, x, p, d, u, where="rhs"):
+    # (fix) Evaluate at a numpy time so that a division by zero gives inf instead of raising, and name the
+    # non-finite unknown computed *first* (the cause, e.g. y = sqrt(x)) rather than the first in name order
+    # (often a derivative that merely depends on it, 'der(z)' for z' = y); the others follow as consequences.
+    t_np = np.float64(t)
     try:
         with np.errstate(all="ignore"):
-            vals = cm.funcs["all_values"](t, x, p, d, u)
+            vals = cm.funcs["all_values"](t_np, x, p, d, u)
     except Exception:  # pragma: no cover - evaluation itself failed
         vals = []
     bad_state = [n for n, v in zip(cm.state_names, x) if not np.isfinite(v)]
-    for n, v in zip(cm.unknown_names, vals):
-        if not np.all(np.isfinite(v)):
-            owner = cm.flat.owner_of(n)
-            return SimulationError(f"non-finite value at t = {t:.9g} s: {n!r} (of {owner or 'the model'}) = {v}"
-                                   + (f"; non-finite states {bad_state}" if bad_state else ""))
+    order = {v: k for k, st in enumerate(cm.steps) for v in ([st.var] if hasattr(st, "var") else st.vars)}
+    value = dict(zip(cm.unknown_names, vals))
+    bad = sorted((n for n, v in value.items() if not np.all(np.isfinite(v))),
+                 key=lambda n: (order.get(n, len(order)), n))
+    if bad:
+        n = bad[0]
+        owner = cm.flat.owner_of(n)
+        return SimulationError(f"non-finite value at t = {t:.9g} s: {n!r} (of {owner or 'the model'}) = {value[n]}"
+                               + (f"; then also {bad[1:]}" if len(bad) > 1 else "")
+                               + (f"; non-finite states {bad_state}" if bad_state else ""))
+    if where == "jac":
+        try:
+            with np.errstate(all="ignore"):
+                J = np.asarray(cm.funcs["jac"](t_np, x, p, d, u), dtype=float)
+            i, j = np.argwhere(~np.isfinite(J))[0]
+            return SimulationError(f"non-finite Jacobian at t = {t:.9g} s: d der({cm.state_names[i]}) / "
+                                   f"d {cm.state_names[j]} = {J[i, j]} at {dict(zip(cm.state_names, x))}")
+        except Exception:  # pragma: no cover
+            pass
     return SimulationError(f"non-finite value at t = {t:.9g} s" + (f" in states {bad_state}" if bad_state else ""))
 
 
