@@ -37,3 +37,16 @@ class InverseBlockConstraint(Component):
 
     def equations(self):
         return [Eq(self.u.value, self.target)]
+
+
+class SignalConstraint(Component):
+    """Inverse model with a signal target: force ``u`` to equal the signal at ``target`` and leave ``y`` free
+    (an unknown that the compiler solves for). Like :class:`InverseBlockConstraint`, but the target comes through
+    a connector (e.g. from a profile source whose time scale is a parameter)."""
+
+    u = RealInput(doc="signal to be constrained")
+    target = RealInput(doc="value u must take")
+    y = RealOutput(doc="signal determined by the constraint")
+
+    def equations(self):
+        return [Eq(self.u.value, self.target.value)]

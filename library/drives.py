@@ -25,7 +25,8 @@ class PWMDriver(Component, _OptionalHeatPort):
 
     Ports: DC bus ``bus_p``/``bus_n``, motor side ``mot_p``/``mot_n``, command input ``u``. With
     ``command="duty"`` the duty cycle is ``d = clamp(u, -d_max, d_max)``; with ``command="voltage"`` it is
-    ``d = clamp(u / v_bus, -d_max, d_max)`` (``u`` in volts). Equations (``i_m`` motor current, out of
+    ``d = clamp(u / v_bus, -d_max, d_max)`` (``u`` in volts). ``saturate=False`` drops the clamp (for inverse
+    models, where the compiler solves for the command; check ``d`` against ``d_max`` afterwards). Equations (``i_m`` motor current, out of
     ``mot_p``; ``i_bus`` into ``bus_p``)::
 
         v_m   = d v_bus - R_on i_m                                    (averaged bridge + conduction drop)
@@ -59,20 +60,22 @@ class PWMDriver(Component, _OptionalHeatPort):
     bus_power = Variable(unit="W", doc="power drawn from the bus v_bus*i_bus")
     motor_power = Variable(unit="W", doc="power delivered to the motor v_m*i_m")
 
-    def __init__(self, command: str = "duty", use_heat_port: bool = False, **kw):
+    def __init__(self, command: str = "duty", saturate: bool = True, use_heat_port: bool = False, **kw):
         super().__init__(**kw)
         if command not in ("duty", "voltage"):
             raise ValueError(f"PWMDriver: command must be 'duty' or 'voltage', got {command!r}")
         self.command = command
+        self.saturate = saturate
         self._init_heat_port(use_heat_port)
 
     def equations(self):
         raw = self.u.value if self.command == "duty" else self.u.value / self.v_bus
+        d_eq = Eq(self.d, sp.Max(-self.d_max, sp.Min(self.d_max, raw))) if self.saturate else Eq(self.d, raw)
         eqs = [Eq(self.v_bus, self.bus_p.v - self.bus_n.v), Eq(self.i_bus, self.bus_p.i),
                Eq(0, self.bus_p.i + self.bus_n.i + self.mot_p.i + self.mot_n.i),
                Eq(self.v_m, self.mot_p.v - self.mot_n.v), Eq(self.i_m, -self.mot_p.i),
                Eq(self.mot_n.v, self.bus_n.v + (self.v_bus - self.v_m) / 2),
-               Eq(self.d, sp.Max(-self.d_max, sp.Min(self.d_max, raw))),
+               d_eq,
                Eq(self.v_m, self.d * self.v_bus - self.R_on * self.i_m),
                Eq(self.loss_power, self.P_q + self.R_on * self.i_m**2 + self.k_sw * sp.Abs(self.i_m) * self.v_bus),
                Eq(self.v_bus * self.i_bus, self.d * self.v_bus * self.i_m + self.P_q
@@ -116,7 +119,7 @@ class DCMotor(Component, _OptionalHeatPort):
     n = Pin(doc="negative terminal")
     flange = Flange(doc="shaft")
     v = Variable(unit="V", doc="terminal voltage p - n")
-    i = Variable(start=0.0, unit="A", doc="current p -> n", fixed=True)
+    i = Variable(start=0.0, unit="A", doc="current p -> n (start value used when it is a state)")
     phi = Variable(unit="rad", doc="shaft angle relative to the housing")
     w = Variable(unit="rad/s", doc="shaft speed relative to the housing", state_select="prefer")
     tau_e = Variable(unit="N.m", doc="electromagnetic torque k i")

@@ -332,3 +332,18 @@ class AnkleTorqueLoad(_GaitSource):
         if self.use_support:
             eqs.append(Eq(self.support.tau, -self.M))
         return eqs
+
+
+class GaitProfile(Component):
+    """Causal source of a 1-periodic profile over the gait fraction: ``y = profile(time / stride_time)``.
+
+    Used for references that follow the gait (the planned moment-arm angle); ``stride_time`` is a run-time
+    parameter and the profile a swappable numeric input, so sweeps never recompile."""
+
+    from acausal import RealOutput as _RealOutput  # noqa: N814
+    stride_time = Parameter(DEFAULT_STRIDE_TIME, unit="s", min=1e-3, doc="stride duration")
+    profile = Input(doc="1-periodic profile over the gait fraction")
+    y = _RealOutput(doc="profile at the present gait fraction")
+
+    def equations(self):
+        return [Eq(self.y.value, self.profile.xreplace({time: time / self.stride_time}))]
