@@ -87,15 +87,17 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             hit = None
             if has_events:
                 z_new = _zeros(cm, t_new, solver.y, p, d, u)
-                hit = _first_crossing(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
+                hits = _crossings(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
                 z_old = z_new
-            if hit:
-                t_e, i_ev, rising = hit
-                x_e = sol(t_e)
-                d_new = _apply_event(cm, i_ev, rising, t_e, x_e, p, d, u)
-                if np.array_equal(d_new, d):  # the crossing changes no mode: nothing to restart
-                    hit = None
-            t_stop = hit[0] if hit else t_new
+                if hits:
+                    t_e = hits[0][0]
+                    x_e = sol(t_e)
+                    d_new = d
+                    for _, i_ev, rising in hits:
+                        d_new = _apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
+                    if not np.array_equal(d_new, d):  # a crossing that changes no mode needs no restart
+                        hit = hits
+            t_stop = hit[0][0] if hit else t_new
             if dense_output:
                 segments.append((t_prev, t_stop, sol, d.copy()))
             if need_out:
@@ -105,10 +107,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                     D[:, k_out:k_end] = d[:, None]
                     k_out = k_end
             if hit:
-                events.append((t_e, i_ev, "rising" if rising else "falling"))
+                for _, i_ev, rising in hit:
+                    events.append((t_e, i_ev, "rising" if rising else "falling"))
                 if len(events) > max_events:
                     raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
-                                          f"{cm.flat.events[i_ev].origin}): the model chatters")
+                                          f"{cm.flat.events[hit[-1][1]].origin}): the model chatters")
                 d = _cascade(cm, t_e, x_e, p, d, d_new, u)
                 t, x = t_e, x_e
                 restarted = True
@@ -181,14 +184,14 @@ def _zeros(cm, t, x, p, d, u):
     return np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
 
 
-def _first_crossing(cm, sol, t0, t1, z0, z1, p, d, u):
-    """Earliest zero crossing in (t0, t1]: (time, event index, rising?) or None."""
-    best = None
+def _crossings(cm, sol, t0, t1, z0, z1, p, d, u):
+    """The earliest zero crossing(s) in (t0, t1] as a list of (time, event index, rising?), all at (nearly) the
+    same time: zero functions that cross together (e.g. the speeds of two gear stages) are handled together."""
+    found = []
     for i in range(len(z0)):
         a, b = z0[i], z1[i]
         if a == 0 and b != 0:  # leaving an exact zero (e.g. starting at rest): decide by the direction now
-            if best is None or t0 < best[0]:
-                best = (t0, i, b > 0)
+            found.append((t0, i, b > 0))
             continue
         if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
             g = lambda tt, i=i: float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i])
@@ -200,9 +203,14 @@ def _first_crossing(cm, sol, t0, t1, z0, z1, p, d, u):
             g_te = g(te)
             if (a < 0 and g_te < 0) or (a > 0 and g_te > 0):
                 te = min(t1, te + 1e-12 * max(1.0, abs(te)))
-            if best is None or te < best[0]:
-                best = (te, i, a < 0)
-    return best
+            found.append((te, i, a < 0))
+    if not found:
+        return []
+    t_first = min(f[0] for f in found)
+    tol = 1e-9 * max(1.0, abs(t_first))
+    together = [f for f in found if f[0] <= t_first + tol]
+    t_e = max(f[0] for f in together)
+    return [(t_e, i, rising) for _, i, rising in together]
 
 
 def _apply_event(cm, i, rising, t, x, p, d, u):
