@@ -231,9 +231,17 @@ class LossyGear(PartialTwoFlanges, _OptionalSupport):
         flange_b.tau = -tau_out
 
     so the mesh loses ``(1 - eta)`` of its input power when driven and ``(1/eta - 1)`` of its output power when
-    back-driven: ``loss_power = tau_a w_a (1 - eff) >= 0`` in both. The mode switches by state events on the
-    zero crossings of ``w_a`` and of ``tau_a`` (the direction of the crossing and the other factor's sign
-    decide the new mode), so a reversal of motion or of load is exact and does not chatter.
+    back-driven: ``loss_power = tau_a w_a (1 - eff) >= 0`` in both.
+
+    ``law="events"`` (default): the mode switches by state events on the zero crossings of ``w_a`` and of
+    ``tau_a`` (the direction of the crossing and the other factor's sign decide the new mode); exact, and it does
+    not chatter where the motion is prescribed. Under *forward* dynamics a gear at rest whose load torque lies
+    inside the locking band (neither mode consistent) would chatter: this component has no locked mode.
+
+    ``law="smooth"``: ``eff = eta ** tanh(tau_a w_a / P_s)``, a documented smooth law without modes: it equals
+    the event law to within ``1 - tanh(|P|/P_s)`` (below 0.1 % for ``|P| > 4 P_s``, P_s = 0.5 W by default), is
+    lossless at zero power, keeps ``loss_power >= 0`` at every instant, and passes through zero speed without a
+    locked phase (no stiction). Use it for closed-loop (forward) simulation.
     """
 
     ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
@@ -246,16 +254,26 @@ class LossyGear(PartialTwoFlanges, _OptionalSupport):
     loss_power = Variable(unit="W", doc="mesh loss (>= 0)")
     backdriven = Discrete(start=0.0, doc="1 while power flows from flange_b to flange_a")
 
-    def __init__(self, use_support: bool = False, **kw):
+    P_s = Parameter(0.5, unit="W", min=1e-12, doc="power scale of the smooth law (law='smooth' only)")
+
+    def __init__(self, use_support: bool = False, law: str = "events", **kw):
+        if law not in ("events", "smooth"):
+            raise ValueError(f"LossyGear: law must be 'events' or 'smooth', got {law!r}")
         super().__init__(**kw)
+        self.law = law
         self._init_support(use_support)
 
-    def equations(self):
+    def _efficiency(self):
+        if self.law == "smooth":
+            return self.eta ** sp.tanh(self.flange_a.tau * self.w_a / self.P_s)
         m = self.backdriven
+        return (1 - m) * self.eta + m / self.eta
+
+    def equations(self):
         tau_a = self.flange_a.tau
         eqs = [Eq(self.phi_a, self.flange_a.phi - self.support_phi()), Eq(self.phi_b, self.flange_b.phi - self.support_phi()),
                Eq(self.phi_a, self.ratio * self.phi_b), Eq(self.w_a, der(self.phi_a)),
-               Eq(self.eff, (1 - m) * self.eta + m / self.eta),
+               Eq(self.eff, self._efficiency()),
                Eq(self.flange_b.tau, -self.eff * self.ratio * tau_a),
                Eq(self.input_power, tau_a * self.w_a),
                Eq(self.loss_power, self.input_power * (1 - self.eff))]
@@ -264,6 +282,8 @@ class LossyGear(PartialTwoFlanges, _OptionalSupport):
         return eqs
 
     def events(self):
+        if self.law == "smooth":
+            return []
         tau_a, w_a = self.flange_a.tau, self.w_a
         m = self.backdriven
         return [Event(w_a, on_rising={m: sp.StrictLessThan(tau_a, 0)}, on_falling={m: sp.StrictGreaterThan(tau_a, 0)},
@@ -279,7 +299,7 @@ class Gearbox(Model):
 
     ``loss_power`` = mesh + bearing loss; ``energy`` = kinetic energy of both inertias. Stages compose by
     connecting ``flange_b`` of one to ``flange_a`` of the next (the paper: planetary 86:1, max. efficiency 70 %,
-    input inertia 0.7 g cm2, then helical 10:1).
+    input inertia 0.7 g cm2, then helical 10:1). ``law`` selects the mesh's switching (see :class:`LossyGear`).
     """
 
     ratio = Parameter(1.0, unit="1", doc="transmission ratio")
@@ -293,9 +313,13 @@ class Gearbox(Model):
     loss_power = Variable(unit="W", doc="mesh + bearing losses")
     energy = Variable(unit="J", doc="kinetic energy of J_a and J_b")
 
+    def __init__(self, law: str = "events", **kw):
+        super().__init__(**kw)
+        self.law = law
+
     def build(self):
         self.inertia_a = Inertia(J=self.J_a)
-        self.mesh = LossyGear(ratio=self.ratio, eta=self.eta)
+        self.mesh = LossyGear(ratio=self.ratio, eta=self.eta, law=self.law)
         self.bearing = BearingFriction(tau_c=self.tau_c, d=self.d)
         self.inertia_b = Inertia(J=self.J_b)
         connect(self.flange_a, self.inertia_a.flange_a)
