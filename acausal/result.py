@@ -176,11 +176,13 @@ class Result:
         """Integral of a variable (or a port's power) over the whole result, like :meth:`energy`."""
         return float(self._cumulative(name)[-1])
 
-    def _cumulative(self, what):
+    def _quadrature_nodes(self):
+        """Gauss-Legendre nodes of every solver step (cut at the output times) and a Result evaluated there;
+        built once per Result and shared by all energy integrals."""
+        if getattr(self, "_nodes", None) is not None:
+            return self._nodes
         t = self.t
         segs = self._segments
-        if not segs and not self._exact_time_function:
-            return integrate_cumulative(self._integrand(what), t)
         if segs:
             starts = np.array([s[0] for s in segs])
             bps = np.union1d(np.append(starts, segs[-1][1]), t)
@@ -209,7 +211,15 @@ class Result:
         Dflat = np.asarray(Dn, dtype=float).reshape(nd, tn.size) if np.ndim(Dn) > 1 else np.asarray(Dn, dtype=float)
         sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), self.params, self.inputs, Dflat, events=[],
                      exact_time_function=self._exact_time_function)
-        y = np.asarray(sub._integrand(what), dtype=float).reshape(tn.shape)
+        self._nodes = (bps, tn.shape, half, wg, sub)
+        return self._nodes
+
+    def _cumulative(self, what):
+        t = self.t
+        if not self._segments and not self._exact_time_function:
+            return integrate_cumulative(self._integrand(what), t)
+        bps, shape, half, wg, sub = self._quadrature_nodes()
+        y = np.asarray(sub._integrand(what), dtype=float).reshape(shape)
         pieces = half * (y @ wg)
         cum = np.concatenate([[0.0], np.cumsum(pieces)])
         return cum[np.searchsorted(bps, t)]

@@ -13,9 +13,11 @@ is the same call with ``order + 1``.
 """
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
 import sympy as sp
-from scipy.interpolate import make_interp_spline
+from scipy.interpolate import PPoly, make_interp_spline
 
 from .errors import SignalError
 from .symbols import ConstantSymbol, time
@@ -79,7 +81,8 @@ class PeriodicSpline(Signal):
     """Periodic interpolating B-spline (default quintic: derivatives 1-4 continuous, 5th piecewise constant).
 
     ``t`` are the sample times of one period (without the repeated end point), ``period`` the period length.
-    Derivatives up to ``degree`` are available.
+    Derivatives up to ``degree`` are available. Evaluation uses the piecewise-polynomial form with a fast path
+    for scalar times (the integrator calls it once per right-hand side).
     """
 
     def __init__(self, t, y, period: float, degree: int = 5, name: str = "periodic spline"):
@@ -99,12 +102,41 @@ class PeriodicSpline(Signal):
         tt = np.append(t, t[0] + period)
         yy = np.append(y, y[0])
         self._spl = make_interp_spline(tt, yy, k=degree, bc_type="periodic")
+        pp = PPoly.from_spline(self._spl)
+        keep = (pp.x[:-1] >= tt[0]) & (pp.x[1:] <= tt[-1]) & (np.diff(pp.x) > 0)
+        self._breaks = np.append(pp.x[:-1][keep], tt[-1])
+        self._bl = self._breaks.tolist()
+        c = pp.c[:, keep]  # highest power first
+        self._coef = [c]
+        for _ in range(degree):  # coefficients of each derivative order
+            prev = self._coef[-1]
+            m = prev.shape[0] - 1
+            self._coef.append(prev[:-1] * np.arange(m, 0, -1)[:, None] if m > 0 else np.zeros((1, prev.shape[1])))
+        self._coef_lists = [cc.T.tolist() for cc in self._coef]
         self.max_order = degree
         self.name = name
 
     def evaluate(self, t, order):
+        if np.ndim(t) == 0:
+            return np.float64(self._scalar(float(t), order))
         tau = self.t0 + np.mod(t - self.t0, self.period)
-        return self._spl(tau, nu=order) if order > 0 else self._spl(tau)
+        i = np.clip(np.searchsorted(self._breaks, tau, side="right") - 1, 0, len(self._breaks) - 2)
+        x = tau - self._breaks[i]
+        c = self._coef[order][:, i]
+        y = c[0]
+        for row in c[1:]:
+            y = y * x + row
+        return y
+
+    def _scalar(self, t, order):
+        tau = self.t0 + (t - self.t0) % self.period
+        i = bisect.bisect_right(self._bl, tau) - 1
+        i = min(max(i, 0), len(self._bl) - 2)
+        x = tau - self._bl[i]
+        y = 0.0
+        for a in self._coef_lists[order][i]:
+            y = y * x + a
+        return y
 
 
 class FourierSeries(Signal):

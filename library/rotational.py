@@ -238,10 +238,13 @@ class LossyGear(PartialTwoFlanges, _OptionalSupport):
     not chatter where the motion is prescribed. Under *forward* dynamics a gear at rest whose load torque lies
     inside the locking band (neither mode consistent) would chatter: this component has no locked mode.
 
-    ``law="smooth"``: ``eff = eta ** tanh(tau_a w_a / P_s)``, a documented smooth law without modes: it equals
+    ``law="smooth"``: ``eff = eta ** tanh(P_out / P_s)`` with ``P_out = -flange_b.tau w_b`` the power leaving at
+    the output (same sign as the input power ``tau_a w_a``), a documented smooth law without modes: it equals
     the event law to within ``1 - tanh(|P|/P_s)`` (below 0.1 % for ``|P| > 4 P_s``, P_s = 0.5 W by default), is
     lossless at zero power, keeps ``loss_power >= 0`` at every instant, and passes through zero speed without a
-    locked phase (no stiction). Use it for closed-loop (forward) simulation.
+    locked phase (no stiction). Use it for forward simulation, and for inverse models with an inductor on the
+    motor side: there the event law's efficiency jump at a motion reversal makes the current jump, and the
+    energy of that jump (an impulse) never appears in an integrated power.
     """
 
     ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
@@ -265,7 +268,9 @@ class LossyGear(PartialTwoFlanges, _OptionalSupport):
 
     def _efficiency(self):
         if self.law == "smooth":
-            return self.eta ** sp.tanh(self.flange_a.tau * self.w_a / self.P_s)
+            # the output-side power -tau_b w_b has the sign of the input power (tau_a = -tau_b / (eff ratio)), and
+            # written this way the torque relation stays explicit when the output torque is known (replays)
+            return self.eta ** sp.tanh(-self.flange_b.tau * self.w_a / (self.ratio * self.P_s))
         m = self.backdriven
         return (1 - m) * self.eta + m / self.eta
 

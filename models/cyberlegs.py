@@ -87,9 +87,10 @@ class CyberlegsAnkle(Model):
         connect(self.driver.mot_n, self.P_driver.nv, self.motor.n)
         # mechanical chain
         self.P_motor = MechanicalPowerSensor()
-        law = "events" if self.mode == "replay" else "smooth"  # see LossyGear: no locked mode under forward dynamics
-        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law=law)
-        self.helical = Gearbox(ratio=10.0, eta=0.9, law=law)
+        # smooth mesh law (see LossyGear): no locked mode is needed in closed loop, and in the replay the current
+        # stays continuous at motion reversals, so every joule passes through the integrated powers
+        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")
+        self.helical = Gearbox(ratio=10.0, eta=0.9, law="smooth")
         self.P_link = MechanicalPowerSensor()
         self.link = Maccepa()
         self.P_output = MechanicalPowerSensor()

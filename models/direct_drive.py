@@ -1,0 +1,64 @@
+"""Direct drive: the same supply, driver, motor and gears move the ankle joint without the MACCEPA spring.
+
+What changes against :class:`~acausal.models.cyberlegs.CyberlegsAnkle` and why: the gear output is the joint
+itself, so the motor must deliver the whole biomechanical torque M(t) at the joint speed at every instant (no
+series spring to store and return energy, no power amplification). This is the comparison of the paper's
+Fig. 7 (there the bench's output motor plays the direct drive). The joint follows the gait angle through an
+inverse constraint on the driver command; the gait moment acts as the load (:class:`AnkleTorqueLoad`).
+
+Measurement points: source, driver output, motor shaft and joint ("output"); ``link`` is the joint as well.
+"""
+from __future__ import annotations
+
+from acausal import Model, Parameter, connect
+from acausal.library.blocks import SignalConstraint
+from acausal.library.drives import DCMotor, PWMDriver
+from acausal.library.electrical import Ground, NonRegenerativeRectifier, Supply
+from acausal.library.gait import AnkleTorqueLoad, GaitProfile, unit_cycle
+from acausal.library.rotational import AngleSensor, Gearbox
+from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
+
+MEASUREMENT_POINTS = [("source", "P_source.P"), ("driver", "P_driver.P"), ("motor", "P_motor.P"),
+                      ("link", "P_output.P"), ("output", "P_output.P")]
+
+
+class DirectDrive(Model):
+    """Motor and gears (n = 860) moving the ankle along the gait angle against the gait moment."""
+
+    body_mass = Parameter(60.0, unit="kg", min=1.0, doc="body mass scaling the gait torque (assumption)")
+    stride_time = Parameter(2.0, unit="s", min=0.1, doc="stride duration")
+
+    def build(self):
+        self.supply = Supply()
+        self.P_source = ElectricalPowerSensor()
+        self.rect = NonRegenerativeRectifier()
+        self.driver = PWMDriver(command="voltage", saturate=False)
+        self.P_driver = ElectricalPowerSensor()
+        self.motor = DCMotor()
+        self.gnd = Ground()
+        connect(self.supply.p, self.P_source.pc, self.P_source.pv)
+        connect(self.P_source.nc, self.rect.p_in)
+        connect(self.supply.n, self.P_source.nv, self.rect.n_in, self.gnd.p)
+        connect(self.rect.p_bus, self.driver.bus_p)
+        connect(self.rect.n_bus, self.driver.bus_n)
+        connect(self.driver.mot_p, self.P_driver.pc, self.P_driver.pv)
+        connect(self.P_driver.nc, self.motor.p)
+        connect(self.driver.mot_n, self.P_driver.nv, self.motor.n)
+        self.P_motor = MechanicalPowerSensor()
+        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")  # as in CyberlegsAnkle
+        self.helical = Gearbox(ratio=10.0, eta=0.9, law="smooth")
+        self.P_output = MechanicalPowerSensor()
+        self.load = AnkleTorqueLoad(stride_time=self.stride_time, body_mass=self.body_mass)
+        connect(self.motor.flange, self.P_motor.flange_a)
+        connect(self.P_motor.flange_b, self.planetary.flange_a)
+        connect(self.planetary.flange_b, self.helical.flange_a)
+        connect(self.helical.flange_b, self.P_output.flange_a)
+        connect(self.P_output.flange_b, self.load.flange)
+        # the joint follows the gait angle: the compiler solves for the driver command
+        self.joint_ref = GaitProfile(stride_time=self.stride_time, profile=unit_cycle().angle_signal())
+        self.joint_angle = AngleSensor()
+        self.follow = SignalConstraint()
+        connect(self.load.flange, self.joint_angle.flange)
+        connect(self.joint_angle.phi, self.follow.u)
+        connect(self.joint_ref.y, self.follow.target)
+        connect(self.follow.y, self.driver.u)

@@ -1,0 +1,191 @@
+"""The paper's bench protocol (section 4): energy per stride at the five measurement points over precompression x
+stride time, stage efficiencies and losses (Table 1 layout), peak powers, tracking error, energy balance.
+
+One condition = one compiled model simulated over ``strides`` strides with that condition's run-time parameters
+and planned trajectory; the last stride is evaluated (the first lets the bus and, in closed loop, the controller
+settle). Sweeps run conditions through any ``concurrent.futures.Executor`` (default: a process pool on all
+cores); each worker process compiles each model once.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from acausal import compile_model
+
+from . import cyberlegs, direct_drive
+from .presets import preset
+
+PRECOMPRESSIONS = [0.002, 0.005, 0.008, 0.011, 0.015, 0.018]  # m (paper section 4)
+STRIDE_TIMES = [1.2, 1.3, 1.5, 2.0, 2.5, 3.0]  # s per stride (paper section 4)
+POINTS = ["source", "driver", "motor", "link", "output"]
+PAPER_TABLE1 = {"source": 64.5, "driver": 42.0, "motor": 33.0, "link": 15.4, "output": 12.0}  # J, 8 mm, 2 s
+
+#: every dissipation of the actuator (the energy balance's loss side)
+LOSSES = ["supply.loss_power", "rect.loss_power", "driver.loss_power", "motor.loss_power",
+          "planetary.loss_power", "helical.loss_power"]
+
+MODELS = {
+    "replay": lambda: cyberlegs.CyberlegsAnkle(mode="replay"),
+    "closed_loop": lambda: cyberlegs.CyberlegsAnkle(mode="closed_loop"),
+    "direct_drive": lambda: direct_drive.DirectDrive(),
+}
+
+_COMPILED: dict = {}  # per-process cache: model name -> CompiledModel (compiled once per worker)
+
+
+def compiled(name: str):
+    if name not in _COMPILED:
+        _COMPILED[name] = compile_model(MODELS[name]())
+    return _COMPILED[name]
+
+
+@dataclass
+class Condition:
+    P: float  # precompression [m]
+    stride_time: float  # [s]
+    model: str = "replay"
+    preset: str = "library"
+    strides: int = 2
+    points_per_stride: int = 201
+
+
+@dataclass
+class StrideResult:
+    condition: Condition
+    energy: dict  # J per stride at each measurement point
+    stage_loss: dict  # J lost between consecutive points (driver, motor, gearing, output)
+    peak_power: dict  # W, max |P| over the stride at each point
+    balance_residual: float  # (source - losses - output - stored change) / source
+    tracking_rms: float = 0.0  # rad, moment-arm reference minus actual (closed loop)
+    tracking_max: float = 0.0
+    max_duty: float = 0.0  # largest |d| the driver needed (replay: > d_max means the motor could not follow)
+    peak_motor_speed: float = 0.0  # rad/s
+    peak_motor_current: float = 0.0  # A
+    traces: dict = field(default_factory=dict)  # time series of the evaluated stride (when asked for)
+
+    @property
+    def efficiency(self) -> dict:
+        """Efficiency up to each point relative to the source (Table 1's middle column)."""
+        return {k: self.energy[k] / self.energy["source"] for k in POINTS}
+
+    @property
+    def loss_fraction(self) -> dict:
+        """Loss relative to the previous point (Table 1's last column)."""
+        out = {"source": 0.0}
+        for a, b in zip(POINTS, POINTS[1:]):
+            out[b] = 1.0 - self.energy[b] / self.energy[a]
+        return out
+
+    def row(self) -> dict:
+        c = self.condition
+        r = {"model": c.model, "preset": c.preset, "P_mm": c.P * 1e3, "stride_time_s": c.stride_time}
+        r.update({f"E_{k}_J": v for k, v in self.energy.items()})
+        r.update({f"loss_{k}_J": v for k, v in self.stage_loss.items()})
+        r.update({f"peak_{k}_W": v for k, v in self.peak_power.items()})
+        r.update(efficiency=self.efficiency["output"], balance_residual=self.balance_residual,
+                 tracking_rms_rad=self.tracking_rms, tracking_max_rad=self.tracking_max, max_duty=self.max_duty,
+                 peak_motor_speed=self.peak_motor_speed, peak_motor_current=self.peak_motor_current)
+        return r
+
+
+def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
+    """Simulate one bench condition and evaluate its last stride."""
+    sim = compiled(cond.model)
+    T = cond.stride_time
+    params = {**preset(cond.preset), "stride_time": T}
+    inputs = {}
+    if cond.model != "direct_drive":
+        params["link.P"] = cond.P
+        inputs = cyberlegs.condition_inputs(cond.P)
+    n = cond.strides * (cond.points_per_stride - 1) + 1
+    tol = dict(rtol=1e-8, atol=1e-10) if cond.model != "closed_loop" else dict(rtol=1e-6, atol=1e-8)
+    res = sim.simulate(cond.strides * T, params=params, inputs=inputs, n_points=n, **tol)
+    k0 = (cond.strides - 1) * (cond.points_per_stride - 1)
+    window = slice(k0, None)
+    points = dict(cyberlegs.MEASUREMENT_POINTS if cond.model != "direct_drive" else direct_drive.MEASUREMENT_POINTS)
+
+    def stride_energy(name):
+        e = res.energy(name)
+        return float(e[-1] - e[k0])
+
+    energy = {k: stride_energy(points[k]) for k in POINTS}
+    stage_loss = {b: energy[a] - energy[b] for a, b in zip(POINTS, POINTS[1:])}
+    stage_loss = {"driver": stage_loss["driver"], "motor": stage_loss["motor"], "gearing": stage_loss["link"],
+                  "output": stage_loss["output"]}
+    peak = {k: float(np.max(np.abs(res[points[k]][window]))) for k in POINTS}
+    stored = [n for n in cyberlegs.STORED if n in res]
+    d_stored = sum(float(res[n][-1] - res[n][k0]) for n in stored)
+    src = stride_energy("supply.source_power")
+    losses = sum(stride_energy(n) for n in LOSSES)
+    out = energy["output"]
+    residual = (src - losses - out - d_stored) / src
+    r = StrideResult(cond, energy, stage_loss, peak, residual,
+                     max_duty=float(np.max(np.abs(res["driver.d"][window]))),
+                     peak_motor_speed=float(np.max(np.abs(res["motor.w"][window]))),
+                     peak_motor_current=float(np.max(np.abs(res["motor.i"][window]))))
+    if "tracking_error" in res:
+        e = res["tracking_error"][window]
+        r.tracking_rms, r.tracking_max = float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))
+    if traces:
+        t = res.t[window] - res.t[k0]
+        r.traces = {"time": t, **{name: np.asarray(res[name][window]) for name in traces if name in res}}
+    return r
+
+
+def _run(args):
+    cond, traces = args
+    return run_condition(cond, traces)
+
+
+def sweep(conditions, executor: Executor | None = None, progress: bool = True, traces: tuple = ()) -> list:
+    """Run conditions (in order) through ``executor`` (default: a process pool on all cores), with a progress
+    bar on stderr. Any ``concurrent.futures.Executor`` works (a dask ``Client.get_executor()``, ray...)."""
+    conditions = list(conditions)
+    own = executor is None
+    if own:
+        executor = ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
+    try:
+        futures = [executor.submit(_run, (c, traces)) for c in conditions]
+        out = []
+        for i, f in enumerate(futures, 1):
+            out.append(f.result())
+            if progress:
+                _bar(i, len(futures))
+        return out
+    finally:
+        if own:
+            executor.shutdown()
+
+
+def _bar(i, n, width=36):
+    filled = int(width * i / n)
+    sys.stderr.write(f"\r  [{'#' * filled}{'.' * (width - filled)}] {i}/{n} conditions")
+    if i == n:
+        sys.stderr.write("\n")
+    sys.stderr.flush()
+
+
+def protocol_conditions(model="replay", preset_name="library", Ps=PRECOMPRESSIONS, Ts=STRIDE_TIMES):
+    """The paper's 36 conditions (P x stride time)."""
+    return [Condition(P, T, model, preset_name) for P in Ps for T in Ts]
+
+
+def as_grid(results, key) -> np.ndarray:
+    """Values of ``key(result)`` on the (precompression x stride time) grid of a full protocol sweep."""
+    Ps = sorted({r.condition.P for r in results})
+    Ts = sorted({r.condition.stride_time for r in results})
+    grid = np.full((len(Ps), len(Ts)), np.nan)
+    for r in results:
+        grid[Ps.index(r.condition.P), Ts.index(r.condition.stride_time)] = key(r)
+    return np.array(Ps), np.array(Ts), grid
+
+
+def to_dict(r: StrideResult) -> dict:
+    d = asdict(r)
+    d.pop("traces", None)
+    return d
