@@ -1,0 +1,89 @@
+"""The paper's findings, checked in our simulation of the ankle actuator (issue 5), and golden values.
+
+Replay conditions where the motor cannot follow (the required duty exceeds the driver's 0.9 at 48 V, i.e. low
+precompression and fast strides) are outside what the bench could do; the findings are checked where the motor
+can follow, which the tests assert first.
+"""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from acausal.models.protocol import Condition, run_condition, sweep
+
+Ps = [0.008, 0.011, 0.018]
+Ts = [2.0, 2.5, 3.0]  # at 1.5 s and 18 mm the replay already needs a duty of 0.93 > 0.9
+
+
+@pytest.fixture(scope="module")
+def grid():
+    conds = [Condition(P, T) for P in Ps for T in Ts]
+    res = sweep(conds, progress=False)
+    return {(r.condition.P, r.condition.stride_time): r for r in res}
+
+
+def test_conditions_are_feasible_and_balanced(grid):
+    for r in grid.values():
+        assert r.max_duty <= 0.9, r.condition  # the motor can follow at 48 V
+        assert abs(r.balance_residual) < 1e-6, r.condition  # source = losses + output + stored change
+
+
+def test_driver_share_of_loss_grows_with_stride_time(grid):
+    """Constant quiescent draw: the slower the stride, the more of the source energy the driver burns."""
+    for P in Ps:
+        share = [grid[P, T].stage_loss["driver"] / grid[P, T].energy["source"] for T in Ts]
+        assert np.all(np.diff(share) > 0), (P, share)
+
+
+def test_motor_losses_grow_with_stride_time(grid):
+    """Slower strides run the motor at low speed and high torque: its relative loss grows (2-3 s)."""
+    for P in Ps:
+        frac = [grid[P, T].stage_loss["motor"] / grid[P, T].energy["driver"] for T in Ts]
+        assert np.all(np.diff(frac) > 0), (P, frac)
+
+
+def test_motor_losses_grow_with_precompression(grid):
+    """Across the range (8 -> 18 mm) the motor's relative loss grows at every stride time. Between 8 and 11 mm
+    our model dips by up to 1 % (relative) instead of rising (a known difference, stated in the report): only
+    the range trend is asserted."""
+    for T in Ts:
+        frac = {P: grid[P, T].stage_loss["motor"] / grid[P, T].energy["driver"] for P in Ps}
+        assert frac[0.018] > frac[0.011] and frac[0.018] > frac[0.008], (T, frac)
+
+
+def test_actuator_peak_power_well_below_direct_drive():
+    """Fig. 7: the series spring lowers the peak power at the driver input by at least 30 % for about the same
+    energy per stride (paper: direct drive ~40 % higher peak; 126 vs 122 J)."""
+    act = run_condition(Condition(0.008, 3.0))
+    dd = run_condition(Condition(0.008, 3.0, model="direct_drive"))
+    assert act.peak_power["source"] <= 0.7 * dd.peak_power["source"]
+    assert act.energy["source"] == pytest.approx(dd.energy["source"], rel=0.15)
+    assert act.energy["output"] == pytest.approx(dd.energy["output"], rel=1e-6)  # the same joint work
+
+
+def test_tracking_error_at_fast_strides_exceeds_slow():
+    """Fig. 13: at 18 mm the motor cannot follow the setpoint in push-off at 1.2 s/stride."""
+    fast = run_condition(Condition(0.018, 1.2, model="closed_loop", strides=3))
+    slow = run_condition(Condition(0.018, 3.0, model="closed_loop", strides=3))
+    assert fast.tracking_rms > 1.5 * slow.tracking_rms
+    assert fast.tracking_max > slow.tracking_max
+    assert abs(fast.balance_residual) < 1e-6 and abs(slow.balance_residual) < 1e-6
+
+
+GOLDEN = json.loads((Path(__file__).parent / "golden" / "paper_golden.json").read_text())
+
+
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_golden_values(name):
+    """Our own outputs, pinned (regenerate with `python -m tests.golden.regenerate` after intended changes)."""
+    from .golden.regenerate import CASES
+
+    r = run_condition(CASES[name])
+    want = GOLDEN[name]
+    tol = 1e-5 if CASES[name].model != "closed_loop" else 1e-3
+    for k, v in want["energy"].items():
+        assert r.energy[k] == pytest.approx(v, rel=tol, abs=1e-6), (name, k)
+    for k, v in want["peak_power"].items():
+        assert r.peak_power[k] == pytest.approx(v, rel=tol), (name, k)
+    assert r.tracking_rms == pytest.approx(want["tracking_rms"], rel=10 * tol, abs=1e-9)
