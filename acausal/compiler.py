@@ -199,7 +199,8 @@ class CompiledModel:
                 raise ModelError(f"model {self.flat.name} has states {self.state_names}; pass x or simulate")
             x = np.zeros((0,) + t.shape)
         vals = self.funcs["all_values"](t, x, p, d, u)
-        return {n: v for n, v in zip(self.unknown_names, vals)}
+        shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
+        return {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
 
     # ------------------------------------------------------------------ report
     def report(self) -> str:

@@ -7,7 +7,7 @@ compliant torque ``tau = flange_b.tau`` (so a spring with positive elongation pu
 from sympy import Eq
 
 from .components import Component, Variable
-from .connectors import Flange, HeatPort, Pin
+from .connectors import Flange, Pin
 from .symbols import der
 
 
@@ -73,13 +73,3 @@ class PartialElementaryOneFlangeAndSupport(Component):
 
     def equations(self):
         return [Eq(self.phi, self.flange.phi - self.support.phi)]
-
-
-class PartialConditionalHeatPort(Component):
-    """A heat port through which the component's dissipated power ``loss_power`` leaves (MSL
-    ``ConditionalHeatPort`` with useHeatPort = true): ``heat_port.Q_flow = -loss_power``. When the port is left
-    unconnected the Modelica flow rule sets its Q_flow to zero, so components that may run without a thermal
-    network expose ``loss_power`` only and add this partial where a heat port is wanted."""
-
-    heat_port = HeatPort(doc="where the dissipated heat leaves the component")
-    loss_power = Variable(unit="W", doc="dissipated power (>= 0)")
