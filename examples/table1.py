@@ -1,0 +1,135 @@
+"""Table 1 of the paper: energy per stride at the five measurement points, 8 mm precompression, 2 s/stride,
+simulation next to the paper, and a Sankey diagram of the loss chain.
+
+Writes ``table1.csv``, ``table1_sankey.png`` (and ``table1_sankey.csv``, the flows drawn).
+Run: ``python examples/table1.py`` (into ``results/``).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import logging
+
+import matplotlib
+
+matplotlib.use("Agg")
+logging.getLogger("matplotlib.axes").setLevel(logging.ERROR)  # Sankey's equal aspect overrides fixed limits
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.sankey import Sankey  # noqa: E402
+
+from acausal.models.protocol import POINTS  # noqa: E402
+from acausal.models.report import PAPER, comparison, md_table, pct, pick, write_csv  # noqa: E402
+
+P, T = 0.008, 2.0
+LABELS = {"source": "source", "driver": "driver output", "motor": "motor shaft", "link": "moment arm (link)",
+          "output": "joint (output)"}
+LOSS_NAMES = [("driver", "driver loss\n(supply, rectifier, driver)"), ("motor", "motor loss"),
+              ("link", "gearing loss\n(planetary, helical)"), ("output", "output loss\n(MACCEPA linkage)")]
+# what drives a difference at each point (see acausal.models.report.ASSUMPTIONS)
+WHY_ENERGY = {"source": "driver", "driver": ["gears", "motor"], "motor": "gears", "link": "geometry",
+              "output": "geometry"}
+WHY_LOSS = {"driver": "driver", "motor": ["gears", "motor"], "link": "gears", "output": "maccepa"}
+
+
+def sankey(ax, energy: dict, title: str, scale: float):
+    """Source -> driver -> motor -> link -> output, each stage's loss flowing down (``scale``: width per J)."""
+    s = Sankey(ax=ax, scale=scale, unit=" J", format="%.1f", gap=0.35, head_angle=120, shoulder=0.02,
+               offset=0.12)
+    prior = None
+    for i, (a, b) in enumerate(zip(POINTS, POINTS[1:])):
+        loss = max(energy[a] - energy[b], 0.0)
+        name = LOSS_NAMES[i][1]
+        flows = [energy[a], -loss, -energy[b]]
+        if loss < 1e-6 * energy["source"]:
+            flows[1], name = 0.0, None  # nothing lost here: drawn as a note below
+        labels = [LABELS[a] if i == 0 else None, name, LABELS[b] if b == "output" else None]
+        kw = dict(prior=prior, connect=(2, 0)) if prior is not None else {}
+        s.add(flows=flows, orientations=[0, -1, 0], labels=labels, pathlengths=[0.25, 0.35, 0.25],
+              trunklength=1.0, facecolor=f"C{i}", alpha=0.75, **kw)
+        prior = i
+    diagrams = s.finish()
+    for d in diagrams:
+        for t in d.texts:
+            t.set_fontsize(8)
+    # annotate the energy passed on at each intermediate point along the top edge of the band
+    for i, b in enumerate(POINTS[1:-1]):
+        x, y = diagrams[i].tips[2]
+        ax.annotate(f"{LABELS[b]}\n{energy[b]:.1f} J", (x, y + 0.5 * energy[b] * scale), xytext=(0, 6),
+                    textcoords="offset points", ha="center", va="bottom", fontsize=8)
+    last = energy["link"] - energy["output"]
+    if last < 1e-6 * energy["source"]:
+        x, y = diagrams[-1].tips[2]
+        ax.annotate("output loss 0 J\n(MACCEPA modelled\nlossless)", (x, y), xytext=(0, -14),
+                    textcoords="offset points", ha="center", va="top", fontsize=8, color="C3")
+    ax.set_title(title, fontsize=10)
+    ax.axis("off")
+
+
+def main(out_dir: Path, results=None) -> dict:
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    r = pick(results, P, T)
+    paper_e, paper_eff, paper_loss = PAPER["table1_energy"], PAPER["table1_efficiency"], PAPER["table1_loss"]
+    eff, loss = r.efficiency, r.loss_fraction
+
+    rows = []
+    for k in POINTS:
+        rows.append(dict(point=k, sim_energy_J=r.energy[k], paper_energy_J=paper_e[k],
+                         ratio_energy=r.energy[k] / paper_e[k], sim_efficiency=eff[k], paper_efficiency=paper_eff[k],
+                         sim_loss_vs_previous=loss[k], paper_loss_vs_previous=paper_loss[k]))
+    csv_path = write_csv(out_dir / "table1.csv", rows)
+
+    md = md_table(["measurement point", "energy sim [J]", "energy paper [J]", "ratio", "efficiency sim",
+                   "efficiency paper", "loss vs previous sim", "loss vs previous paper"],
+                  [[LABELS[k], f"{r.energy[k]:.1f}", f"{paper_e[k]:.1f}", f"{r.energy[k] / paper_e[k]:.2f}",
+                    pct(eff[k]), pct(paper_eff[k]), pct(loss[k]), pct(paper_loss[k])] for k in POINTS])
+    motor_abs = r.stage_loss["motor"]
+    paper_motor_abs = paper_e["driver"] - paper_e["motor"]
+    md += ("\n\nEnergy per stride integrated over the last simulated stride (replay, `library` preset). "
+           f"Losses in joules: driver {r.stage_loss['driver']:.1f} "
+           f"(paper {paper_e['source'] - paper_e['driver']:.1f}), "
+           f"motor {motor_abs:.1f} (paper {paper_motor_abs:.1f}), gearing {r.stage_loss['gearing']:.1f} "
+           f"(paper {paper_e['motor'] - paper_e['link']:.1f}), output {round(r.stage_loss['output'], 6) + 0.0:.1f} "
+           f"(paper {paper_e['link'] - paper_e['output']:.1f}). The MACCEPA is conservative in the model, so the "
+           "link and output energies coincide over a stride.")
+
+    # Sankey: simulation and paper side by side, on the same scale (J per stride)
+    fig, axes = plt.subplots(1, 2, figsize=(14, 5.2))
+    scale = 1.0 / max(r.energy["source"], paper_e["source"])
+    sankey(axes[0], r.energy, scale=scale,
+           title=f"Simulation: {r.energy['source']:.1f} J/stride from the source, "
+                 f"{r.energy['output']:.1f} J to the joint ({100 * eff['output']:.1f} %)")
+    sankey(axes[1], paper_e, scale=scale,
+           title=f"Paper (Table 1, measured): {paper_e['source']:.1f} J/stride from the source, "
+                 f"{paper_e['output']:.1f} J to the joint ({100 * paper_eff['output']:.1f} %)")
+    fig.suptitle("Table 1: where the energy of one stride goes (8 mm precompression, 2 s/stride; "
+                 "arrow widths proportional to J per stride)", fontsize=11)
+    fig.tight_layout()
+    png = out_dir / "table1_sankey.png"
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+    flows = []
+    for name, e in (("simulation", r.energy), ("paper", paper_e)):
+        for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), LOSS_NAMES):
+            flows.append(dict(source=name, from_point=a, to_point=b, passed_on_J=e[b], loss_name=lname.split("\n")[0],
+                              loss_J=e[a] - e[b]))
+    sankey_csv = write_csv(out_dir / "table1_sankey.csv", flows)
+
+    comps = [comparison(f"Table 1 energy at {LABELS[k]}", r.energy[k], paper_e[k], "J", WHY_ENERGY[k])
+             for k in POINTS]
+    comps += [comparison(f"Table 1 efficiency up to {LABELS[k]}", eff[k], paper_eff[k], "%", WHY_ENERGY[k])
+              for k in POINTS[1:]]
+    notes = {"motor": f"The motor's own loss in joules matches ({motor_abs:.1f} vs {paper_motor_abs:.1f} J); the "
+                      "fraction is higher because less energy flows on through the gears than measured.",
+             "driver": "The absolute driver loss is "
+                       f"{r.stage_loss['driver']:.1f} vs {paper_e['source'] - paper_e['driver']:.1f} J, "
+                       "on a smaller driver output."}
+    comps += [comparison(f"Table 1 {n.splitlines()[0]} (vs previous point)", loss[k], paper_loss[k], "%",
+                         WHY_LOSS[k], note=notes.get(k, "")) for k, n in LOSS_NAMES]
+    return dict(title="Table 1: energy chain at 8 mm, 2 s/stride", figures=[png], csv=[csv_path, sankey_csv],
+                markdown=md, comparisons=comps, result=r)
+
+
+if __name__ == "__main__":
+    out = main(Path("results"))
+    print(out["markdown"])
