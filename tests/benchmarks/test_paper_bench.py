@@ -1,0 +1,17 @@
+"""Benchmark of the main job: `acausal paper --out DIR` on the embedded data (goal: under 60 s on 2 cores).
+
+One round (it is a minute-scale job); the wall time is in the benchmark table and in ``extra_info``. The only
+assertion on time is a loose regression guard (3x the goal); the report's existence is the functional check.
+"""
+from acausal.cli import main
+
+
+def test_acausal_paper_end_to_end(benchmark, tmp_path):
+    out = tmp_path / "results"
+    code = benchmark.pedantic(lambda: main(["paper", "--out", str(out), "--no-progress"]), rounds=1, iterations=1)
+    assert code == 0
+    assert (out / "report.md").stat().st_size > 1000
+    assert len(list(out.glob("*.png"))) >= 10
+    benchmark.extra_info["goal_s"] = 60.0
+    if not benchmark.disabled and benchmark.stats is not None:
+        assert benchmark.stats.stats.min < 3 * 60.0
