@@ -30,13 +30,13 @@ from __future__ import annotations
 from acausal import Eq, Model, Parameter, Variable, connect
 from acausal.library.blocks import Gain, SignalConstraint
 from acausal.library.control import PIDVariableLimit
-from acausal.library.drives import DCMotor, PWMDriver
-from acausal.library.electrical import Ground, NonRegenerativeRectifier, Supply, VoltageSensor
+from acausal.library.electrical import VoltageSensor
 from acausal.library.gait import AnkleAngleSource, GaitProfile
 from acausal.library.maccepa import Maccepa
-from acausal.library.rotational import AngleSensor, Gearbox
-from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
+from acausal.library.rotational import AngleSensor
+from acausal.library.sensors import MechanicalPowerSensor
 
+from .drive_train import add_drive_train
 from .planning import plan_moment_arm
 
 #: the paper's measurement points, in chain order: (label, power variable)
@@ -69,36 +69,12 @@ class CyberlegsAnkle(Model):
         self.mode = mode
 
     def build(self):
-        # electrical side
-        self.supply = Supply()
-        self.P_source = ElectricalPowerSensor()
-        self.rect = NonRegenerativeRectifier()
-        self.driver = PWMDriver(command="voltage", saturate=self.mode == "closed_loop")
-        self.P_driver = ElectricalPowerSensor()
-        self.motor = DCMotor()
-        self.gnd = Ground()
-        connect(self.supply.p, self.P_source.pc, self.P_source.pv)
-        connect(self.P_source.nc, self.rect.p_in)
-        connect(self.supply.n, self.P_source.nv, self.rect.n_in, self.gnd.p)
-        connect(self.rect.p_bus, self.driver.bus_p)
-        connect(self.rect.n_bus, self.driver.bus_n)
-        connect(self.driver.mot_p, self.P_driver.pc, self.P_driver.pv)
-        connect(self.P_driver.nc, self.motor.p)
-        connect(self.driver.mot_n, self.P_driver.nv, self.motor.n)
-        # mechanical chain
-        self.P_motor = MechanicalPowerSensor()
-        # smooth mesh law (see LossyGear): no locked mode is needed in closed loop, and in the replay the current
-        # stays continuous at motion reversals, so every joule passes through the integrated powers
-        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")
-        self.helical = Gearbox(ratio=10.0, eta=0.9, law="smooth")
+        gear_out = add_drive_train(self, saturate=self.mode == "closed_loop")
         self.P_link = MechanicalPowerSensor()
         self.link = Maccepa()
         self.P_output = MechanicalPowerSensor()
         self.ankle = AnkleAngleSource(stride_time=self.stride_time)
-        connect(self.motor.flange, self.P_motor.flange_a)
-        connect(self.P_motor.flange_b, self.planetary.flange_a)
-        connect(self.planetary.flange_b, self.helical.flange_a)
-        connect(self.helical.flange_b, self.P_link.flange_a)
+        connect(gear_out, self.P_link.flange_a)
         connect(self.P_link.flange_b, self.link.flange_b)
         # the output sensor measures power from the linkage into the joint (link.flange_a side is the foot)
         connect(self.link.flange_a, self.P_output.flange_a)
@@ -107,7 +83,7 @@ class CyberlegsAnkle(Model):
         default = plan_moment_arm(P=0.008, k=132e3, A=0.1, B=0.06, body_mass=60.0)
         self.arm_ref = GaitProfile(stride_time=self.stride_time, profile=default.phi_profile)
         self.arm_angle = AngleSensor()
-        connect(self.helical.flange_b, self.arm_angle.flange)
+        connect(gear_out, self.arm_angle.flange)
         if self.mode == "replay":
             self.follow = SignalConstraint()
             connect(self.arm_angle.phi, self.follow.u)

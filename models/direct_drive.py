@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from acausal import Model, Parameter, connect
 from acausal.library.blocks import SignalConstraint
-from acausal.library.drives import DCMotor, PWMDriver
-from acausal.library.electrical import Ground, NonRegenerativeRectifier, Supply
 from acausal.library.gait import AnkleTorqueLoad, GaitProfile, unit_cycle
-from acausal.library.rotational import AngleSensor, Gearbox
-from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
+from acausal.library.rotational import AngleSensor
+from acausal.library.sensors import MechanicalPowerSensor
+
+from .drive_train import add_drive_train
 
 MEASUREMENT_POINTS = [("source", "P_source.P"), ("driver", "P_driver.P"), ("motor", "P_motor.P"),
                       ("link", "P_output.P"), ("output", "P_output.P")]
@@ -29,30 +29,10 @@ class DirectDrive(Model):
     stride_time = Parameter(2.0, unit="s", min=0.1, doc="stride duration")
 
     def build(self):
-        self.supply = Supply()
-        self.P_source = ElectricalPowerSensor()
-        self.rect = NonRegenerativeRectifier()
-        self.driver = PWMDriver(command="voltage", saturate=False)
-        self.P_driver = ElectricalPowerSensor()
-        self.motor = DCMotor()
-        self.gnd = Ground()
-        connect(self.supply.p, self.P_source.pc, self.P_source.pv)
-        connect(self.P_source.nc, self.rect.p_in)
-        connect(self.supply.n, self.P_source.nv, self.rect.n_in, self.gnd.p)
-        connect(self.rect.p_bus, self.driver.bus_p)
-        connect(self.rect.n_bus, self.driver.bus_n)
-        connect(self.driver.mot_p, self.P_driver.pc, self.P_driver.pv)
-        connect(self.P_driver.nc, self.motor.p)
-        connect(self.driver.mot_n, self.P_driver.nv, self.motor.n)
-        self.P_motor = MechanicalPowerSensor()
-        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")  # as in CyberlegsAnkle
-        self.helical = Gearbox(ratio=10.0, eta=0.9, law="smooth")
+        gear_out = add_drive_train(self, saturate=False)
         self.P_output = MechanicalPowerSensor()
         self.load = AnkleTorqueLoad(stride_time=self.stride_time, body_mass=self.body_mass)
-        connect(self.motor.flange, self.P_motor.flange_a)
-        connect(self.P_motor.flange_b, self.planetary.flange_a)
-        connect(self.planetary.flange_b, self.helical.flange_a)
-        connect(self.helical.flange_b, self.P_output.flange_a)
+        connect(gear_out, self.P_output.flange_a)
         connect(self.P_output.flange_b, self.load.flange)
         # the joint follows the gait angle: the compiler solves for the driver command
         self.joint_ref = GaitProfile(stride_time=self.stride_time, profile=unit_cycle().angle_signal())
