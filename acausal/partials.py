@@ -73,3 +73,18 @@ class PartialElementaryOneFlangeAndSupport(Component):
 
     def equations(self):
         return [Eq(self.phi, self.flange.phi - self.support.phi)]
+
+
+class OptionalSupport:
+    """Mixin for a conditional support flange (MSL ``useSupport``): call ``self._init_support(use_support)`` in
+    ``__init__``. With ``use_support=True`` the component gets a ``support`` flange that takes the reaction
+    torque; otherwise its housing is fixed at angle 0 and no reaction is exposed. ``support_phi()`` is the
+    support angle to use in equations."""
+
+    def _init_support(self, use_support: bool):
+        self.use_support = use_support
+        if use_support:
+            self.support = Flange(doc="support/housing flange")
+
+    def support_phi(self):
+        return self.support.phi if self.use_support else 0

@@ -9,6 +9,7 @@ from sympy import Eq
 
 from acausal import Component, Parameter, RealInput, Variable, der
 from acausal.connectors import Flange, HeatPort, Pin
+from acausal.partials import OptionalSupport
 
 
 class _OptionalHeatPort:
@@ -86,7 +87,7 @@ class PWMDriver(Component, _OptionalHeatPort):
         return eqs
 
 
-class DCMotor(Component, _OptionalHeatPort):
+class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
     """Permanent-magnet DC motor (a brushless EC motor driven as a DC machine), paper Eq. (4) per component::
 
         v = R(T) i + L di/dt + k w                       R(T) = R (1 + alpha_R (T - T_ref))
@@ -133,18 +134,15 @@ class DCMotor(Component, _OptionalHeatPort):
 
     def __init__(self, use_support: bool = False, use_heat_port: bool = False, **kw):
         super().__init__(**kw)
-        self.use_support = use_support
-        if use_support:
-            self.support = Flange(doc="housing")
+        self._init_support(use_support)
         self._init_heat_port(use_heat_port)
 
     def equations(self):
         T = self.heat_port.T if self.use_heat_port else self.T_ref
-        support_phi = self.support.phi if self.use_support else 0
         eqs = [Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i), Eq(self.i, self.p.i),
                Eq(self.R_T, self.R * (1 + self.alpha_R * (T - self.T_ref))),
                Eq(self.v, self.R_T * self.i + self.L * der(self.i) + self.k * self.w),
-               Eq(self.phi, self.flange.phi - support_phi), Eq(self.w, der(self.phi)),
+               Eq(self.phi, self.flange.phi - self.support_phi()), Eq(self.w, der(self.phi)),
                Eq(self.tau_e, self.k * self.i),
                Eq(self.tau_f, self.b * self.w + self.tau_c * sp.tanh(self.w / self.w_c)),
                Eq(self.J * der(self.w), self.tau_e - self.tau_f + self.flange.tau),

@@ -8,7 +8,7 @@ from sympy import Eq
 
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange, Pin
-from acausal.partials import OnePort
+from acausal.partials import OnePort, OptionalSupport
 
 
 class Ground(Component):
@@ -124,7 +124,7 @@ class VoltageSensor(Component):
         return [Eq(self.p.i, 0), Eq(self.n.i, 0), Eq(self.v_out.value, self.p.v - self.n.v)]
 
 
-class EMF(OnePort):
+class EMF(OnePort, OptionalSupport):
     """Ideal electromechanical converter (MSL ``EMF``): ``v = k w``, ``flange.tau = -k i``.
 
     ``k`` [N m/A = V s/rad] is both the torque and the back-EMF constant, so the converter is lossless:
@@ -139,13 +139,10 @@ class EMF(OnePort):
 
     def __init__(self, use_support: bool = False, **kw):
         super().__init__(**kw)
-        self.use_support = use_support
-        if use_support:
-            self.support = Flange(doc="housing")
+        self._init_support(use_support)
 
     def equations(self):
-        support_phi = self.support.phi if self.use_support else 0
-        eqs = [*super().equations(), Eq(self.phi, self.flange.phi - support_phi), Eq(self.w, der(self.phi)),
+        eqs = [*super().equations(), Eq(self.phi, self.flange.phi - self.support_phi()), Eq(self.w, der(self.phi)),
                Eq(self.v, self.k * self.w), Eq(self.flange.tau, -self.k * self.i)]
         if self.use_support:
             eqs.append(Eq(self.support.tau, -self.flange.tau))

@@ -27,7 +27,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
+from sympy import Eq
+
+from acausal import Component, Input, Parameter, RealOutput, Variable, time
+from acausal.connectors import Flange
 from acausal.errors import DataError, ModelError
+from acausal.partials import OptionalSupport
 from acausal.signals import FourierSeries, PeriodicSpline, Signal
 
 __all__ = ["DEFAULT_PATH", "COLUMNS", "GaitTable", "GaitWork", "GaitCycle", "GaitParameterError", "load_gait_table",
@@ -259,9 +264,6 @@ class GaitCycle:
 
 
 # -- components ----------------------------------------------------------------------------------------------------
-from acausal import Component, Input, Parameter, Variable, time  # noqa: E402  (components below use the core)
-from acausal.connectors import Flange  # noqa: E402
-from sympy import Eq  # noqa: E402
 
 _UNIT_CYCLE: dict = {}
 
@@ -273,15 +275,13 @@ def unit_cycle() -> GaitCycle:
     return _UNIT_CYCLE["cycle"]
 
 
-class _GaitSource(Component):
+class _GaitSource(Component, OptionalSupport):
     stride_time = Parameter(DEFAULT_STRIDE_TIME, unit="s", min=1e-3, doc="stride duration (Winter: 1.1396 s)")
     flange = Flange(doc="ankle joint (foot) flange")
 
     def __init__(self, use_support: bool = False, **kw):
         super().__init__(**kw)
-        self.use_support = use_support
-        if use_support:
-            self.support = Flange(doc="lower leg")
+        self._init_support(use_support)  # the lower leg
 
     def _at_gait_time(self, profile):
         """The normalised profile evaluated at the gait fraction ``time / stride_time`` (a run-time parameter)."""
@@ -305,7 +305,7 @@ class AnkleAngleSource(_GaitSource):
         super().__init__(use_support=use_support, **kw)
 
     def equations(self):
-        rel = self.flange.phi - (self.support.phi if self.use_support else 0)
+        rel = self.flange.phi - self.support_phi()
         eqs = [Eq(self.theta, self._at_gait_time(self.profile)), Eq(rel, self.theta)]
         if self.use_support:
             eqs.append(Eq(self.support.tau, -self.flange.tau))
@@ -340,10 +340,9 @@ class GaitProfile(Component):
     Used for references that follow the gait (the planned moment-arm angle); ``stride_time`` is a run-time
     parameter and the profile a swappable numeric input, so sweeps never recompile."""
 
-    from acausal import RealOutput as _RealOutput  # noqa: N814
     stride_time = Parameter(DEFAULT_STRIDE_TIME, unit="s", min=1e-3, doc="stride duration")
     profile = Input(doc="1-periodic profile over the gait fraction")
-    y = _RealOutput(doc="profile at the present gait fraction")
+    y = RealOutput(doc="profile at the present gait fraction")
 
     def equations(self):
         return [Eq(self.y.value, self.profile.xreplace({time: time / self.stride_time}))]

@@ -25,7 +25,11 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
+from sympy import Eq
+
+from acausal import Parameter, Variable
 from acausal.errors import ModelError
+from acausal.partials import PartialCompliant
 
 __all__ = [
     "link_length", "spring_compression", "perpendicular_force", "torque", "spring_energy", "stiffness",
@@ -297,10 +301,6 @@ def energy_expr(alpha, P, k, A, B):
 
 
 # ---------------------------------------------------------------------------------------------------- component
-from sympy import Eq  # noqa: E402
-
-from acausal import Parameter, Variable  # noqa: E402
-from acausal.partials import PartialCompliant  # noqa: E402
 
 
 class Maccepa(PartialCompliant):

@@ -8,19 +8,8 @@ from sympy import Eq
 
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange
-from acausal.partials import PartialCompliant, PartialCompliantWithRelativeStates, PartialTwoFlanges
-
-
-class _OptionalSupport:
-    """Mixin: ``use_support=True`` adds a ``support`` flange; otherwise the support is fixed (angle 0)."""
-
-    def _init_support(self, use_support):
-        self.use_support = use_support
-        if use_support:
-            self.support = Flange(doc="support/housing flange")
-
-    def support_phi(self):
-        return self.support.phi if self.use_support else 0
+from acausal.partials import (OptionalSupport, PartialCompliant, PartialCompliantWithRelativeStates,
+                              PartialTwoFlanges)
 
 
 class Fixed(Component):
@@ -85,7 +74,7 @@ class SpringDamper(PartialCompliantWithRelativeStates):
                 Eq(self.energy, self.c * (self.phi_rel - self.phi_rel0)**2 / 2)]
 
 
-class IdealGear(PartialTwoFlanges, _OptionalSupport):
+class IdealGear(PartialTwoFlanges, OptionalSupport):
     """Ideal gear without inertia or losses: ``phi_a = ratio * phi_b``, ``0 = ratio * flange_a.tau + flange_b.tau``
     (angles relative to the support). ``ratio`` > 1 reduces speed from a to b."""
 
@@ -106,7 +95,7 @@ class IdealGear(PartialTwoFlanges, _OptionalSupport):
         return eqs
 
 
-class TorqueSource(Component, _OptionalSupport):
+class TorqueSource(Component, OptionalSupport):
     """Prescribed torque ``tau(t)`` accelerating ``flange`` (``flange.tau = -tau``), reaction on the support."""
 
     tau = Input(unit="N.m", doc="driving torque")
@@ -123,7 +112,7 @@ class TorqueSource(Component, _OptionalSupport):
         return eqs
 
 
-class SignalTorque(Component, _OptionalSupport):
+class SignalTorque(Component, OptionalSupport):
     """Torque source driven by a causal input ``u`` [N m] (``flange.tau = -u``)."""
 
     u = RealInput(doc="driving torque [N m]")
@@ -140,7 +129,7 @@ class SignalTorque(Component, _OptionalSupport):
         return eqs
 
 
-class Position(Component, _OptionalSupport):
+class Position(Component, OptionalSupport):
     """Prescribed angle (MSL ``Position`` with exact=true): ``flange.phi - support.phi = phi_ref(t)``.
 
     ``phi_ref`` is a number, a sympy expression of time or a :class:`acausal.Signal`; index reduction asks it for
@@ -191,7 +180,7 @@ class TorqueSensor(PartialTwoFlanges):
                 Eq(self.tau.value, self.flange_a.tau)]
 
 
-class BearingFriction(PartialTwoFlanges, _OptionalSupport):
+class BearingFriction(PartialTwoFlanges, OptionalSupport):
     """Rigid shaft with bearing friction to the support: ``tau_f = tau_c tanh(w / w_c) + d w``.
 
     ``flange_a.tau + flange_b.tau = tau_f`` (the friction torque flows to the support), ``loss_power = tau_f w >= 0``.
@@ -220,7 +209,7 @@ class BearingFriction(PartialTwoFlanges, _OptionalSupport):
         return eqs
 
 
-class LossyGear(PartialTwoFlanges, _OptionalSupport):
+class LossyGear(PartialTwoFlanges, OptionalSupport):
     """Gear mesh with a power-flow-dependent efficiency (MSL ``LossyGear`` without locking), massless.
 
     Kinematics ``phi_a = ratio * phi_b`` (relative to the support). Torques, with ``tau_a = flange_a.tau`` and the
