@@ -4,7 +4,7 @@ Write components as classes with ports, parameters and sympy equations; connect 
 (flatten, alias elimination, Pantelides index reduction with dummy derivatives, BLT, sympy solving, generated
 numeric code); ``simulate`` many times with other parameters; read any variable by its hierarchical name.
 """
-from sympy import Eq, Piecewise, cos, exp, sin, sqrt, tanh, Abs, sign  # noqa: F401  (for equations)
+from sympy import Eq  # equations are written as Eq(lhs, rhs)
 
 from .compiler import CompiledModel, compile_model
 from .components import (Component, Connector, Discrete, Event, Flow, Input, Model, Parameter, Potential, Start,

@@ -16,7 +16,7 @@ from .codegen import CodeGenerator
 from .errors import ModelError, SignalError
 from .flatten import FlatModel, flatten
 from .signals import Signal, SignalCall
-from .solve import Assign, LinearSolve, NewtonSolve, solve_blocks
+from .solve import LinearSolve, NewtonSolve, solve_blocks
 from .structure import blt_blocks, check_balance, reduce_index
 from .symbols import ConstantSymbol, split_der, time
 

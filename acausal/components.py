@@ -28,13 +28,12 @@ Inside ``equations`` and ``build``, ``self.x`` is the sympy symbol of ``x`` name
 """
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass, field
 
 import sympy as sp
 
 from .errors import ConnectError, ModelError
-from .signals import Signal, as_signal_expr
+from .signals import as_signal_expr
 from .symbols import par_symbol, time, var_symbol
 
 __all__ = ["Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start", "Event",
@@ -280,13 +279,6 @@ class Component:
         d = self.declarations()[name]
         return self._values.get(name, d.default)
 
-    def start_of(self, name: str) -> Start | None:
-        return self._starts.get(name)
-
-    def input_value(self, name: str):
-        d = self.declarations()[name]
-        return self._inputs.get(name, d.default)
-
     # sympy helpers usable in equations
     @property
     def time(self):
@@ -345,15 +337,3 @@ def connect(*ports: Connector):
         model._connections.append((first, p))
 
 
-@contextlib.contextmanager
-def building(model: Component):
-    """Context in which ``connect`` attaches connections to ``model`` (for models built outside ``build``)."""
-    _BUILDING.append(model)
-    try:
-        yield model
-    finally:
-        _BUILDING.pop()
-
-
-def is_signal(value) -> bool:
-    return isinstance(value, Signal)

@@ -14,7 +14,7 @@ import sympy as sp
 
 from .components import Component, Connector, Discrete, Flow, Input, Parameter, Potential, Variable, _STATE_SELECT
 from .errors import ConnectError, ModelError
-from .signals import Signal, SignalCall
+from .signals import Signal
 from .symbols import split_der, var_symbol
 
 
@@ -189,7 +189,6 @@ def _connection_equations(m: Component, flat: FlatModel, is_root: bool):
               for p in child._children.values() if isinstance(p, Connector)]
     outside = [p for p in m._children.values() if isinstance(p, Connector)]
     parent = {id(p): id(p) for p in inside + outside}
-    ports = {id(p): p for p in inside + outside}
 
     def find(x):
         while parent[x] != x:
@@ -233,8 +232,3 @@ def _check_parameter_bindings(flat: FlatModel):
             if unknown:
                 raise ModelError(f"parameter {p.name!r} is bound to {p.value}, which uses {sorted(unknown)}: "
                                  "not parameters of the model")
-
-
-def signal_calls(expr) -> set:
-    """All SignalCall nodes in an expression."""
-    return set(expr.atoms(SignalCall)) if expr.has(SignalCall) else set()

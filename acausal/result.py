@@ -7,7 +7,6 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import cumulative_simpson
 
-from .errors import ModelError
 from .signals import SignalCall
 from .symbols import der_name, split_der, time
 

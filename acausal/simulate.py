@@ -232,7 +232,7 @@ def _values_at(cm, t, x, p, d, u) -> dict:
     return {k: float(np.asarray(v)) for k, v in vals.items()}
 
 
-def _settle_modes(cm, t, x, p, d, u, exclude=None, max_iter: int = 20):
+def _settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
     """Apply the rising/falling assignments of every event by the sign of its zero until modes stop changing."""
     if not cm.event_zeros:
         return d

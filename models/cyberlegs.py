@@ -19,7 +19,7 @@ Two ways to run the same components (``mode``):
   speed and voltage limits show up as tracking error (paper Fig. 13) and change the energy.
 
 Parameters that matter for the protocol are run-time parameters: ``link.P`` (precompression), stride time
-(``ankle.stride_time`` and ``arm_ref.stride_time``, set together by :func:`condition_params`), ``link.k``; the
+(the model's ``stride_time``, bound into ``ankle`` and ``arm_ref``), ``link.k``; the
 planned trajectory is a swappable input (``arm_ref.profile``), computed by :mod:`acausal.models.planning`.
 
 Assumptions (not published in the sources at hand, see ``../shared/data/parameters.md``): lever lengths A = 0.1 m
@@ -105,10 +105,6 @@ class CyberlegsAnkle(Model):
     def equations(self):
         return [Eq(self.tracking_error, self.arm_ref.y.value - self.arm_angle.phi.value)]
 
-
-def condition_params(P: float, stride_time: float, extra: dict | None = None) -> dict:
-    """Run-time parameters of one bench condition (precompression [m], stride time [s])."""
-    return {"link.P": P, "stride_time": stride_time, **(extra or {})}
 
 
 def condition_inputs(P: float, k: float = 132e3, A: float = 0.1, B: float = 0.06, body_mass: float = 60.0) -> dict:

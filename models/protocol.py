@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import sys
 from concurrent.futures import Executor, ProcessPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -183,9 +183,3 @@ def as_grid(results, key) -> np.ndarray:
     for r in results:
         grid[Ps.index(r.condition.P), Ts.index(r.condition.stride_time)] = key(r)
     return np.array(Ps), np.array(Ts), grid
-
-
-def to_dict(r: StrideResult) -> dict:
-    d = asdict(r)
-    d.pop("traces", None)
-    return d

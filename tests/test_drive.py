@@ -4,7 +4,7 @@ import pytest
 
 from acausal import compile_model
 
-from .drive_models import (D_LOAD, D_ROTOR, J_LOAD, J_ROTOR, K, L, N, R, MotorGearLoad, MotorGearLoadInverse,
+from .drive_models import (J_LOAD, J_ROTOR, K, L, N, R, MotorGearLoad, MotorGearLoadInverse,
                            VoltageForMotion, inverse_solution, steady_state)
 
 
@@ -77,8 +77,6 @@ def test_inverse_third_derivative_voltage():
 
 def test_inverse_with_numeric_signal_and_swap_without_recompiling():
     """A numeric periodic signal (Fourier) provides its own derivatives; swapping it needs no recompilation."""
-    import sympy as sp
-
     from acausal import FourierSeries, Model, connect
     from acausal.library.rotational import Inertia, Position
 

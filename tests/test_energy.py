@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from acausal import Model, Start, compile_model, connect
-from acausal.library.electrical import EMF, Capacitor, ConstantVoltage, Ground, Inductor, Resistor
-from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Spring
+from acausal.library.electrical import EMF, Capacitor, Ground, Inductor
+from acausal.library.rotational import Fixed, IdealGear, Inertia, Spring
 
 from .drive_models import MotorGearLoad
 

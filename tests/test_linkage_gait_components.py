@@ -6,7 +6,7 @@ import sympy as sp
 from acausal import Model, compile_model, connect, time
 from acausal.library.gait import AnkleAngleSource, AnkleTorqueLoad, unit_cycle
 from acausal.library.maccepa import Maccepa, spring_energy, torque
-from acausal.library.rotational import Fixed, Position
+from acausal.library.rotational import Position
 
 
 class _Replay(Model):

@@ -120,12 +120,11 @@ def ladder_model(sections, u):
             connect(self.src.n, self.gnd.p)
             node = self.src.p
             for k, sec in enumerate(sections, start=1):
-                first = None
                 if "R" in sec["series"]:
                     r = Resistor(R=sec["R"])
                     setattr(self, f"R{k}", r)
                     connect(node, r.p)
-                    node, first = r.n, r
+                    node = r.n
                 if "L" in sec["series"]:
                     ind = Inductor(L=sec["L"], i=Start(sec["i0"]))
                     setattr(self, f"L{k}", ind)
