@@ -13,6 +13,7 @@ is the same call with ``order + 1``.
 """
 from __future__ import annotations
 
+import abc
 import bisect
 
 import numpy as np
@@ -23,7 +24,7 @@ from .errors import SignalError
 from .symbols import ConstantSymbol, time
 
 
-class Signal:
+class Signal(abc.ABC):
     """A function of time with derivatives, vectorised over time.
 
     Subclasses implement :meth:`evaluate`; ``max_order`` is the highest derivative they can provide (``None`` means
@@ -33,8 +34,9 @@ class Signal:
     max_order: int | None = None
     name: str = "signal"
 
-    def evaluate(self, t: np.ndarray, order: int) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError(f"{type(self).__name__}.evaluate")
+    @abc.abstractmethod
+    def evaluate(self, t: np.ndarray, order: int) -> np.ndarray:
+        """The ``order``-th derivative at times ``t`` (an array), same shape as ``t``."""
 
     def __call__(self, t, order: int = 0):
         if order < 0:

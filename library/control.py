@@ -16,6 +16,7 @@ Jacobian uses their exact piecewise derivatives.
 """
 from __future__ import annotations
 
+import abc
 from numbers import Real
 
 import sympy as sp
@@ -42,7 +43,7 @@ def _is_number(v) -> bool:
 
 
 # --------------------------------------------------------------------------------------------- PID
-class _PIDBase(Component):
+class _PIDBase(Component, abc.ABC):
     """PID law shared by :class:`PID` and :class:`PIDVariableLimit`; subclasses give the limits ``(lo, hi)``.
 
     ::
@@ -86,8 +87,9 @@ class _PIDBase(Component):
             raise ModelError(f"{type(self).__name__}: the derivative filter time constant Td must be > 0, got {td}")
         super().__init__(**kw)
 
-    def _limits(self):  # pragma: no cover - interface
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _limits(self):
+        """Lower and upper output limit ``(lo, hi)`` as expressions."""
 
     def equations(self):
         m = self.measurement.value

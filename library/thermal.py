@@ -19,6 +19,8 @@ Typical use, a motor winding heated by its copper loss::
             ...
             connect(self.heater.port, self.winding.port, self.r_wh.port_a)
 """
+import abc
+
 from sympy import Eq
 
 from acausal import Component, Input, Parameter, RealInput, RealOutput, Variable, der
@@ -144,7 +146,7 @@ class PrescribedTemperature(Component):
         return [Eq(self.port.T, self.T)]
 
 
-class _HeatFlowSource(Component):
+class _HeatFlowSource(Component, abc.ABC):
     """Shared law of the heat-flow sources (MSL ``FixedHeatFlow``/``PrescribedHeatFlow``)::
 
         port.Q_flow = -Q * (1 + alpha * (port.T - T_ref))
@@ -159,8 +161,9 @@ class _HeatFlowSource(Component):
     alpha = Parameter(0.0, unit="1/K", doc="temperature coefficient of the heat flow")
     port = HeatPort(doc="heat port; the source pushes heat out of it into the network")
 
-    def _heat(self):  # pragma: no cover - interface
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _heat(self):
+        """The heat flow ``Q`` [W] the source pushes out of its port at ``T_ref``."""
 
     def equations(self):
         return [Eq(self.port.Q_flow, -self._heat() * (1 + self.alpha * (self.port.T - self.T_ref)))]
