@@ -59,7 +59,8 @@ class CodeGenerator:
         self._input_index = {n: i for i, n in enumerate(self.inputs)}
         self._signal_idents: dict = {}  # (input index, order, argument) -> identifier
         self._blocks: list[str] = []  # source of Newton residual functions
-        self._block_count = itertools.count()
+        self._labels: dict = {}  # Newton block (step index) -> description for error messages
+        self._newton_args: dict = {}  # Newton block -> the outside symbols it takes
         self.source = ""
         self.signal_orders: dict = {}  # token -> highest order used
         self.defined_by: dict = {}
@@ -156,7 +157,18 @@ class CodeGenerator:
         items.append(("code", f"{targets}, = _linsolve({rows}, [{', '.join(b_names)}])", set()))
 
     def _emit_newton(self, k, st, items):
-        n = next(self._block_count)
+        """Call the residual/Jacobian function of Newton block ``k``; the function itself is generated once
+        (every generated entry point that needs the block shares it)."""
+        if k not in self._labels:
+            self._define_newton(k, st)
+        ext = self._newton_args[k]
+        args = ", ".join(self.names[s] for s in ext)
+        targets = ", ".join(self.names[var_symbol(v)] for v in st.vars)
+        guesses = ", ".join(repr(float(g)) for g in st.guesses)
+        items.append(("code", f"{targets}, = _newton(_newton_block{k}, ({guesses},), ({args}{',' if args else ''}), "
+                              f"_labels[{k}])", set(ext)))
+
+    def _define_newton(self, k, st):
         ys = [var_symbol(v) for v in st.vars]
         res = [self._signal_symbols(r) for r in st.residuals]
         J = [[self._signal_symbols(e) for e in row] for row in st.jac]
@@ -167,10 +179,10 @@ class CodeGenerator:
         for i, y in enumerate(ys):
             local[y] = f"_y[{i}]"
         pr = _Printer(local)
-        reps, red = sp.cse(res + [x for row in J for x in row], symbols=_cse_symbols(f"_n{n}c"), optimizations=None)
+        reps, red = sp.cse(res + [x for row in J for x in row], symbols=_cse_symbols(f"_n{k}c"), optimizations=None)
         for s, _ in reps:
             local[s] = s.name
-        lines = [f"def _newton_block{n}(_y, {', '.join(args)}):" if args else f"def _newton_block{n}(_y):"]
+        lines = [f"def _newton_block{k}(_y, {', '.join(args)}):" if args else f"def _newton_block{k}(_y):"]
         for s, e in reps:
             lines.append(f"    {s.name} = {pr.doprint(e)}")
         m = len(ys)
@@ -178,13 +190,9 @@ class CodeGenerator:
         jj = ", ".join("(" + ", ".join(pr.doprint(e) for e in red[m + i * m: m + (i + 1) * m]) + ",)" for i in range(m))
         lines.append(f"    return ({rr},), ({jj},)")
         self._blocks.append("\n".join(lines))
-        label = f"the nonlinear block of {', '.join(repr(v) for v in st.vars)} (equations from {', '.join(sorted(set(st.origins)))})"
-        self._labels = getattr(self, "_labels", {})
-        self._labels[n] = label
-        targets = ", ".join(self.names[y] for y in ys)
-        guesses = ", ".join(repr(float(g)) for g in st.guesses)
-        items.append(("code", f"{targets}, = _newton(_newton_block{n}, ({guesses},), ({', '.join(args)}{',' if args else ''}), _labels[{n}])",
-                      set(ext)))
+        self._newton_args[k] = ext
+        self._labels[k] = (f"the nonlinear block of {', '.join(repr(v) for v in st.vars)} "
+                           f"(equations from {', '.join(sorted(set(st.origins)))})")
 
     def _jac_assign(self, sym, expr, D, items):
         d = {}
@@ -314,7 +322,7 @@ class CodeGenerator:
         srcs.append(self._render("zeros", items, [f"    return [{zs}{',' if len(zeros) == 1 else ''}]"]))
         self.source = "\n\n".join(self._blocks + srcs) + "\n"
         ns = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack, "_linsolve": runtime.linsolve,
-              "_newton": runtime.newton, "_labels": getattr(self, "_labels", {})}
+              "_newton": runtime.newton, "_labels": self._labels}
         code = compile(self.source, "<acausal generated>", "exec")
         exec(code, ns)
         return {k: ns[k] for k in ("all_values", "rhs", "rhs_vec", "jac", "zeros")}
