@@ -50,3 +50,14 @@ class SignalConstraint(Component):
 
     def equations(self):
         return [Eq(self.u.value, self.target.value)]
+
+
+class Bias(Component):
+    """``y = u + bias``: a constant offset in a signal path, e.g. the zero offset of a sensor's reading."""
+
+    bias = Parameter(0.0, doc="offset added to the input (unit of the signal)")
+    u = RealInput(doc="input")
+    y = RealOutput(doc="output")
+
+    def equations(self):
+        return [Eq(self.y.value, self.u.value + self.bias)]

@@ -4,6 +4,7 @@ Current flows from pin ``p`` through the component to pin ``n``; power into a on
 Also the supply side of a drive: :class:`Supply`, :class:`IdealDiode`, :class:`BrakeChopper` and the
 :class:`NonRegenerativeRectifier` built from them.
 """
+import sympy as sp
 from sympy import Eq
 
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
@@ -253,3 +254,33 @@ class NonRegenerativeRectifier(Model):
     def equations(self):
         return [Eq(self.loss_power, self.diode.loss_power + self.chopper.loss_power),
                 Eq(self.bus_energy, self.capacitor.energy)]
+
+
+class IdealNonRegenerativeRectifier(Component):
+    """Averaged, stateless supply front end that never returns energy to the supply: an ideal diode into a bus
+    held at the supply voltage by an ideal brake chopper (the limit of :class:`NonRegenerativeRectifier` with
+    no bus capacitance and a stiff chopper). It is the "non-regenerative rectifier" of the paper's Eq. 4 model.
+
+    ::
+
+        p_in ->|- p_bus        v_bus = v_in
+                               i_in  = max(i_bus, 0)           (i_bus: current the driver draws from p_bus)
+        n_in ---- n_bus        loss_power = v_bus (i_in - i_bus) >= 0   (regenerated power burnt in the chopper)
+
+    Having no state, it keeps an inverse (replay) model purely algebraic, so a replay is evaluated without an
+    integrator and vectorised over parameter sets. ``max`` is written ``(x + |x|) / 2``.
+    """
+
+    p_in = Pin(doc="+ from the supply")
+    n_in = Pin(doc="- from the supply")
+    p_bus = Pin(doc="+ of the DC bus (to the driver)")
+    n_bus = Pin(doc="- of the DC bus")
+    i_bus = Variable(unit="A", doc="current drawn by the driver from p_bus (negative while regenerating)")
+    loss_power = Variable(unit="W", doc="regenerated power dumped in the brake chopper")
+
+    def equations(self):
+        v_bus = self.p_bus.v - self.n_bus.v
+        return [Eq(v_bus, self.p_in.v - self.n_in.v), Eq(self.n_bus.v, self.n_in.v),
+                Eq(self.i_bus, -self.p_bus.i), Eq(self.p_bus.i + self.n_bus.i, 0), Eq(self.p_in.i + self.n_in.i, 0),
+                Eq(self.p_in.i, (self.i_bus + sp.Abs(self.i_bus)) / 2),
+                Eq(self.loss_power, v_bus * (self.p_in.i - self.i_bus))]

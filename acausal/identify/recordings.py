@@ -1,0 +1,253 @@
+"""Measured recordings: a declared file format, a strict loader and a writer.
+
+A *recording set* is a folder; each experiment is a pair ``NAME.csv`` (one header row, then rows of floats,
+columns in any order, SI units in the column names) plus ``NAME.json`` (the experiment's settings). What the
+columns and keys are is declared by a :class:`RecordingFormat` (the ankle actuator's is in
+``acausal.models.recording_format``); this module knows no model.
+
+The loader checks everything and answers bad input with a :class:`~acausal.errors.DataError` naming the file,
+the line and the column or key: missing or misspelled columns (with the closest known name), a column in an
+unknown unit (``time_ms`` where ``time_s`` is declared), values that are not numbers, NaN or inf, time that is
+not strictly increasing (duplicated or going back), JSON that misses a required key, has an unknown key, a value
+of the wrong type or a non-positive value where a positive one is required, and CSV and JSON files that do not
+pair up. Nothing is dropped or guessed: extra CSV columns are kept (``Recording.extra``) and otherwise ignored.
+"""
+from __future__ import annotations
+
+import difflib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError
+
+
+@dataclass(frozen=True)
+class Column:
+    """A declared CSV column: ``name`` is ``<quantity>_<unit>`` (e.g. ``time_s``)."""
+
+    name: str
+    unit: str
+    doc: str = ""
+
+    @property
+    def quantity(self) -> str:
+        return self.name[: -len(self.unit) - 1]
+
+
+@dataclass(frozen=True)
+class Key:
+    """A declared JSON key; ``kind`` is ``"number"``, ``"integer"`` or ``"text"``."""
+
+    name: str
+    unit: str = ""
+    doc: str = ""
+    required: bool = True
+    kind: str = "number"
+    positive: bool = True
+
+
+@dataclass(frozen=True)
+class RecordingFormat:
+    name: str
+    columns: tuple  # of Column, all required
+    keys: tuple  # of Key
+    time_column: str = "time_s"
+
+    def column(self, name: str) -> Column:
+        return next(c for c in self.columns if c.name == name)
+
+    def describe(self) -> str:
+        """A markdown description of the format (columns and keys with units)."""
+        lines = [f"### {self.name}", "", "CSV columns (any order, SI units; extra columns are kept and ignored):", ""]
+        lines += [f"- `{c.name}` [{c.unit}]: {c.doc}" for c in self.columns]
+        lines += ["", "JSON keys:", ""]
+        lines += [f"- `{k.name}`{' [' + k.unit + ']' if k.unit else ''} ({'required' if k.required else 'optional'}"
+                  f"{', > 0' if k.kind != 'text' and k.positive else ''}): {k.doc}" for k in self.keys]
+        return "\n".join(lines)
+
+
+@dataclass
+class Recording:
+    """One experiment: declared columns (name -> array), settings from the JSON, and extra columns."""
+
+    name: str
+    columns: dict
+    meta: dict
+    extra: dict = field(default_factory=dict)
+    path: Path | None = None
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.columns["time_s"]
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        try:
+            return self.columns[column]
+        except KeyError:
+            if column in self.extra:
+                return self.extra[column]
+            raise DataError(f"recording {self.name!r} has no column {column!r}; it has "
+                            f"{', '.join(list(self.columns) + list(self.extra))}") from None
+
+    def __len__(self):
+        return len(self.t)
+
+    def select(self, mask) -> "Recording":
+        """The rows where ``mask`` is true (e.g. some strides), as a new recording."""
+        return Recording(self.name, {k: v[mask] for k, v in self.columns.items()}, dict(self.meta),
+                         {k: v[mask] for k, v in self.extra.items()}, self.path)
+
+
+# ------------------------------------------------------------------------------------------------------ loading
+def load_recordings(folder, fmt: RecordingFormat) -> list:
+    """Every ``NAME.csv`` + ``NAME.json`` pair in ``folder``, sorted by name."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DataError(f"recording set {folder}: no such folder")
+    csvs = {p.stem: p for p in folder.glob("*.csv")}
+    jsons = {p.stem: p for p in folder.glob("*.json")}
+    for stem in sorted(set(csvs) ^ set(jsons)):
+        have, miss = (csvs[stem], f"{stem}.json") if stem in csvs else (jsons[stem], f"{stem}.csv")
+        raise DataError(f"{have}: no matching {miss} in {folder} (every experiment is a NAME.csv + NAME.json pair)")
+    if not csvs:
+        raise DataError(f"recording set {folder}: no NAME.csv + NAME.json pairs found")
+    return [load_recording(csvs[s], fmt) for s in sorted(csvs)]
+
+
+def load_recording(csv_path, fmt: RecordingFormat) -> Recording:
+    """Load and validate one experiment (the JSON next to the CSV, same stem)."""
+    csv_path = Path(csv_path)
+    json_path = csv_path.with_suffix(".json")
+    if not csv_path.exists():
+        raise DataError(f"{csv_path}: no such file")
+    if not json_path.exists():
+        raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
+    meta = _load_meta(json_path, fmt)
+    columns, extra = _load_csv(csv_path, fmt)
+    return Recording(csv_path.stem, columns, meta, extra, csv_path)
+
+
+def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
+    try:
+        raw = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise DataError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+    if not isinstance(raw, dict):
+        raise DataError(f"{path}: the JSON must be an object of keys, got {type(raw).__name__}")
+    keys = {k.name: k for k in fmt.keys}
+    for name in raw:
+        if name not in keys:
+            close = difflib.get_close_matches(name, keys, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else f"; known keys: {', '.join(keys)}"
+            raise DataError(f"{path}: unknown key {name!r}{hint}")
+    meta = {}
+    for k in fmt.keys:
+        if k.name not in raw:
+            if k.required:
+                raise DataError(f"{path}: required key {k.name!r} [{k.unit}] is missing")
+            continue
+        v = raw[k.name]
+        if k.kind == "text":
+            if not isinstance(v, str):
+                raise DataError(f"{path}: key {k.name!r} must be text, got {v!r}")
+        else:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise DataError(f"{path}: key {k.name!r} must be a finite number [{k.unit}], got {v!r}")
+            if k.kind == "integer" and int(v) != v:
+                raise DataError(f"{path}: key {k.name!r} must be a whole number, got {v!r}")
+            if k.positive and v <= 0:
+                raise DataError(f"{path}: key {k.name!r} must be positive [{k.unit}], got {v!r}")
+            v = int(v) if k.kind == "integer" else float(v)
+        meta[k.name] = v
+    return meta
+
+
+def _load_csv(path: Path, fmt: RecordingFormat):
+    with open(path, newline="") as fh:
+        header_line = fh.readline()
+        if not header_line.strip():
+            raise DataError(f"{path}: empty file (expected a header row of column names)")
+        header = [h.strip() for h in header_line.rstrip("\r\n").split(",")]
+        _check_header(path, header, fmt)
+        body = fh.read()
+    try:
+        data = np.loadtxt(body.splitlines(), delimiter=",", ndmin=2, dtype=float) if body.strip() else None
+    except ValueError:
+        data = None
+        _find_bad_row(path, body, header)
+    if data is None or data.shape[0] == 0:
+        raise DataError(f"{path}: no data rows after the header")
+    if data.shape[1] != len(header):
+        _find_bad_row(path, body, header)
+    bad = ~np.isfinite(data)
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise DataError(f"{path}, line {r + 2}, column {header[c]!r}: value {data[r, c]} is not finite "
+                        "(NaN and inf are not accepted)")
+    cols = {h: data[:, j] for j, h in enumerate(header)}
+    t = cols[fmt.time_column]
+    dt = np.diff(t)
+    if (dt <= 0).any():
+        r = int(np.argmax(dt <= 0))
+        what = "is duplicated" if dt[r] == 0 else "goes back"
+        raise DataError(f"{path}, line {r + 3}, column {fmt.time_column!r}: time {what} ({t[r + 1]!r} after "
+                        f"{t[r]!r}); time must increase strictly")
+    declared = {c.name for c in fmt.columns}
+    return ({c.name: cols[c.name] for c in fmt.columns}, {h: v for h, v in cols.items() if h not in declared})
+
+
+def _check_header(path, header, fmt):
+    seen = set()
+    for h in header:
+        if not h:
+            raise DataError(f"{path}, line 1: an empty column name in the header")
+        if h in seen:
+            raise DataError(f"{path}, line 1: column {h!r} appears twice")
+        seen.add(h)
+    for c in fmt.columns:
+        if c.name in seen:
+            continue
+        same_quantity = [h for h in header if h.rsplit("_", 1)[0] == c.quantity and "_" in h]
+        if same_quantity:
+            unit = same_quantity[0].rsplit("_", 1)[1]
+            raise DataError(f"{path}, line 1, column {same_quantity[0]!r}: unknown unit {unit!r} for "
+                            f"{c.quantity}; the format wants SI [{c.unit}] in a column named {c.name!r}")
+        close = difflib.get_close_matches(c.name, [h for h in header if h not in {x.name for x in fmt.columns}], n=1)
+        hint = f" (is {close[0]!r} a misspelling of it?)" if close else ""
+        raise DataError(f"{path}, line 1: required column {c.name!r} [{c.unit}] is missing{hint}")
+
+
+def _find_bad_row(path, body, header):
+    for n, line in enumerate(body.splitlines(), start=2):
+        if not line.strip():
+            raise DataError(f"{path}, line {n}: empty row")
+        fields = line.split(",")
+        if len(fields) != len(header):
+            raise DataError(f"{path}, line {n}: {len(fields)} values for {len(header)} columns")
+        for h, f in zip(header, fields):
+            try:
+                float(f)
+            except ValueError:
+                raise DataError(f"{path}, line {n}, column {h!r}: {f.strip()!r} is not a number") from None
+    raise DataError(f"{path}: could not read the rows as numbers")
+
+
+# ------------------------------------------------------------------------------------------------------ writing
+def write_recording(folder, name: str, columns: dict, meta: dict, fmt: RecordingFormat, digits: int = 9) -> Path:
+    """Write ``NAME.csv`` + ``NAME.json`` into ``folder``; checks the columns and keys against ``fmt`` first."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    missing = [c.name for c in fmt.columns if c.name not in columns]
+    if missing:
+        raise DataError(f"write_recording {name!r}: columns {missing} of format {fmt.name!r} are missing")
+    names = [c.name for c in fmt.columns] + [k for k in columns if k not in {c.name for c in fmt.columns}]
+    data = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
+    path = folder / f"{name}.csv"
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=f"%.{digits}g")
+    (folder / f"{name}.json").write_text(json.dumps(meta, indent=2) + "\n")
+    load_recording(path, fmt)  # what is written must load
+    return path

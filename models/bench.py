@@ -1,0 +1,167 @@
+"""Virtual test bench: the paper's protocol run on a chosen truth model, written as bench recordings.
+
+The bench does what the real one did (paper section 4): the output motor moves the ankle along the gait angle
+at the condition's stride time, and the actuator's controller tracks the planned moment-arm angle for the
+condition's precompression (closed loop, :class:`~acausal.models.bench_ankle.BenchAnkle`). The truth model is the
+paper's Eq. (4) structure with ``truth`` parameter values, plus hidden ``effects`` (:mod:`acausal.models.effects`)
+at chosen sizes. Each condition is simulated for ``settle`` strides (discarded: the controller settles) and then
+``strides`` recorded strides.
+
+Sensors (:class:`Sensors`), sampled at 1 kHz: 14-bit absolute encoders (AS5048A: 2 pi / 16384 steps) on the ankle
+and moment-arm angles, motor current as the driver reports it (Gaussian noise, optional offset), supply current
+and voltage (noise), joint torque (noise). Noise is seeded per recording from ``(seed, index)``: the same call
+writes the same files.
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from acausal import compile_model
+from acausal.identify import write_recording
+
+from .bench_ankle import SIGNALS, BenchAnkle
+from .effects import EFFECTS, effect
+from .planning import plan_moment_arm
+from .protocol import PRECOMPRESSIONS, STRIDE_TIMES
+from .recording_format import ANKLE_FORMAT
+
+#: the truth's parameters when nothing else is said (Eq. 4 values of the order the paper's data implies:
+#: R as Table 2's estimated total, J = rotor + gearhead input inertia, b = the no-load friction; see presets)
+TRUTH = {"motor.R": 0.7, "motor.L": 6.53e-5, "motor.k": 0.0274, "motor.J": 4.07e-6, "motor.b": 7.0e-6}
+BODY_MASS = 60.0
+K_SPRING = 132e3
+
+
+@dataclass(frozen=True)
+class Sensors:
+    encoder_bits: int = 14  # AS5048A absolute magnetic encoder
+    motor_current_noise: float = 0.03  # A (std)
+    motor_current_offset: float = 0.0  # A
+    supply_current_noise: float = 0.02  # A (std)
+    supply_voltage_noise: float = 0.02  # V (std)
+    torque_noise: float = 0.4  # N m (std)
+    rate: float = 1000.0  # Hz
+
+    @property
+    def encoder_step(self) -> float:
+        return 2 * np.pi / 2**self.encoder_bits
+
+    def noise_floor(self) -> dict:
+        """Standard deviation a perfect model leaves on each recorded signal."""
+        return {"motor_current_A": self.motor_current_noise, "supply_current_A": self.supply_current_noise,
+                "joint_torque_Nm": self.torque_noise, "supply_voltage_V": self.supply_voltage_noise}
+
+
+@dataclass(frozen=True)
+class BenchCondition:
+    P: float  # nominal precompression [m]
+    stride_time: float  # [s]
+    strides: int = 6
+    settle: int = 1
+
+
+_COMPILED: dict = {}
+
+
+def _truth_model(effects: tuple):
+    if effects not in _COMPILED:
+        _COMPILED[effects] = compile_model(BenchAnkle(mode="closed_loop", effects=effects))
+    return _COMPILED[effects]
+
+
+def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None = None,
+           sensors: Sensors = Sensors(), seed: int = 0, index: int = 0) -> tuple:
+    """Simulate one condition on the truth model; returns ``(columns, meta)`` of the recording."""
+    effects = dict(effects or {})
+    sim = _truth_model(tuple(sorted(effects)))
+    params = {**TRUTH, **(truth or {}), "stride_time": cond.stride_time, "P_nominal": cond.P, "link.k": K_SPRING}
+    for name, value in effects.items():
+        params[effect(name).parameter] = value
+    T = cond.stride_time
+    dt = 1.0 / sensors.rate
+    n_settle = int(round(cond.settle * T / dt))
+    n_rec = int(round(cond.strides * T / dt))
+    plan = plan_moment_arm(cond.P, K_SPRING, 0.1, 0.06, BODY_MASS)
+    res = sim.simulate((n_settle + n_rec) * dt, params=params, inputs={"arm_ref.profile": plan.phi_profile},
+                       n_points=n_settle + n_rec + 1, rtol=1e-7, atol=1e-9, dense_output=False)
+    w = slice(n_settle, n_settle + n_rec)
+    rng = np.random.default_rng([seed, index])
+    q = sensors.encoder_step
+    n = n_rec
+    cols = {
+        "time_s": res.t[w] - res.t[n_settle],
+        "ankle_angle_rad": np.round(res["ankle.theta"][w] / q) * q,
+        "moment_arm_angle_rad": np.round(res["arm_angle.phi.value"][w] / q) * q,
+        "moment_arm_setpoint_rad": res["arm_ref.y.value"][w],
+        "joint_torque_Nm": res[SIGNALS["joint_torque_Nm"]][w] + sensors.torque_noise * rng.standard_normal(n),
+        "supply_voltage_V": res[SIGNALS["supply_voltage_V"]][w] + sensors.supply_voltage_noise * rng.standard_normal(n),
+        "supply_current_A": res[SIGNALS["supply_current_A"]][w] + sensors.supply_current_noise * rng.standard_normal(n),
+        "motor_current_A": (res[SIGNALS["motor_current_A"]][w] + sensors.motor_current_offset
+                            + sensors.motor_current_noise * rng.standard_normal(n)),
+    }
+    meta = {"precompression_m": cond.P, "stride_time_s": T, "spring_stiffness_N_per_m": K_SPRING,
+            "body_mass_kg": BODY_MASS, "supply_voltage_V": 48.0, "strides": cond.strides,
+            "description": f"virtual bench (acausal bench), seed {seed}: simulated data, not a measurement"}
+    return cols, meta
+
+
+def _record(args):
+    return record(*args)
+
+
+def default_conditions(strides: int = 6) -> list:
+    """The paper's 36 conditions (precompression x stride time)."""
+    return [BenchCondition(P, T, strides) for P in PRECOMPRESSIONS for T in STRIDE_TIMES]
+
+
+def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict | None = None,
+              sensors: Sensors = Sensors(), seed: int = 0, executor: Executor | None = None) -> list:
+    """Record every condition into ``out_dir`` (``P08mm_T2.0s.csv`` + ``.json`` ...) and describe the run in
+    ``out_dir/README.md`` (truth, hidden effects, sensors: the answer key, which a loader ignores).
+    Returns the CSV paths."""
+    out = Path(out_dir)
+    conditions = list(conditions or default_conditions())
+    effects = dict(effects or {})
+    for name in effects:
+        effect(name)
+    jobs = [(c, effects, truth, sensors, seed, i) for i, c in enumerate(conditions)]
+    if executor is None and len(jobs) > 1 and (os.cpu_count() or 1) > 1:
+        with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
+            recs = list(pool.map(_record, jobs))
+    elif executor is None:
+        recs = [_record(j) for j in jobs]
+    else:
+        recs = list(executor.map(_record, jobs))
+    paths = []
+    for c, (cols, meta) in zip(conditions, recs):
+        name = f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s"
+        paths.append(write_recording(out, name, cols, meta, ANKLE_FORMAT))
+    _write_readme(out, conditions, effects, {**TRUTH, **(truth or {})}, sensors, seed)
+    return paths
+
+
+def _write_readme(out: Path, conditions, effects, truth, sensors, seed):
+    lines = ["# Virtual bench recordings (simulated, not measured)", "",
+             f"Written by `acausal bench` with seed {seed}: {len(conditions)} recordings in the format of "
+             "`acausal.models.recording_format` (closed loop, paper protocol).", "",
+             "## Truth model (the answer key)", "", "Eq. (4) structure with:", ""]
+    lines += [f"- `{k}` = {v:g}" for k, v in sorted(truth.items())]
+    lines += ["", "Hidden effects: " + (", ".join(f"`{k}` = {v:g} {EFFECTS[k].unit}" for k, v in effects.items())
+                                        or "none"), "", "## Sensors", ""]
+    lines += [f"- {k} = {v}" for k, v in asdict(sensors).items()]
+    (out / "README.md").write_text("\n".join(lines) + "\n")
+
+
+def sensors_with(overrides: dict) -> Sensors:
+    """:class:`Sensors` with fields overridden (``--sensor NAME=VALUE``); an unknown field lists the known ones."""
+    known = set(asdict(Sensors()))
+    for k in overrides:
+        if k not in known:
+            from acausal import ModelError
+            raise ModelError(f"unknown sensor setting {k!r}; known: {', '.join(sorted(known))}")
+    return replace(Sensors(), **{k: type(getattr(Sensors(), k))(v) for k, v in overrides.items()})

@@ -1,0 +1,156 @@
+"""Calibration of the ankle actuator's Eq. (4) model against bench recordings (paper section 4.3, Table 2, Fig. 14).
+
+Each recording is replayed: its measured ankle angle theta(t) and moment-arm angle phi(t) are smoothed
+(:class:`~acausal.identify.smoothing.SmoothingSpline`, quintic least-squares spline, 80 knots per stride) and prescribed
+to :class:`~acausal.models.bench_ankle.BenchAnkle` in replay mode; index reduction derives speeds, accelerations,
+the motor current, voltages and the supply current, and the replay is purely algebraic (no integrator) unless an
+effect adds a state. The chosen parameters are fitted by bounded least squares on motor current (and, by
+default, supply current, which is what makes R identifiable: the motor current does not depend on R when the
+motion is prescribed) over all recordings at once, on the training strides; every third stride is held out.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acausal import DataError, compile_model
+from acausal.identify import load_recordings
+from acausal.identify.calibrate import Calibration, Experiment, Free, calibrate, rmse_table
+from acausal.identify.smoothing import SmoothingSpline, edge_margin
+
+from .bench_ankle import SIGNALS, BenchAnkle
+from .effects import EFFECTS
+from .presets import PRESETS
+from .recording_format import ANKLE_FORMAT, model_params
+
+#: short names accepted by ``--params`` and the API
+SHORT = {"R": "motor.R", "J": "motor.J", "b": "motor.b", "L": "motor.L", "k": "motor.k"}
+
+#: bounds and typical magnitudes of the motor parameters (effect parameters come from the effects table)
+BOUNDS = {"motor.R": (0.01, 20.0, 0.5), "motor.J": (1e-8, 1e-1, 1e-5), "motor.b": (0.0, 1e-1, 1e-5),
+          "motor.L": (1e-7, 1e-2, 1e-4), "motor.k": (0.005, 0.2, 0.03)}
+
+#: where a calibration starts: the motor's datasheet (Table 2 "motor parameter", inertia/friction swap corrected)
+START = {k: PRESETS["paper_datasheet"][k] for k in ("motor.R", "motor.J", "motor.b", "motor.L")} | {"motor.k": 0.0274}
+
+DEFAULT_SIGNALS = ("motor_current_A", "supply_current_A")
+
+_COMPILED: dict = {}
+
+
+def replay_model(effects=()):
+    """The compiled replay model with ``effects`` (cached per process)."""
+    key = tuple(sorted(effects))
+    if key not in _COMPILED:
+        _COMPILED[key] = compile_model(BenchAnkle(mode="replay", effects=key))
+    return _COMPILED[key]
+
+
+def parameter_names(spec) -> list:
+    """``"R,J,b"`` or a list -> hierarchical names (short names and effect parameters allowed)."""
+    items = [s.strip() for s in spec.split(",")] if isinstance(spec, str) else list(spec)
+    out = []
+    for s in items:
+        if not s:
+            continue
+        name = SHORT.get(s, s)
+        if name not in BOUNDS and name not in {e.parameter for e in EFFECTS.values()}:
+            raise DataError(f"unknown parameter {s!r} to fit; known: {', '.join(SHORT)} (motor), or an effect "
+                            f"parameter: {', '.join(e.parameter for e in EFFECTS.values())}")
+        out.append(name)
+    if not out:
+        raise DataError("no parameters to fit")
+    return out
+
+
+def free_parameter(name: str, start: dict | None = None) -> Free:
+    start = start or {}
+    if name in BOUNDS:
+        lo, hi, scale = BOUNDS[name]
+        return Free(name, start.get(name, START[name]), lo, hi, scale)
+    e = next(e for e in EFFECTS.values() if e.parameter == name)
+    return Free(name, start.get(name, e.zero), e.bounds[0], e.bounds[1], e.scale)
+
+
+KNOTS_PER_STRIDE = 80
+
+
+@dataclass
+class Split:
+    """How a recording is used: every ``holdout_every``-th stride is held out; the smoothing knots are spaced
+    ``knot_spacing`` seconds, by default ``stride_time / 80`` (15 ms at 1.2 s, 37.5 ms at 3 s per stride: the
+    gait's content scales with the stride time, the quantisation noise does not)."""
+
+    holdout_every: int = 3  # strides n-1, 2n-1, ... are held out
+    knot_spacing: float | None = None
+
+    def knots(self, stride_time: float) -> float:
+        return self.knot_spacing or stride_time / KNOTS_PER_STRIDE
+
+
+def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = None) -> Experiment:
+    """A recording as a replay :class:`Experiment` of the model with ``effects``."""
+    sim = replay_model(effects)
+    t = rec.t
+    T = rec.meta["stride_time_s"]
+    h = split.knots(T)
+    theta = SmoothingSpline(t, rec["ankle_angle_rad"], h, name=f"{rec.name}: ankle angle")
+    phi = SmoothingSpline(t, rec["moment_arm_angle_rad"], h, name=f"{rec.name}: moment-arm angle")
+    inputs = {"ankle.phi_ref": theta, "arm_target.signal": phi}
+    base = {**model_params(rec.meta), **(fixed or {})}
+    stride = np.floor((t - t[0]) / T + 1e-9).astype(int)
+    m = edge_margin(h)
+    inner = (t >= t[0] + m) & (t <= t[-1] - m)
+    held = (stride % split.holdout_every) == split.holdout_every - 1
+    if not (inner & held).any() or not (inner & ~held).any():
+        raise DataError(f"{rec.path or rec.name}: {stride.max() + 1} stride(s) of {T} s are too few to hold out every "
+                        f"{split.holdout_every}th stride and fit on the rest")
+    measured = {s: rec[s] for s in SIGNALS}
+    wanted = dict(SIGNALS)
+
+    def predict(values: dict) -> dict:
+        res = sim.simulate(t[-1], t_start=t[0], t_eval=t, params={**base, **values}, inputs=inputs,
+                           dense_output=False, rtol=1e-7, atol=1e-9)
+        return {col: np.asarray(res[var]) for col, var in wanted.items()}
+
+    return Experiment(rec.name, t, measured, predict, inner & ~held, inner & held, stride,
+                      info={"meta": rec.meta, "inputs": inputs, "params": base, "effects": tuple(effects)})
+
+
+def experiments(recordings, effects=(), split: Split = Split(), fixed: dict | None = None) -> list:
+    return [experiment(r, effects, split, fixed) for r in recordings]
+
+
+def fit(recordings, params="R,J,b", signals=DEFAULT_SIGNALS, weights=None, effects=(), start=None,
+        split: Split = Split(), fixed: dict | None = None) -> tuple:
+    """Calibrate ``params`` on ``recordings`` (list of Recording, or a folder); returns
+    ``(Calibration, experiments)``."""
+    if not isinstance(recordings, (list, tuple)):
+        recordings = load_recordings(recordings, ANKLE_FORMAT)
+    exps = experiments(recordings, effects, split, fixed)
+    free = [free_parameter(n, start) for n in parameter_names(params)]
+    cal = calibrate(exps, free, list(signals), weights=weights, fixed=fixed)
+    return cal, exps
+
+
+def table2(cal: Calibration) -> list:
+    """Rows of the paper's Table 2 with our calibration: (parameter, unit, datasheet, estimated total, calibrated,
+    standard error)."""
+    est = PRESETS["paper_estimated_total"]
+    rows = []
+    for name, label, unit in (("motor.J", "actuator inertia (motor side)", "kg m2"),
+                              ("motor.b", "actuator friction (motor side)", "N m s/rad"),
+                              ("motor.R", "actuator resistance", "ohm"), ("motor.L", "actuator inductance", "H")):
+        rows.append((label, unit, START[name], est[name], cal.values.get(name, np.nan), cal.std.get(name, np.nan)))
+    return rows
+
+
+def rmse_before_after(exps, cal: Calibration, signals=DEFAULT_SIGNALS) -> dict:
+    """Held-out RMSE per signal with the datasheet start values and with the calibrated values."""
+    out = {}
+    for label, values in (("datasheet", {n: START[n] for n in cal.names if n in START}), ("calibrated", cal.values)):
+        table = rmse_table(exps, values, signals)
+        out[label] = {s: float(np.sqrt(np.mean([v**2 for (e, sig), v in table.items() if sig == s])))
+                      for s in signals}
+    return out

@@ -1,0 +1,81 @@
+"""Effects the paper's Eq. (4) model leaves out, each a change of the ankle model made with library components.
+
+:class:`~acausal.models.bench_ankle.BenchAnkle` takes a tuple of effect identifiers and adds or swaps the
+components; the virtual bench hides effects in its truth model (``acausal bench --effect ID=VALUE``) and the
+diagnosis (``acausal diagnose``) tries them as candidate extensions of the calibrated baseline.
+
+Every effect has one parameter that sets its size; ``zero`` is the value at which the extended model equals the
+baseline (the fingerprint of an effect is the sensitivity of the predicted signals to that parameter there).
+``typical`` is a realistic size for this actuator (a source or reasoning in ``doc``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from acausal import ModelError
+
+
+@dataclass(frozen=True)
+class Effect:
+    id: str
+    parameter: str  # parameter of the extended model that sets the size
+    unit: str
+    zero: float  # value at which the effect vanishes (the baseline)
+    typical: float  # realistic size (virtual-bench default)
+    bounds: tuple  # (lower, upper) for fitting
+    signal: str  # the recorded column it shows in first
+    doc: str
+    scale: float = 1.0  # typical magnitude of the parameter for the optimiser
+    measurement: bool = False  # True when the effect sits in a sensor, not in the physics
+
+
+EFFECTS = {e.id: e for e in [
+    Effect("gear_coulomb_friction", "gear_friction.tau_c", "N.m", 0.0, 0.012, (0.0, 0.2), "motor_current_A",
+           "Coulomb friction of the gear train referred to the motor shaft (library BearingFriction before the "
+           "gear, smooth sign law). Typical: about the motor's no-load friction torque, 9.9 mN m "
+           "(parameters.md), more with the gearhead.", scale=0.01),
+    Effect("gear_load_dependent_loss", "gear.eta", "1", 1.0, 0.85, (0.3, 1.0), "motor_current_A",
+           "mesh efficiency below 1 that scales with the transmitted torque and depends on the direction of power "
+           "flow (the ideal gear swapped for the library LossyGear, smooth law). Typical: 85 % for the two "
+           "stages (the gearhead catalogue gives at most 70 %, bearings and the helical stage included).",
+           scale=0.1),
+    Effect("winding_temperature", "winding_heating", "K/J", 0.0, 0.1, (0.0, 5.0), "supply_current_A",
+           "winding resistance rising with its temperature (copper, alpha_R = 0.00393 1/K) as I^2 R heats a thermal "
+           "capacitance C = 1 / winding_heating coupled to ambient (library DCMotor heat port, HeatCapacitor, "
+           "ThermalConductor, FixedTemperature). Each recording starts at ambient. Typical: 0.1 K/J (C = 10 J/K, "
+           "the winding alone: 2.11 s winding time constant / 0.21 K/W, parameters.md).", scale=0.1),
+    Effect("driver_quiescent_power", "driver.P_q", "W", 0.0, 12.5, (0.0, 60.0), "supply_current_A",
+           "constant standby draw of the motor driver (library PWMDriver P_q). Typical: the paper measured "
+           "10-15 W for the EPOS2.", scale=10.0),
+    Effect("torque_sensor_offset", "torque_offset.bias", "N.m", 0.0, 1.5, (-20.0, 20.0), "joint_torque_Nm",
+           "zero offset of the joint torque sensor's reading (library Bias block in the sensor's signal path). "
+           "Typical: 1-2 % of the 100 N m range.", scale=1.0, measurement=True),
+    Effect("precompression_error", "precompression_error", "m", 0.0, 0.0015, (-0.006, 0.006), "joint_torque_Nm",
+           "the spring's actual precompression differs from the nominal one (the MACCEPA's P parameter). "
+           "Typical: 1-2 mm (the paper names an error in precompression length as a likely cause, section 4.3).",
+           scale=1e-3),
+    Effect("gear_backlash", "backlash.b", "rad", 0.0, 0.02, (0.0, 0.2), "motor_current_A",
+           "dead zone between motor and moment arm, referred to the moment arm (library ElastoBacklash-like "
+           "Backlash between gear and arm). Typical: 1 deg of play at the output of a two-stage gear.",
+           scale=0.01),
+]}
+
+
+def effect(name: str) -> Effect:
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise ModelError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}") from None
+
+
+def parse_effects(items) -> dict:
+    """``["ID=VALUE", "ID"]`` (command line) -> ``{ID: value}``; a bare ID takes its typical size."""
+    out = {}
+    for item in items or ():
+        name, _, value = item.partition("=")
+        e = effect(name.strip())
+        try:
+            out[e.id] = float(value) if value.strip() else e.typical
+        except ValueError:
+            raise ModelError(f"--effect {item!r}: the value after '=' must be a number [{e.unit}]") from None
+    return out

@@ -1,0 +1,42 @@
+"""The bench-recording format of the ankle actuator (exact: other tools write it).
+
+A recording set is a folder; each experiment is ``NAME.csv`` + ``NAME.json``. Angles follow the paper's sense:
+plantarflexion positive, 0 at neutral stance; the linkage deflection is ``alpha = phi - theta``. The joint power
+is ``joint_torque_Nm * d(theta)/dt``. A recording holds several consecutive strides.
+"""
+from acausal.identify import Column, Key, RecordingFormat
+
+ANKLE_FORMAT = RecordingFormat(
+    name="ankle actuator bench recording",
+    columns=(
+        Column("time_s", "s", "sample time, strictly increasing"),
+        Column("ankle_angle_rad", "rad", "ankle angle theta (plantarflexion positive, 0 at neutral stance)"),
+        Column("moment_arm_angle_rad", "rad", "moment-arm angle phi relative to the lower leg, same sense"),
+        Column("moment_arm_setpoint_rad", "rad", "moment-arm angle reference phi_ref of the controller"),
+        Column("joint_torque_Nm", "Nm", "torque the actuator applies to the foot, plantarflexion positive"),
+        Column("supply_voltage_V", "V", "supply voltage"),
+        Column("supply_current_A", "A", "supply current into the driver"),
+        Column("motor_current_A", "A", "torque-producing motor current as the driver reports it"),
+    ),
+    keys=(
+        Key("precompression_m", "m", "nominal spring precompression P"),
+        Key("stride_time_s", "s", "duration of one stride"),
+        Key("spring_stiffness_N_per_m", "N/m", "spring stiffness k"),
+        Key("body_mass_kg", "kg", "body mass the gait torque was scaled with"),
+        Key("supply_voltage_V", "V", "nominal supply voltage (overrides the model's 48 V)", required=False),
+        Key("lever_A_m", "m", "MACCEPA connecting-link length A (overrides 0.1 m)", required=False),
+        Key("lever_B_m", "m", "MACCEPA moment-arm length B (overrides 0.06 m)", required=False),
+        Key("gear_ratio", "1", "total transmission ratio (overrides 860)", required=False),
+        Key("strides", "", "number of consecutive strides recorded", required=False, kind="integer"),
+        Key("description", "", "free text", required=False, kind="text"),
+    ),
+)
+
+
+def model_params(meta: dict) -> dict:
+    """The recording's settings as parameter overrides of :class:`~acausal.models.bench_ankle.BenchAnkle`."""
+    p = {"P_nominal": meta["precompression_m"], "stride_time": meta["stride_time_s"],
+         "link.k": meta["spring_stiffness_N_per_m"]}
+    optional = {"supply_voltage_V": "supply.V", "lever_A_m": "link.A", "lever_B_m": "link.B", "gear_ratio": "gear.ratio"}
+    p.update({name: meta[key] for key, name in optional.items() if key in meta})
+    return p
