@@ -184,11 +184,12 @@ class CompiledModel:
         from .simulate import simulate
         return simulate(self, t_end, **kwargs)
 
-    def evaluate(self, t, x=None, params=None, inputs=None, discrete=None):
+    def evaluate(self, t, x=None, params=None, inputs=None, discrete=None, names=None):
         """Every unknown at times ``t`` for given states ``x`` (shape ``(n_states, len(t))``), vectorised.
 
         For a model without states (everything prescribed) this is the whole solution, no integrator needed.
-        ``params`` may be a dict or a parameter array from :meth:`param_vector` / :meth:`param_batch`.
+        ``params`` may be a dict or a parameter array from :meth:`param_vector` / :meth:`param_batch` (values then
+        have shape ``(B, len(t))``). ``names``: return just these variables, aliases included.
         """
         t = np.asarray(t, dtype=float)
         p = params if isinstance(params, np.ndarray) else self.param_vector(params)
@@ -200,7 +201,20 @@ class CompiledModel:
             x = np.zeros((0,) + t.shape)
         vals = self.funcs["all_values"](t, x, p, d, u)
         shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
-        return {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
+        out = {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
+        if names is None:
+            return out
+        from .result import eval_expr
+        picked = {}
+        for n in names:
+            if n in out:
+                picked[n] = out[n]
+            elif n in self.flat.aliases:
+                v = eval_expr(self.flat.aliases[n], out, self, p, list(d), t)
+                picked[n] = np.broadcast_to(np.asarray(v, dtype=float), shape)
+            else:
+                raise self._unknown_name_error(n, "variable", self.names())
+        return picked
 
     # ------------------------------------------------------------------ report
     def report(self) -> str:

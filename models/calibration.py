@@ -123,14 +123,14 @@ def experiments(recordings, effects=(), split: Split = Split(), fixed: dict | No
 
 
 def fit(recordings, params="R,J,b", signals=DEFAULT_SIGNALS, weights=None, effects=(), start=None,
-        split: Split = Split(), fixed: dict | None = None) -> tuple:
+        split: Split = Split(), fixed: dict | None = None, loss: str = "soft_l1") -> tuple:
     """Calibrate ``params`` on ``recordings`` (list of Recording, or a folder); returns
     ``(Calibration, experiments)``."""
     if not isinstance(recordings, (list, tuple)):
         recordings = load_recordings(recordings, ANKLE_FORMAT)
     exps = experiments(recordings, effects, split, fixed)
     free = [free_parameter(n, start) for n in parameter_names(params)]
-    cal = calibrate(exps, free, list(signals), weights=weights, fixed=fixed)
+    cal = calibrate(exps, free, list(signals), weights=weights, fixed=fixed, loss=loss)
     return cal, exps
 
 

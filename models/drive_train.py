@@ -9,36 +9,85 @@ Gears: the smooth mesh law (see ``LossyGear``): no locked mode is needed under f
 and in inverse replays the motor current stays continuous at motion reversals, so every joule passes through
 the integrated powers. Values: planetary 86:1 with the catalogue's 70 % and 0.7 g cm2 input inertia; helical
 10:1 at an assumed 90 %.
+
+Options for the alternative actuators (the defaults are the paper's drive train):
+
+* ``supply="battery"``: the supply is connected straight to the driver's bus, without the non-regenerative
+  rectifier, so energy fed back by the driver charges it (a battery with internal resistance, ``Supply``
+  accepts negative current). No ``rect`` component then.
+* ``output_stage="self_locking"``: the helical 10:1 stage is replaced by a self-locking 10:1 stage ``worm``
+  (:class:`~acausal.library.rotational.SelfLockingGear`); the total ratio stays 860. No ``helical`` then.
+* ``driver_cls``: the driver class (default :class:`~acausal.library.drives.PWMDriver`), e.g. one that can be
+  switched off.
+
+:func:`drive_train_accounts` lists the loss powers and stored energies the chosen drive train contributes to a
+model's energy balance.
 """
 from acausal import connect
 from acausal.library.drives import DCMotor, PWMDriver
 from acausal.library.electrical import Ground, NonRegenerativeRectifier, Supply
-from acausal.library.rotational import Gearbox
+from acausal.library.rotational import Gearbox, SelfLockingGear
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 
+SUPPLIES = ("rectifier", "battery")
+OUTPUT_STAGES = ("helical", "self_locking")
 
-def add_drive_train(m, saturate: bool):
+
+def _check(supply: str, output_stage: str):
+    if supply not in SUPPLIES:
+        raise ValueError(f"add_drive_train: supply must be one of {SUPPLIES}, got {supply!r}")
+    if output_stage not in OUTPUT_STAGES:
+        raise ValueError(f"add_drive_train: output_stage must be one of {OUTPUT_STAGES}, got {output_stage!r}")
+
+
+def add_drive_train(m, saturate: bool, supply: str = "rectifier", output_stage: str = "helical",
+                    driver_cls=PWMDriver):
     """Add the drive train to model ``m`` (inside its ``build``); ``saturate``: the driver clamps its duty
-    (closed loop) or not (inverse models, where the compiler solves for the command). Returns the output flange."""
+    (closed loop) or not (inverse models, where the compiler solves for the command). Returns the output flange.
+    ``supply``, ``output_stage``, ``driver_cls``: see the module docstring."""
+    _check(supply, output_stage)
     m.supply = Supply()
     m.P_source = ElectricalPowerSensor()
-    m.rect = NonRegenerativeRectifier()
-    m.driver = PWMDriver(command="voltage", saturate=saturate)
+    if supply == "rectifier":
+        m.rect = NonRegenerativeRectifier()
+    m.driver = driver_cls(command="voltage", saturate=saturate)
     m.P_driver = ElectricalPowerSensor()
     m.motor = DCMotor()
     m.gnd = Ground()
     connect(m.supply.p, m.P_source.pc, m.P_source.pv)
-    connect(m.P_source.nc, m.rect.p_in)
-    connect(m.supply.n, m.P_source.nv, m.rect.n_in, m.gnd.p)
-    connect(m.rect.p_bus, m.driver.bus_p)
-    connect(m.rect.n_bus, m.driver.bus_n)
+    if supply == "rectifier":
+        connect(m.P_source.nc, m.rect.p_in)
+        connect(m.supply.n, m.P_source.nv, m.rect.n_in, m.gnd.p)
+        connect(m.rect.p_bus, m.driver.bus_p)
+        connect(m.rect.n_bus, m.driver.bus_n)
+    else:
+        connect(m.P_source.nc, m.driver.bus_p)
+        connect(m.supply.n, m.P_source.nv, m.driver.bus_n, m.gnd.p)
     connect(m.driver.mot_p, m.P_driver.pc, m.P_driver.pv)
     connect(m.P_driver.nc, m.motor.p)
     connect(m.driver.mot_n, m.P_driver.nv, m.motor.n)
     m.P_motor = MechanicalPowerSensor()
     m.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")
-    m.helical = Gearbox(ratio=10.0, eta=0.9, law="smooth")
     connect(m.motor.flange, m.P_motor.flange_a)
     connect(m.P_motor.flange_b, m.planetary.flange_a)
-    connect(m.planetary.flange_b, m.helical.flange_a)
-    return m.helical.flange_b
+    if output_stage == "helical":
+        m.helical = Gearbox(ratio=10.0, eta=0.9, law="smooth")
+        connect(m.planetary.flange_b, m.helical.flange_a)
+        return m.helical.flange_b
+    m.worm = SelfLockingGear(ratio=10.0)
+    connect(m.planetary.flange_b, m.worm.flange_a)
+    return m.worm.flange_b
+
+
+def drive_train_accounts(supply: str = "rectifier", output_stage: str = "helical") -> dict:
+    """The drive train's share of a model's energy balance: loss powers grouped by stage (``driver``: supply
+    side up to the driver output, ``motor``, ``gearing``) and stored energies."""
+    _check(supply, output_stage)
+    front = ["supply.loss_power"] + (["rect.loss_power"] if supply == "rectifier" else []) + ["driver.loss_power"]
+    last = "helical" if output_stage == "helical" else "worm"
+    stored = (["rect.bus_energy"] if supply == "rectifier" else []) + ["motor.energy", "planetary.energy"]
+    if output_stage == "helical":
+        stored.append("helical.energy")
+    return {"loss_groups": {"driver": front, "motor": ["motor.loss_power"],
+                            "gearing": ["planetary.loss_power", f"{last}.loss_power"]},
+            "stored": stored}

@@ -5,6 +5,10 @@ One condition = one compiled model simulated over ``strides`` strides with that 
 and planned trajectory; the last stride is evaluated (the first lets the bus and, in closed loop, the controller
 settle). Sweeps run conditions through any ``concurrent.futures.Executor`` (default: a process pool on all
 cores); each worker process compiles each model once.
+
+Any model of the registry (:mod:`acausal.models.registry`: the paper's actuator in replay and closed loop, the
+direct drive and the alternative actuators) runs through the same protocol; its spec names its measurement
+points, losses and stored energies, so the energy balance is checked for every model the same way.
 """
 from __future__ import annotations
 
@@ -17,31 +21,31 @@ import numpy as np
 
 from acausal import compile_model
 
-from . import cyberlegs, direct_drive
+from . import registry
 from .presets import preset
+from .registry import spec
+
+MODELS = registry.MODELS  # name -> ModelSpec
 
 PRECOMPRESSIONS = [0.002, 0.005, 0.008, 0.011, 0.015, 0.018]  # m (paper section 4)
 STRIDE_TIMES = [1.2, 1.3, 1.5, 2.0, 2.5, 3.0]  # s per stride (paper section 4)
 POINTS = ["source", "driver", "motor", "link", "output"]
 PAPER_TABLE1 = {"source": 64.5, "driver": 42.0, "motor": 33.0, "link": 15.4, "output": 12.0}  # J, 8 mm, 2 s
 
-#: every dissipation of the actuator (the energy balance's loss side)
+#: every dissipation of the paper's actuator (the energy balance's loss side; other models: ``spec(name).losses``)
 LOSSES = ["supply.loss_power", "rect.loss_power", "driver.loss_power", "motor.loss_power",
           "planetary.loss_power", "helical.loss_power"]
 
-MODELS = {
-    "replay": lambda: cyberlegs.CyberlegsAnkle(mode="replay"),
-    "closed_loop": lambda: cyberlegs.CyberlegsAnkle(mode="closed_loop"),
-    "direct_drive": lambda: direct_drive.DirectDrive(),
-}
-
-_COMPILED: dict = {}  # per-process cache: model name -> CompiledModel (compiled once per worker)
+_COMPILED: dict = {}  # per-process cache: build key -> CompiledModel (compiled once per worker)
 
 
 def compiled(name: str):
-    if name not in _COMPILED:
-        _COMPILED[name] = compile_model(MODELS[name]())
-    return _COMPILED[name]
+    """The compiled model of registered model ``name`` (compiled once per process; shared by models with the
+    same build key)."""
+    s = spec(name)
+    if s.key not in _COMPILED:
+        _COMPILED[s.key] = compile_model(s.build())
+    return _COMPILED[s.key]
 
 
 @dataclass
@@ -52,6 +56,7 @@ class Condition:
     preset: str = "library"
     strides: int = 2
     points_per_stride: int = 201
+    overrides: dict = field(default_factory=dict)  # run-time parameter overrides by name (e.g. {"link.k": 2e6})
 
 
 @dataclass
@@ -66,6 +71,11 @@ class StrideResult:
     max_duty: float = 0.0  # largest |d| the driver needed (replay: > d_max means the motor could not follow)
     peak_motor_speed: float = 0.0  # rad/s
     peak_motor_current: float = 0.0  # A
+    rms_motor_current: float = 0.0  # A over the stride
+    peak_motor_voltage: float = 0.0  # V, largest |v| at the motor terminals
+    returned: float = 0.0  # J per stride flowing back into the supply at the source point (negative power)
+    loss_energy: dict = field(default_factory=dict)  # J per stride of each loss power of the energy balance
+    params: dict = field(default_factory=dict)  # the run-time parameters of the run (numbers only)
     traces: dict = field(default_factory=dict)  # time series of the evaluated stride (when asked for)
 
     @property
@@ -95,19 +105,19 @@ class StrideResult:
 
 def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
     """Simulate one bench condition and evaluate its last stride."""
+    s = spec(cond.model)
     sim = compiled(cond.model)
     T = cond.stride_time
-    params = {**preset(cond.preset), "stride_time": T}
-    inputs = {}
-    if cond.model != "direct_drive":
+    params = {**preset(cond.preset), **s.params, "stride_time": T}
+    if s.uses_precompression:
         params["link.P"] = cond.P
-        inputs = cyberlegs.condition_inputs(cond.P)
+    params.update(cond.overrides)
+    inputs = s.inputs(cond.P, params) if s.inputs is not None else {}
     n = cond.strides * (cond.points_per_stride - 1) + 1
-    tol = dict(rtol=1e-8, atol=1e-10) if cond.model != "closed_loop" else dict(rtol=1e-6, atol=1e-8)
-    res = sim.simulate(cond.strides * T, params=params, inputs=inputs, n_points=n, **tol)
+    res = sim.simulate(cond.strides * T, params=params, inputs=inputs, n_points=n, **s.tol)
     k0 = (cond.strides - 1) * (cond.points_per_stride - 1)
     window = slice(k0, None)
-    points = dict(cyberlegs.MEASUREMENT_POINTS if cond.model != "direct_drive" else direct_drive.MEASUREMENT_POINTS)
+    points = dict(s.points)
 
     def stride_energy(name):
         e = res.energy(name)
@@ -118,23 +128,42 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
     stage_loss = {"driver": stage_loss["driver"], "motor": stage_loss["motor"], "gearing": stage_loss["link"],
                   "output": stage_loss["output"]}
     peak = {k: float(np.max(np.abs(res[points[k]][window]))) for k in POINTS}
-    stored = [n for n in cyberlegs.STORED if n in res]
-    d_stored = sum(float(res[n][-1] - res[n][k0]) for n in stored)
+    d_stored = sum(float(res[n][-1] - res[n][k0]) for n in s.accounts["stored"])
     src = stride_energy("supply.source_power")
-    losses = sum(stride_energy(n) for n in LOSSES)
+    loss_energy = {n: stride_energy(n) for n in s.losses}
     out = energy["output"]
-    residual = (src - losses - out - d_stored) / src
+    residual = (src - sum(loss_energy.values()) - out - d_stored) / src
+    t = res.t[window] - res.t[k0]
+    i_m = np.asarray(res["motor.i"][window])
     r = StrideResult(cond, energy, stage_loss, peak, residual,
                      max_duty=float(np.max(np.abs(res["driver.d"][window]))),
                      peak_motor_speed=float(np.max(np.abs(res["motor.w"][window]))),
-                     peak_motor_current=float(np.max(np.abs(res["motor.i"][window]))))
+                     peak_motor_current=float(np.max(np.abs(i_m))),
+                     rms_motor_current=float(np.sqrt(np.sum(np.diff(t) * (i_m[1:]**2 + i_m[:-1]**2) / 2) / t[-1])),
+                     peak_motor_voltage=float(np.max(np.abs(res["motor.v"][window]))),
+                     returned=negative_energy(t, np.asarray(res[points["source"]][window])),
+                     loss_energy=loss_energy, params={k: float(v) for k, v in params.items()})
     if "tracking_error" in res:
         e = res["tracking_error"][window]
         r.tracking_rms, r.tracking_max = float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))
     if traces:
-        t = res.t[window] - res.t[k0]
         r.traces = {"time": t, **{name: np.asarray(res[name][window]) for name in traces if name in res}}
     return r
+
+
+def negative_energy(t, p) -> float:
+    """Integral of the negative part of a sampled power, ``-int min(p, 0) dt`` [J] (trapezoids, each sign change
+    located by linear interpolation)."""
+    t, p = np.asarray(t, dtype=float), np.asarray(p, dtype=float)
+    q = np.minimum(p, 0.0)
+    dt = np.diff(t)
+    a, b = p[:-1], p[1:]
+    whole = 0.5 * dt * (q[:-1] + q[1:])
+    cross = (a * b) < 0
+    # on a crossing interval only the negative triangle counts: 0.5 * dt_neg * min(a, b)
+    frac = np.where(cross, np.minimum(a, b) / np.where(cross, (np.minimum(a, b) - np.maximum(a, b)), 1.0), 0.0)
+    part = 0.5 * dt * frac * np.minimum(a, b)
+    return float(-np.sum(np.where(cross, part, whole)))
 
 
 def _run(args):

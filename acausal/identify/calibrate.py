@@ -7,8 +7,14 @@ for the samples used to fit (``train``) and to judge (``test``: held-out strides
     sum over experiments, signals s, training samples k of  w_s * ((predicted - measured) / scale_s)^2
 
 with :func:`scipy.optimize.least_squares` (trust-region reflective, bounds), parameters scaled by their typical
-magnitude. ``scale_s`` makes signals of different units comparable (default: the RMS of the measured signal
-over all experiments); ``w_s`` weighs them (default 1).
+magnitude. ``scale_s`` makes signals of different units comparable: by default the noise level of each measured
+signal, estimated from the data (:func:`noise_scales`), so residuals are in units of sensor noise and the fit is
+the maximum-likelihood one under white Gaussian noise. ``w_s`` weighs signals (default 1).
+
+The loss is robust by default (``soft_l1`` with ``f_scale = 3``: quadratic up to three noise levels, linear
+beyond), so a few samples the model cannot follow (a driver going into saturation makes kinks in the measured
+current that the smoothed replay rounds off) do not bias the parameters; ``loss="linear"`` gives plain least
+squares.
 
 Uncertainty: the covariance ``s^2 (J^T J)^-1`` at the optimum, with ``s^2`` the residual variance; it assumes
 white residuals, so it is optimistic when the model misses something systematic (see the residual analysis).
@@ -79,9 +85,16 @@ class Calibration:
         return {k: self.std[k] / abs(self.values[k]) if self.values[k] else np.inf for k in self.names}
 
 
-def signal_scales(experiments, signals) -> dict:
-    return {s: float(np.sqrt(np.mean(np.concatenate([e.measured[s] for e in experiments]) ** 2))) or 1.0
-            for s in signals}
+def noise_scales(experiments, signals) -> dict:
+    """Noise standard deviation of each measured signal, from its second differences: for white noise of level
+    sigma, ``y[k+1] - 2 y[k] + y[k-1]`` has standard deviation ``sqrt(6) sigma`` while a smooth signal sampled
+    fast contributes little; the median absolute value makes it robust (``MAD / 0.6745``)."""
+    out = {}
+    for s in signals:
+        d2 = np.concatenate([np.diff(e.measured[s], 2) for e in experiments])
+        sigma = float(np.median(np.abs(d2)) / 0.6745 / np.sqrt(6.0))
+        out[s] = sigma if sigma > 0 else float(np.sqrt(np.mean(np.concatenate([e.measured[s] for e in experiments]) ** 2))) or 1.0
+    return out
 
 
 def residual_vector(experiments, values, signals, weights, scales, mask="train") -> np.ndarray:
@@ -95,7 +108,8 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
 
 
 def calibrate(experiments, free, signals, weights: dict | None = None, scales: dict | None = None,
-              fixed: dict | None = None, max_nfev: int = 100) -> Calibration:
+              fixed: dict | None = None, max_nfev: int = 100, loss: str = "soft_l1",
+              f_scale: float = 3.0) -> Calibration:
     """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``."""
     experiments = list(experiments)
     if not experiments:
@@ -105,7 +119,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
             if s not in e.measured:
                 raise DataError(f"calibrate: experiment {e.name!r} has no measured signal {s!r}")
     weights = dict(weights or {})
-    scales = dict(scales or signal_scales(experiments, signals))
+    scales = dict(scales or noise_scales(experiments, signals))
     fixed = dict(fixed or {})
     names = [f.name for f in free]
     xs = np.array([f.scale or (abs(f.start) or 1.0) for f in free])
@@ -119,7 +133,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     z0 = np.array([f.start for f in free]) / xs
     lo = np.array([f.lower for f in free]) / xs
     hi = np.array([f.upper for f in free]) / xs
-    sol = least_squares(fun, z0, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev,
+    sol = least_squares(fun, z0, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, loss=loss, f_scale=f_scale,
                         diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10)
     J = sol.jac * 1.0
     m, n = J.shape

@@ -1,0 +1,178 @@
+"""Efficiency-optimal spring design (paper section 4.4, Figs. 16-17).
+
+For a spring stiffness k and precompression P the moment-arm trajectory is planned so that the MACCEPA delivers the
+gait torque (paper section 3, :func:`~acausal.models.planning.plan_moment_arm`), and the calibrated Eq. (4) model
+(:class:`~acausal.models.bench_ankle.BenchAnkle`, replay mode: algebraic) is evaluated over one stride. The overall
+efficiency per stride is the joint energy over the source energy (the rectifier returns nothing, so the source
+energy is the integral of the positive bus power).
+
+All designs of a map are evaluated in one vectorised call: their planned trajectories are stacked into one
+:class:`PeriodicSplineBatch` (a signal whose value is an array over designs) and their parameters into a
+parameter batch, so the generated code runs over (designs x samples) arrays. A design the linkage cannot serve
+(gait torque above the MACCEPA's maximum at that k, P) is infeasible (NaN); one that needs more than the driver's
+0.9 duty is kept and flagged (the motor could not follow it: its energy is a lower bound).
+
+The original design criterion (minimum peak mechanical power of the moment arm at 1.2 s per stride; paper:
+130 N/mm and 7 mm) is evaluated on the same map for comparison, and a continuous optimiser
+(:func:`refine`, bounded Nelder-Mead on the model itself) refines the efficiency optimum of the grid.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+from scipy.optimize import minimize
+
+from acausal import Signal
+from acausal.library.gait import unit_cycle
+from acausal.library.maccepa import inverse_torque, max_torque
+from acausal.sweep import chunks, sweep
+
+from .bench import BODY_MASS, TRUTH
+from .calibration import replay_model
+
+A_LEVER, B_LEVER = 0.1, 0.06
+N_STRIDE = 400  # samples per stride
+K_GRID = np.linspace(40e3, 200e3, 17)  # N/m
+P_GRID = np.linspace(0.001, 0.018, 18)  # m
+POINTS = {"source": "P_source.P", "driver": "P_driver.P", "motor": "P_motor.P", "link": "P_link.P",
+          "output": "P_output.P"}
+
+
+class PeriodicSplineBatch(Signal):
+    """B periodic quintic interpolating splines sharing sample times: ``evaluate(t, order)`` has shape
+    ``(B, len(t))`` (one row per member), so a compiled model evaluates all members at once."""
+
+    max_order = 5
+
+    def __init__(self, t, Y, period: float, name: str = "spline batch"):
+        t = np.asarray(t, dtype=float)
+        Y = np.asarray(Y, dtype=float)  # (len(t), B)
+        tt = np.append(t, t[0] + period)
+        yy = np.vstack([Y, Y[:1]])
+        self._pp = [make_interp_spline(tt, yy, k=5, bc_type="periodic", axis=0)]
+        for _ in range(self.max_order):
+            self._pp.append(self._pp[-1].derivative())
+        self.t0, self.period, self.name = float(t[0]), float(period), name
+
+    def evaluate(self, t, order):
+        tau = self.t0 + np.mod(np.asarray(t, dtype=float) - self.t0, self.period)
+        return np.moveaxis(self._pp[order](tau), -1, 0) if np.ndim(t) else self._pp[order](tau)
+
+
+@dataclass
+class Designs:
+    """Planned trajectories of a list of designs at one stride time."""
+
+    k: np.ndarray
+    P: np.ndarray
+    stride_time: float
+    feasible: np.ndarray
+    t: np.ndarray
+    theta: np.ndarray  # (N,)
+    phi: np.ndarray  # (B_feasible, N)
+
+
+def plan_designs(ks, Ps, stride_time: float, n: int = N_STRIDE) -> Designs:
+    """The moment-arm trajectory of every (k, P) pair (vectorised over P for each k)."""
+    ks, Ps = np.asarray(ks, float), np.asarray(Ps, float)
+    cyc = unit_cycle()
+    s = np.arange(n) / n
+    theta = cyc.angle(s)
+    M = BODY_MASS * cyc.torque(s)
+    feasible = max_torque(Ps, ks, A_LEVER, B_LEVER)[0] >= np.max(np.abs(M)) if np.ndim(ks) == 0 else \
+        np.array([max_torque(P, k, A_LEVER, B_LEVER)[0] >= np.max(np.abs(M)) for k, P in zip(ks, Ps)])
+    phi = []
+    for k in np.unique(ks[feasible]):
+        sel = feasible & (ks == k)
+        phi.append((sel, theta + inverse_torque(M[None, :], Ps[sel][:, None], k, A_LEVER, B_LEVER)))
+    rows = np.empty((int(feasible.sum()), n))
+    index = np.cumsum(feasible) - 1
+    for sel, ph in phi:
+        rows[index[sel]] = ph
+    return Designs(ks, Ps, stride_time, feasible, s * stride_time, theta, rows)
+
+
+def evaluate_designs(ks, Ps, stride_time: float, params: dict | None = None, n: int = N_STRIDE) -> dict:
+    """Energy per stride at the measurement points, efficiency, peak powers and the largest duty of every
+    design (arrays over designs; NaN where infeasible)."""
+    d = plan_designs(ks, Ps, stride_time, n)
+    B = len(d.k)
+    out = {key: np.full(B, np.nan) for key in
+           ["efficiency", "peak_link_W", "peak_motor_W", "max_duty"] + [f"E_{p}_J" for p in POINTS]}
+    out.update(k=d.k, P=d.P, feasible=d.feasible)
+    if not d.feasible.any():
+        return out
+    T = stride_time
+    sim = replay_model()
+    theta = PeriodicSplineBatch(d.t, d.theta[:, None], T, "gait angle")
+    phi = PeriodicSplineBatch(d.t, d.phi.T, T, "planned moment-arm angles")
+    base = {**TRUTH, **(params or {}), "stride_time": T}
+    pb = sim.param_batch([{**base, "link.k": k, "P_nominal": P} for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
+    vals = sim.evaluate(d.t, params=pb, names=list(POINTS.values()) + ["driver.d"],
+                        inputs={"ankle.phi_ref": theta, "arm_target.signal": phi})
+    E = {p: np.mean(vals[v], axis=-1) * T for p, v in POINTS.items()}  # periodic: the rectangle rule
+    f = d.feasible
+    for p in POINTS:
+        out[f"E_{p}_J"][f] = E[p]
+    out["efficiency"][f] = E["output"] / E["source"]
+    out["peak_link_W"][f] = np.max(np.abs(vals["P_link.P"]), axis=-1)
+    out["peak_motor_W"][f] = np.max(np.abs(vals["P_motor.P"]), axis=-1)
+    out["max_duty"][f] = np.max(np.abs(vals["driver.d"]), axis=-1)
+    return out
+
+
+def _map_chunk(args):
+    ks, Ps, T, params = args
+    return evaluate_designs(ks, Ps, T, params)
+
+
+@dataclass
+class DesignMap:
+    stride_time: float
+    k: np.ndarray  # grid axes
+    P: np.ndarray
+    values: dict  # name -> (len(k), len(P)) arrays
+
+    def optimum(self, key: str = "efficiency", maximise: bool = True) -> tuple:
+        g = self.values[key]
+        ok = np.isfinite(g)
+        i = np.nanargmax(np.where(ok, g, -np.inf)) if maximise else np.nanargmin(np.where(ok, g, np.inf))
+        a, b = np.unravel_index(i, g.shape)
+        return float(self.k[a]), float(self.P[b]), float(g[a, b])
+
+    def at(self, k: float, P: float, key: str = "efficiency") -> float:
+        a, b = np.argmin(np.abs(self.k - k)), np.argmin(np.abs(self.P - P))
+        return float(self.values[key][a, b])
+
+
+def efficiency_map(stride_time: float, params: dict | None = None, ks=K_GRID, Ps=P_GRID, executor=None,
+                   tasks: int | None = None) -> DesignMap:
+    """The (k x P) map at one stride time, in ``tasks`` chunks through ``executor`` (default: a process pool on
+    all cores; ``"serial"`` for this process; any ``concurrent.futures.Executor``, e.g. a dask client's)."""
+    import os
+    K, P = np.meshgrid(np.asarray(ks, float), np.asarray(Ps, float), indexing="ij")
+    pairs = list(zip(K.ravel(), P.ravel()))
+    parts = chunks(pairs, tasks or (1 if executor == "serial" else (os.cpu_count() or 1)))
+    jobs = [(np.array([a for a, _ in c]), np.array([b for _, b in c]), stride_time, params) for c in parts]
+    results = sweep(_map_chunk, jobs, executor=executor)
+    merged = {key: np.concatenate([r[key] for r in results]) for key in results[0]}
+    values = {key: v.reshape(K.shape) for key, v in merged.items() if key not in ("k", "P")}
+    return DesignMap(stride_time, np.asarray(ks, float), np.asarray(Ps, float), values)
+
+
+def refine(dmap: DesignMap, params: dict | None = None) -> tuple:
+    """Continuous optimum of the efficiency, started at the grid optimum (bounded Nelder-Mead in mm and N/mm)."""
+    k0, P0, _ = dmap.optimum()
+    lo = np.array([dmap.k.min() / 1e3, dmap.P.min() * 1e3])
+    hi = np.array([dmap.k.max() / 1e3, dmap.P.max() * 1e3])
+
+    def neg_eff(z):
+        r = evaluate_designs(np.array([z[0] * 1e3]), np.array([z[1] * 1e-3]), dmap.stride_time, params)
+        e = r["efficiency"][0]
+        return -e if np.isfinite(e) else 1.0
+
+    sol = minimize(neg_eff, [k0 / 1e3, P0 * 1e3], method="Nelder-Mead", bounds=list(zip(lo, hi)),
+                   options={"xatol": 0.05, "fatol": 1e-6, "maxiter": 200})
+    return float(sol.x[0] * 1e3), float(sol.x[1] * 1e-3), float(-sol.fun)

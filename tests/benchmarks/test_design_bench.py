@@ -1,0 +1,68 @@
+"""Benchmarks of issue 6: the Fig. 16 design map (>= 300 designs, goal < 5 s on 2 cores, and <= 2x a
+hand-vectorised numpy evaluation of the same replay equations in the same run) and calibration over 36
+recordings (goal < 60 s). Assertions on time are loose regression guards (3x the goal); correctness is asserted."""
+import time
+
+import numpy as np
+import pytest
+
+from acausal.models import calibration, design
+from acausal.models.bench import BenchCondition, default_conditions, run_bench
+
+from . import handwritten_design
+
+
+def _best_of(fn, rounds):
+    best = np.inf
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _min_time(benchmark):
+    return None if benchmark.disabled or benchmark.stats is None else benchmark.stats.stats.min
+
+
+def test_fig16_map(benchmark):
+    dmap = benchmark.pedantic(lambda: design.efficiency_map(1.2), rounds=2, iterations=1)
+    n = dmap.values["efficiency"].size
+    assert n >= 300
+    assert np.isfinite(dmap.values["efficiency"]).sum() >= 300
+    benchmark.extra_info.update(designs=n, goal_s=5.0)
+    t = _min_time(benchmark)
+    assert t is None or t < 3 * 5.0
+
+
+def test_design_map_vs_numpy(benchmark):
+    K, P = np.meshgrid(design.K_GRID, design.P_GRID, indexing="ij")
+    ks, Ps = K.ravel(), P.ravel()
+    ours = design.evaluate_designs(ks, Ps, 1.2)["efficiency"]
+    ref = handwritten_design.evaluate_designs(ks, Ps, 1.2)
+    np.testing.assert_allclose(ours, ref, rtol=1e-9)  # the same equations, so the same numbers
+    t_ref = _best_of(lambda: handwritten_design.evaluate_designs(ks, Ps, 1.2), 3)
+    benchmark.pedantic(lambda: design.evaluate_designs(ks, Ps, 1.2), rounds=3, iterations=1)
+    t = _min_time(benchmark)
+    if t is None:
+        return
+    ratio = t / t_ref
+    benchmark.extra_info.update(reference_s=t_ref, ratio=ratio, goal_ratio=2.0)
+    print(f"\ndesign map: ours {t:.3f} s, hand-vectorised numpy {t_ref:.3f} s, ratio {ratio:.2f} (goal <= 2)")
+    assert ratio < 3 * 2.0
+
+
+@pytest.fixture(scope="module")
+def bench36(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench36")
+    run_bench(out, default_conditions(strides=3), seed=11)
+    return out
+
+
+def test_calibration_36_recordings(benchmark, bench36):
+    cal, exps = benchmark.pedantic(lambda: calibration.fit(bench36), rounds=1, iterations=1)
+    assert len(exps) == 36
+    assert abs(cal.values["motor.R"] / 0.7 - 1) < 0.05
+    benchmark.extra_info["goal_s"] = 60.0
+    t = _min_time(benchmark)
+    assert t is None or t < 3 * 60.0
