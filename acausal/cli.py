@@ -4,8 +4,11 @@
 
     acausal paper --out DIR [--quick] [--jobs N]   reproduce the paper's results into DIR/report.md (+ PNG, CSV)
 
-``bench``, ``fit``, ``diagnose`` and ``compare`` belong to the design (../shared/design.md) but are not
-implemented yet: they exit with status 2 and say so. This module is the one place in ``acausal/`` that imports
+    acausal bench --out DIR [--effect NAME=VALUE ...] [--seed N]   virtual-bench recordings
+    acausal fit DATA --params R,J,b --out DIR                      calibration (Table 2, Fig. 14)
+
+``diagnose`` and ``compare`` belong to the design (../shared/design.md) and are wired when ready; until then
+they exit with status 2 and say so. This module is the one place in ``acausal/`` that imports
 ``acausal.models`` (the CLI wires verbs to models; see the dependency rules in the design).
 """
 from __future__ import annotations
@@ -19,14 +22,12 @@ from pathlib import Path
 
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
 EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
-            "fig15_efficiency", "table2"]
+            "fig15_efficiency", "table2", "fig14_calibration", "fig16_17_design"]
 
 #: verbs of the design that are not implemented yet: what they will do
 PLANNED = {
-    "bench": "virtual test bench: replay a recorded bench run through the model",
-    "fit": "fit model parameters (e.g. Table 2's J, b, R) to measured currents and powers",
     "diagnose": "rank candidate explanations of a model-vs-measurement residual",
-    "compare": "compare two result sets (simulation vs measurement, or two presets)",
+    "compare": "compare alternative drive trains side by side",
 }
 
 
@@ -72,7 +73,54 @@ def cmd_paper(args) -> int:
     return 0
 
 
-ISSUE = {"bench": 6, "fit": 6, "diagnose": 7, "compare": 8}
+ISSUE = {"diagnose": 7, "compare": 8}
+
+
+def cmd_bench(args) -> int:
+    from acausal.models import bench
+    from acausal.models.effects import parse_effects
+
+    effects = parse_effects(args.effect)
+    sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
+    truth = {bench_name(k): float(v) for k, v in _pairs(args.truth, "--truth")}
+    conds = bench.default_conditions(strides=args.strides)
+    if args.quick:
+        conds = [bench.BenchCondition(P, T, args.strides) for P in (0.005, 0.011, 0.018) for T in (1.2, 2.0, 3.0)]
+    print(f"acausal bench: {len(conds)} recordings, effects: {effects or 'none'}", file=sys.stderr)
+    paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed)
+    print(f"wrote {len(paths)} recordings to {args.out} (answer key in {Path(args.out) / 'README.md'})")
+    return 0
+
+
+def bench_name(short: str) -> str:
+    from acausal.models.calibration import SHORT
+    return SHORT.get(short, short)
+
+
+def _pairs(items, flag):
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"acausal: {flag} {item!r}: expected NAME=VALUE")
+        yield name.strip(), value.strip()
+
+
+def cmd_fit(args) -> int:
+    from acausal.models import calibration
+    from acausal.models.fit_report import fit_outputs
+
+    out = Path(args.out)
+    weights = {k: float(v) for k, v in _pairs(args.weight, "--weight")}
+    signals = [s.strip() for s in args.signals.split(",") if s.strip()]
+    cal, exps = calibration.fit(args.data, args.params, signals=signals, weights=weights,
+                                split=calibration.Split(holdout_every=args.holdout_every))
+    res = fit_outputs(out, cal, exps, f"recordings in `{args.data}`")
+    (out / "report.md").write_text(f"# {res['title']}\n\n{res['markdown']}\n\n"
+                                   + "\n".join(f"![{p.stem}]({p.name})" for p in res["figures"]) + "\n")
+    for n in cal.names:
+        print(f"{n} = {cal.values[n]:.6g} +- {cal.std[n]:.2g}")
+    print(f"report: {out / 'report.md'}")
+    return 0
 
 
 def _not_implemented(verb: str):
@@ -94,6 +142,27 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     paper.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     paper.set_defaults(run=cmd_paper)
+    bench = sub.add_parser("bench", help="virtual test bench: record the paper's protocol on a truth model")
+    bench.add_argument("--out", required=True, help="folder for the recordings (NAME.csv + NAME.json)")
+    bench.add_argument("--effect", action="append", metavar="NAME=VALUE",
+                       help="hide an effect in the truth model (repeatable); names: see acausal.models.effects")
+    bench.add_argument("--truth", action="append", metavar="PARAM=VALUE", help="truth parameter, e.g. R=0.8")
+    bench.add_argument("--sensor", action="append", metavar="NAME=VALUE", help="sensor setting, e.g. "
+                       "motor_current_noise=0.05")
+    bench.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
+    bench.add_argument("--quick", action="store_true", help="9 conditions instead of the paper's 36")
+    bench.set_defaults(run=cmd_bench)
+    fit = sub.add_parser("fit", help="calibrate model parameters on bench recordings (Table 2, Fig. 14)")
+    fit.add_argument("data", help="folder of recordings")
+    fit.add_argument("--params", default="R,J,b", help="parameters to fit (default R,J,b; also L, k, effect "
+                     "parameters such as driver.P_q)")
+    fit.add_argument("--signals", default="motor_current_A,supply_current_A",
+                     help="recorded signals to fit (default motor_current_A,supply_current_A)")
+    fit.add_argument("--weight", action="append", metavar="SIGNAL=W", help="weight of a signal (default 1)")
+    fit.add_argument("--holdout-every", type=int, default=3, help="hold out every n-th stride (default 3)")
+    fit.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
+    fit.set_defaults(run=cmd_fit)
     for verb, what in PLANNED.items():
         q = sub.add_parser(verb, help=f"{what} (not implemented yet)")
         q.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
@@ -107,7 +176,12 @@ def main(argv=None) -> int:
     if args.verb is None:
         parser.print_help(sys.stderr)
         return 2
-    return args.run(args)
+    from .errors import AcausalError
+    try:
+        return args.run(args)
+    except AcausalError as e:
+        print(f"acausal {args.verb}: {e}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

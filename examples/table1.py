@@ -8,61 +8,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import logging
-
 import matplotlib
 
 matplotlib.use("Agg")
-logging.getLogger("matplotlib.axes").setLevel(logging.ERROR)  # Sankey's equal aspect overrides fixed limits
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.sankey import Sankey  # noqa: E402
 
 from acausal.models.protocol import POINTS  # noqa: E402
 from acausal.models.report import PAPER, comparison, md_table, pct, pick, write_csv  # noqa: E402
+from acausal.models.sankey import LABELS, LOSS_NAMES, sankey  # noqa: E402
 
 P, T = 0.008, 2.0
-LABELS = {"source": "source", "driver": "driver output", "motor": "motor shaft", "link": "moment arm (link)",
-          "output": "joint (output)"}
-LOSS_NAMES = [("driver", "driver loss\n(supply, rectifier, driver)"), ("motor", "motor loss"),
-              ("link", "gearing loss\n(planetary, helical)"), ("output", "output loss\n(MACCEPA linkage)")]
 # what drives a difference at each point (see acausal.models.report.ASSUMPTIONS)
 WHY_ENERGY = {"source": "driver", "driver": ["gears", "motor"], "motor": "gears", "link": "geometry",
               "output": "geometry"}
 WHY_LOSS = {"driver": "driver", "motor": ["gears", "motor"], "link": "gears", "output": "maccepa"}
-
-
-def sankey(ax, energy: dict, title: str, scale: float):
-    """Source -> driver -> motor -> link -> output, each stage's loss flowing down (``scale``: width per J)."""
-    s = Sankey(ax=ax, scale=scale, unit=" J", format="%.1f", gap=0.35, head_angle=120, shoulder=0.02,
-               offset=0.12)
-    prior = None
-    for i, (a, b) in enumerate(zip(POINTS, POINTS[1:])):
-        loss = max(energy[a] - energy[b], 0.0)
-        name = LOSS_NAMES[i][1]
-        flows = [energy[a], -loss, -energy[b]]
-        if loss < 1e-6 * energy["source"]:
-            flows[1], name = 0.0, None  # nothing lost here: drawn as a note below
-        labels = [LABELS[a] if i == 0 else None, name, LABELS[b] if b == "output" else None]
-        kw = dict(prior=prior, connect=(2, 0)) if prior is not None else {}
-        s.add(flows=flows, orientations=[0, -1, 0], labels=labels, pathlengths=[0.25, 0.35, 0.25],
-              trunklength=1.0, facecolor=f"C{i}", alpha=0.75, **kw)
-        prior = i
-    diagrams = s.finish()
-    for d in diagrams:
-        for t in d.texts:
-            t.set_fontsize(8)
-    # annotate the energy passed on at each intermediate point along the top edge of the band
-    for i, b in enumerate(POINTS[1:-1]):
-        x, y = diagrams[i].tips[2]
-        ax.annotate(f"{LABELS[b]}\n{energy[b]:.1f} J", (x, y + 0.5 * energy[b] * scale), xytext=(0, 6),
-                    textcoords="offset points", ha="center", va="bottom", fontsize=8)
-    last = energy["link"] - energy["output"]
-    if last < 1e-6 * energy["source"]:
-        x, y = diagrams[-1].tips[2]
-        ax.annotate("output loss 0 J\n(MACCEPA modelled\nlossless)", (x, y), xytext=(0, -14),
-                    textcoords="offset points", ha="center", va="top", fontsize=8, color="C3")
-    ax.set_title(title, fontsize=10)
-    ax.axis("off")
 
 
 def main(out_dir: Path, results=None) -> dict:

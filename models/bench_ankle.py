@@ -14,8 +14,7 @@ the baseline has exactly the parameters the paper calibrated (Table 2).
 components: ``gear_coulomb_friction`` (a BearingFriction before the gear), ``gear_load_dependent_loss`` (the
 ideal gear swapped for a LossyGear), ``winding_temperature`` (the motor's heat port on a thermal capacitance),
 ``driver_quiescent_power`` (the driver's P_q), ``torque_sensor_offset`` (a Bias block in the torque reading),
-``precompression_error`` (the spring's actual precompression; a parameter of every variant) and
-``gear_backlash`` (a dead zone between gear and moment arm).
+and ``precompression_error`` (the spring's actual precompression; a parameter of every variant).
 
 Modes:
 

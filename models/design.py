@@ -34,7 +34,7 @@ from .calibration import replay_model
 
 A_LEVER, B_LEVER = 0.1, 0.06
 N_STRIDE = 400  # samples per stride
-K_GRID = np.linspace(40e3, 200e3, 17)  # N/m
+K_GRID = np.linspace(40e3, 280e3, 25)  # N/m (10 N/mm steps)
 P_GRID = np.linspace(0.001, 0.018, 18)  # m
 POINTS = {"source": "P_source.P", "driver": "P_driver.P", "motor": "P_motor.P", "link": "P_link.P",
           "output": "P_output.P"}

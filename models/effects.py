@@ -54,10 +54,6 @@ EFFECTS = {e.id: e for e in [
            "the spring's actual precompression differs from the nominal one (the MACCEPA's P parameter). "
            "Typical: 1-2 mm (the paper names an error in precompression length as a likely cause, section 4.3).",
            scale=1e-3),
-    Effect("gear_backlash", "backlash.b", "rad", 0.0, 0.02, (0.0, 0.2), "motor_current_A",
-           "dead zone between motor and moment arm, referred to the moment arm (library ElastoBacklash-like "
-           "Backlash between gear and arm). Typical: 1 deg of play at the output of a two-stage gear.",
-           scale=0.01),
 ]}
 
 

@@ -1,0 +1,80 @@
+"""What a calibration writes: fitted values with uncertainty, the paper's Table 2 with a calibrated column, RMSE per
+signal and recording (training and held-out strides), and Fig. 14 (measured vs simulated motor current before and
+after calibration). Used by ``acausal fit``, ``acausal paper`` and ``examples/fig14_calibration.py``."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .calibration import START, rmse_before_after, table2  # noqa: E402
+from .report import md_table, write_csv  # noqa: E402
+
+
+def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None) -> dict:
+    """Write ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv`` and ``fig14_calibration.png``
+    (+ its CSV) into ``out_dir``; returns the example-output dictionary (title, figures, csv, markdown)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [dict(parameter=n, start=cal.start[n], value=cal.values[n], std_error=cal.std[n],
+                 relative_std=cal.std[n] / abs(cal.values[n]) if cal.values[n] else np.inf) for n in cal.names]
+    values_csv = write_csv(out / "calibration.csv", rows)
+    rm = [dict(recording=e, signal=s, rmse_train=cal.rmse_train[(e, s)], rmse_heldout=cal.rmse_test.get((e, s), np.nan))
+          for (e, s) in cal.rmse_train]
+    rmse_csv = write_csv(out / "calibration_rmse.csv", rm)
+    t2 = table2(cal)
+    t2_csv = write_csv(out / "table2_calibrated.csv", [dict(parameter=a, unit=b, motor_datasheet=c, estimated_total=d,
+                                                           calibrated=e, std_error=f) for a, b, c, d, e, f in t2])
+    ba = rmse_before_after(exps, cal, cal.signals)
+    fig_png, fig_csv = _fig14(out, cal, exps, figure_recording)
+
+    md = [f"Data: {data_label}. {len(exps)} recordings; every third stride held out; fitted on "
+          f"{', '.join(cal.signals)} (noise-scaled, robust soft-L1 loss); {cal.nfev} model evaluations; "
+          f"{'converged' if cal.success else 'NOT converged: ' + cal.message}.", "",
+          md_table(["parameter", "start (datasheet)", "calibrated", "std. error", "rel."],
+                   [[f"`{r['parameter']}`", f"{r['start']:.4g}", f"{r['value']:.4g}", f"{r['std_error']:.2g}",
+                     f"{100 * r['relative_std']:.2g} %"] for r in rows]),
+          "", "Table 2 of the paper with the calibrated column (Eq. 4, motor-side coefficients):", "",
+          md_table(["parameter", "unit", "motor datasheet", "estimated total", "calibrated", "std. error"],
+                   [[a, b, f"{c:.3g}", f"{d:.3g}", "-" if not np.isfinite(e) else f"{e:.3g}",
+                     "-" if not np.isfinite(f) else f"{f:.2g}"] for a, b, c, d, e, f in t2]),
+          "", "Held-out RMSE (all recordings pooled):", "",
+          md_table(["signal", "datasheet values", "calibrated"],
+                   [[s, f"{ba['datasheet'][s]:.4g}", f"{ba['calibrated'][s]:.4g}"] for s in cal.signals]),
+          "", "The standard errors assume white residuals; they are optimistic where the residual is systematic "
+          "(see `acausal diagnose`)."]
+    return dict(title="Calibration (paper section 4.3, Table 2, Fig. 14)", figures=[fig_png],
+                csv=[values_csv, rmse_csv, t2_csv, fig_csv], markdown="\n".join(md), comparisons=[],
+                before_after=ba)
+
+
+def _fig14(out: Path, cal, exps, name):
+    e = next((x for x in exps if x.name == name), None) or max(exps, key=lambda x: x.info["meta"]["stride_time_s"])
+    before = e.predict({n: START[n] for n in cal.names if n in START})["motor_current_A"]
+    after = e.predict(cal.values)["motor_current_A"]
+    meas = e.measured["motor_current_A"]
+    T = e.info["meta"]["stride_time_s"]
+    show = e.t <= e.t[0] + 2 * T
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    for ax, sim, label in ((axes[0], before, "before calibration (motor datasheet)"),
+                           (axes[1], after, "after calibration")):
+        ax.plot(e.t[show], meas[show], color="0.6", lw=0.6, label="measured")
+        ax.plot(e.t[show], sim[show], color="C3" if ax is axes[0] else "C0", lw=1.2, label="simulated")
+        rm = float(np.sqrt(np.mean((sim - meas)[e.test] ** 2)))
+        ax.set_title(f"{label}: held-out RMSE {rm:.3g} A", fontsize=10)
+        ax.set_ylabel("motor current [A]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper right")
+    axes[1].set_xlabel(f"time [s] (recording {e.name}, first two strides)")
+    fig.tight_layout()
+    png = out / "fig14_calibration.png"
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+    csv = write_csv(out / "fig14_calibration.csv", [dict(time_s=a, measured_A=b, before_A=c, after_A=d)
+                                                    for a, b, c, d in zip(e.t[show], meas[show], before[show],
+                                                                          after[show])])
+    return png, csv
