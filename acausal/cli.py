@@ -7,8 +7,10 @@
     acausal bench --out DIR [--effect NAME=VALUE ...] [--seed N]   virtual-bench recordings
     acausal fit DATA --params R,J,b --out DIR                      calibration (Table 2, Fig. 14)
 
-``diagnose`` and ``compare`` belong to the design (../shared/design.md) and are wired when ready; until then
-they exit with status 2 and say so. This module is the one place in ``acausal/`` that imports
+    acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR | --list
+
+``diagnose`` belongs to the design (../shared/design.md) and is wired when ready; until then it exits with
+status 2 and says so. This module is the one place in ``acausal/`` that imports
 ``acausal.models`` (the CLI wires verbs to models; see the dependency rules in the design).
 """
 from __future__ import annotations
@@ -27,7 +29,6 @@ EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losse
 #: verbs of the design that are not implemented yet: what they will do
 PLANNED = {
     "diagnose": "rank candidate explanations of a model-vs-measurement residual",
-    "compare": "compare alternative drive trains side by side",
 }
 
 
@@ -73,7 +74,7 @@ def cmd_paper(args) -> int:
     return 0
 
 
-ISSUE = {"diagnose": 7, "compare": 8}
+ISSUE = {"diagnose": 7}
 
 
 def cmd_bench(args) -> int:
@@ -163,6 +164,9 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--holdout-every", type=int, default=3, help="hold out every n-th stride (default 3)")
     fit.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     fit.set_defaults(run=cmd_fit)
+    from acausal.models import compare  # the CLI wires verbs to models (design rule exception)
+    cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
+    compare.configure(cmp)
     for verb, what in PLANNED.items():
         q = sub.add_parser(verb, help=f"{what} (not implemented yet)")
         q.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)

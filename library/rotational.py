@@ -325,3 +325,71 @@ class Gearbox(Model):
     def equations(self):
         return [Eq(self.loss_power, self.mesh.loss_power + self.bearing.loss_power),
                 Eq(self.energy, self.inertia_a.energy + self.inertia_b.energy)]
+
+
+class SelfLockingGear(PartialTwoFlanges, OptionalSupport):
+    """Non-backdrivable (self-locking) gear stage, e.g. a worm gear whose friction angle is at least its lead
+    angle; massless. The load cannot drive the input: when it pushes in the direction of motion the input still
+    has to turn the gear, and with the input unpowered the gear holds any load at standstill.
+
+    Kinematics ``phi_a = ratio * phi_b`` (relative to the support). With the power leaving at the output
+    ``P_out = -flange_b.tau * w_b`` and the input torque factor ``g``::
+
+        flange_a.tau = -(1 - hold) * g * flange_b.tau / ratio          (so input power = (1 - hold) g P_out)
+        driving     (P_out > 0):  g = 1 / eta        (input power P_out / eta)
+        overhauling (P_out < 0):  g = eta_back <= 0  (the input still delivers eta_back P_out >= 0; nothing returns)
+
+    For a worm of lead angle lambda and friction angle rho: ``eta = tan(lambda) / tan(lambda + rho)`` and
+    ``eta_back = tan(lambda - rho) / tan(lambda)``; self-locking means ``rho >= lambda``, i.e. ``eta_back <= 0``
+    and ``eta <= 1/2`` (for small angles). Defaults: the most efficient self-locking worm, lambda = rho =
+    5.71 deg (friction coefficient 0.1): eta = 0.495, eta_back = 0 (assumptions, no such stage in the paper).
+
+    Smooth law (no modes, like :class:`LossyGear` with ``law="smooth"``)::
+
+        g = 1 + tanh(x) * (a + b tanh(x)),   x = P_out / P_s,
+        a = (1/eta - eta_back) / 2,  b = (1/eta + eta_back) / 2 - 1
+
+    which tends to ``1/eta`` for ``x >> 1`` and to ``eta_back`` for ``x << -1`` and keeps
+    ``loss_power = input_power - P_out = (g - 1) P_out >= 0`` at every instant (``a + b tanh(x) > 0``).
+
+    ``hold`` (input, 0..1) is the share of the output torque the locked mesh passes to the housing instead of the
+    input: 1 while the input side is unpowered (motor driver switched off), 0 in normal operation. Holding is a
+    standstill state: use ``hold > 0`` only while the gear does not turn (a self-locking gear with an unpowered
+    input cannot turn). At standstill any input torque between ``eta_back`` and ``1/eta`` times the output
+    torque over ``ratio`` is admissible, and ``(1 - hold)`` lies in that band because ``eta_back <= 0``.
+    """
+
+    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
+    eta = Parameter(0.495, unit="1", min=1e-6, max=1.0, doc="efficiency when driving (worm: tan l / tan(l + r))")
+    eta_back = Parameter(0.0, unit="1", min=-1.0, max=0.0,
+                         doc="efficiency when the load overhauls (<= 0: self-locking; worm: tan(l - r) / tan l)")
+    P_s = Parameter(0.5, unit="W", min=1e-12, doc="power scale of the smooth law")
+    hold = RealInput(doc="share of the output torque held by the locked mesh (0..1; 1 = input unpowered)")
+    phi_a = Variable(unit="rad", doc="input angle relative to the support")
+    phi_b = Variable(unit="rad", doc="output angle relative to the support")
+    w_b = Variable(unit="rad/s", doc="output speed")
+    g = Variable(unit="1", doc="input torque factor (1/eta driving, eta_back overhauling)")
+    output_power = Variable(unit="W", doc="power leaving at flange_b, -flange_b.tau w_b")
+    input_power = Variable(unit="W", doc="power into the gear at flange_a")
+    loss_power = Variable(unit="W", doc="input minus output power (>= 0)")
+
+    def __init__(self, use_support: bool = False, **kw):
+        super().__init__(**kw)
+        self._init_support(use_support)
+
+    def equations(self):
+        tau_a, tau_b = self.flange_a.tau, self.flange_b.tau
+        x = sp.tanh(-tau_b * self.w_b / self.P_s)
+        a = (1 / self.eta - self.eta_back) / 2
+        b = (1 / self.eta + self.eta_back) / 2 - 1
+        eqs = [Eq(self.phi_a, self.flange_a.phi - self.support_phi()),
+               Eq(self.phi_b, self.flange_b.phi - self.support_phi()),
+               Eq(self.phi_a, self.ratio * self.phi_b), Eq(self.w_b, der(self.phi_b)),
+               Eq(self.g, 1 + x * (a + b * x)),
+               Eq(tau_a, -(1 - self.hold.value) * self.g * tau_b / self.ratio),
+               Eq(self.output_power, -tau_b * self.w_b),
+               Eq(self.input_power, tau_a * self.ratio * self.w_b),
+               Eq(self.loss_power, self.input_power - self.output_power)]
+        if self.use_support:
+            eqs.append(Eq(self.support.tau, -tau_a - tau_b))
+        return eqs

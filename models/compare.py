@@ -36,6 +36,7 @@ from .registry import MODELS, RPM, spec
 
 DEFAULT_STRIDE_TIMES = (2.0,)  # s (the paper's Table 1 condition)
 DEFAULT_PRECOMPRESSIONS = (0.008,)  # m
+NO_SERIES_LINK = ("direct_drive", "parallel_elastic")  # their "link" point is the gear output at the joint
 STAGES = [("driver", "source", "driver"), ("motor", "driver", "motor"), ("gearing", "motor", "link"),
           ("output", "link", "output")]  # (stage, from point, to point)
 
@@ -236,7 +237,8 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
         for ax, r in zip(axes[0], runs):
             c, e = r.condition, r.energy
             where = (f"{c.P * 1e3:g} mm, " if spec(m).uses_precompression else "") + f"{c.stride_time:g} s/stride"
-            sankey(ax, e, scale=scale, labels=LABELS, loss_names=names,
+            labels = LABELS if m not in NO_SERIES_LINK else {**LABELS, "link": "gear output (link)"}
+            sankey(ax, e, scale=scale, labels=labels, loss_names=names,
                    lossless_note=f"output loss 0 J\n({link}\nconservative)" if e["output"] > 0 else "",
                    title=f"{m} ({where}): {e['source']:.1f} J from the source, {e['output']:.1f} J to the joint")
         fig.suptitle(f"{m}: {spec(m).summary} (arrow widths proportional to J per stride)", fontsize=10)

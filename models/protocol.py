@@ -113,9 +113,10 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
         params["link.P"] = cond.P
     params.update(cond.overrides)
     inputs = s.inputs(cond.P, params) if s.inputs is not None else {}
-    n = cond.strides * (cond.points_per_stride - 1) + 1
+    pps = max(cond.points_per_stride, s.min_points_per_stride)
+    n = cond.strides * (pps - 1) + 1
     res = sim.simulate(cond.strides * T, params=params, inputs=inputs, n_points=n, **s.tol)
-    k0 = (cond.strides - 1) * (cond.points_per_stride - 1)
+    k0 = (cond.strides - 1) * (pps - 1)
     window = slice(k0, None)
     points = dict(s.points)
 

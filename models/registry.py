@@ -46,6 +46,8 @@ class ModelSpec:
     build_key: str = ""  # models with the same key share a compiled model (default: the name)
     points: tuple = tuple(MEASUREMENT_POINTS)
     limits: Limits = Limits()
+    min_points_per_stride: int = 0  # output resolution needed (a model without states is integrated on it)
+    doc: str = ""  # the docstring that says what changes against the paper's actuator and why
 
     @property
     def losses(self) -> list:
@@ -71,7 +73,7 @@ def _winding(name: str) -> ModelSpec:
     return ModelSpec(f"winding_{name}", f"the paper's actuator with the motor's {name} winding and a {w['V']:g} V "
                      "supply (R_int, brake threshold scaled)", lambda: cyberlegs.CyberlegsAnkle(mode="replay"),
                      _cyberlegs_accounts(), _maccepa_inputs, params=windings.winding_params(name), build_key="replay",
-                     limits=Limits(nominal_torque=w["nominal_torque"]))
+                     limits=Limits(nominal_torque=w["nominal_torque"]), doc=windings.__doc__)
 
 
 _direct_accounts = _cyberlegs_accounts()
@@ -79,29 +81,34 @@ _direct_accounts["stored"] = [n for n in _direct_accounts["stored"] if n != "lin
 
 _SPECS = [
     ModelSpec("replay", "the paper's actuator: MACCEPA series spring, replayed along the planned moment-arm angle",
-              lambda: cyberlegs.CyberlegsAnkle(mode="replay"), _cyberlegs_accounts(), _maccepa_inputs),
+              lambda: cyberlegs.CyberlegsAnkle(mode="replay"), _cyberlegs_accounts(), _maccepa_inputs,
+              doc=cyberlegs.__doc__),
     ModelSpec("closed_loop", "the paper's actuator under PID control within the bus voltage (tracking error)",
               lambda: cyberlegs.CyberlegsAnkle(mode="closed_loop"), _cyberlegs_accounts(), _maccepa_inputs,
-              tol=dict(rtol=1e-6, atol=1e-8)),
+              tol=dict(rtol=1e-6, atol=1e-8), doc=cyberlegs.__doc__),
     ModelSpec("direct_drive", "no spring: the same motor and gears move the joint along the gait (paper Fig. 7)",
               direct_drive.DirectDrive, _direct_accounts, uses_precompression=False,
-              points=tuple(direct_drive.MEASUREMENT_POINTS)),
+              points=tuple(direct_drive.MEASUREMENT_POINTS), doc=direct_drive.__doc__),
     ModelSpec("sea", "linear torsion spring in place of the MACCEPA, stiffness by the paper's peak-power criterion",
               sea.SeriesElastic, sea.accounts(), lambda P, params: sea.condition_inputs(params),
-              uses_precompression=False),
+              uses_precompression=False, doc=sea.__doc__),
     ModelSpec("parallel_elastic", "torsion spring in parallel with the joint plus the drive (no series spring)",
               parallel_elastic.ParallelElastic, parallel_elastic.accounts(), uses_precompression=False,
-              points=tuple(parallel_elastic.MEASUREMENT_POINTS)),
+              points=tuple(parallel_elastic.MEASUREMENT_POINTS), doc=parallel_elastic.__doc__),
     ModelSpec("self_locking", "MACCEPA with a self-locking (non-backdrivable) 10:1 worm stage, driver always on",
               switch_off.SelfLockingMaccepa, switch_off.accounts(),
-              lambda P, params: switch_off.condition_inputs(P, params, switching=False)),
+              lambda P, params: switch_off.condition_inputs(P, params, switching=False), doc=switch_off.__doc__),
     ModelSpec("switch_off", "MACCEPA, self-locking worm stage, driver switched off while little torque is needed",
               switch_off.SelfLockingMaccepa, switch_off.accounts(),
-              lambda P, params: switch_off.condition_inputs(P, params, switching=True), build_key="self_locking"),
+              lambda P, params: switch_off.condition_inputs(P, params, switching=True), build_key="self_locking",
+              doc=switch_off.__doc__),
     _winding("24V"),
     _winding("36V"),
+    # without the rectifier's bus capacitor the replay has no states: energies are integrated on the output grid,
+    # which must resolve the kinks of |i| in the driver's switching loss (1601 points: balance to ~1e-10)
     ModelSpec("battery", "the paper's actuator on a battery (48 V, 0.05 ohm) that takes regenerated energy back",
-              regenerative.RegenerativeAnkle, regenerative.accounts(), _maccepa_inputs),
+              regenerative.RegenerativeAnkle, regenerative.accounts(), _maccepa_inputs, min_points_per_stride=1601,
+              doc=regenerative.__doc__),
 ]
 
 MODELS = {s.name: s for s in _SPECS}

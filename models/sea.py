@@ -13,7 +13,7 @@ mechanical power at the moment arm, ``max |M(t) dphi/dt|``, when the actuator fo
     P_arm(t) = M(t) (dtheta/dt + (dM/dt) / c)
 
 Time scaling multiplies ``P_arm`` by ``1 / stride_time``, so the optimum does not depend on the stride time.
-For the packaged gait data it is about 403 N m/rad (peak 70 W at 1.2 s; the direct drive needs 193 W).
+For the packaged gait data it is about 401 N m/rad (peak 69.5 W at 1.2 s; the direct drive needs 193 W).
 A rigid link (``c -> infinity``) is the direct drive. The planned trajectory is the swappable input
 ``arm_ref.profile`` (:func:`plan_sea`); ``link.c`` is a run-time parameter.
 """

@@ -7,7 +7,7 @@ combination with a non-backdriveable transmission", expecting more mechanical lo
 Here the helical 10:1 stage is replaced by a self-locking 10:1 stage
 (:class:`~acausal.library.rotational.SelfLockingGear`, default the most efficient self-locking worm: 49.5 %
 forward, nothing backward; the total ratio stays 860), so the gear holds the moment arm with the motor
-unpowered, and the driver is switched off (:class:`SwitchedPWMDriver`: no quiescent draw, bridge open) in the
+unpowered, and the driver is switched off (:class:`SwitchedPWMDriver`: no quiescent draw, no current) in the
 stretch of the gait cycle chosen by the switching rule below. Two registered models share the components:
 ``self_locking`` (driver always on: the cost of the transmission alone) and ``switch_off`` (with the rule).
 
@@ -22,7 +22,8 @@ switched off over the longest stretch of the gait cycle in which
 Within that stretch: the arm is brought to rest on ``phi_hold`` over ``blend`` (default 5 % of the stride,
 driver on), the driver's enable ramps down over ``ramp`` (1 %) while the locked gear takes over the torque,
 stays off, ramps up again (``ramp``) before the end, and the arm returns onto the plan over ``blend``. The
-arm stands still whenever the driver is not fully on. If no stretch is long enough, the driver stays on.
+arm stands still whenever the driver is not fully on. If no stretch leaves the driver fully off for more than
+2 % of the stride, it stays on.
 The energy at the five measurement points changes through the saved quiescent draw (driver), the lower
 forward efficiency and the overhauling loss of the worm (gearing), and the joint torque's small deviation from
 the gait moment while the arm is held (output).
@@ -159,8 +160,10 @@ class SwitchPlan:
 
 def switch_plan(P: float, k: float = 132e3, A: float = 0.1, B: float = 0.06, body_mass: float = 60.0,
                 M_off: float = M_OFF, blend: float = BLEND, ramp: float = RAMP) -> SwitchPlan | None:
-    """Apply the switching rule (module docstring) to the planned trajectory; ``None`` if no stretch of the
-    cycle is long enough to switch off (``2 blend + 2 ramp`` plus some off time)."""
+    """Apply the switching rule (module docstring) to the planned trajectory of precompression ``P`` [m] (``k``
+    [N/m], ``A``, ``B`` [m], ``body_mass`` [kg]); ``M_off`` [N m], ``blend`` and ``ramp`` [stride fractions].
+    Candidate hold starts are the samples with little torque; the longest window wins (the earliest on a tie).
+    ``None`` if the driver would be fully off for no more than 2 % of the stride."""
     if not M_off > 0:
         raise ModelError(f"switch_off: threshold M_off must be > 0 N m, got {M_off!r}")
     if not (0 < blend < 0.2 and 0 < ramp < 0.1):
