@@ -13,13 +13,13 @@ points, losses and stored energies, so the energy balance is checked for every m
 from __future__ import annotations
 
 import os
-import sys
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from acausal import compile_model
+from acausal.sweep import progress_bar
 
 from . import registry
 from .presets import preset
@@ -185,19 +185,11 @@ def sweep(conditions, executor: Executor | None = None, progress: bool = True, t
         for i, f in enumerate(futures, 1):
             out.append(f.result())
             if progress:
-                _bar(i, len(futures))
+                progress_bar(i, len(futures), "conditions")
         return out
     finally:
         if own:
             executor.shutdown()
-
-
-def _bar(i, n, width=36):
-    filled = int(width * i / n)
-    sys.stderr.write(f"\r  [{'#' * filled}{'.' * (width - filled)}] {i}/{n} conditions")
-    if i == n:
-        sys.stderr.write("\n")
-    sys.stderr.flush()
 
 
 def protocol_conditions(model="replay", preset_name="library", Ps=PRECOMPRESSIONS, Ts=STRIDE_TIMES):
