@@ -32,10 +32,9 @@ voltage), ``joint_torque`` (torque on the foot, plantarflexion positive), ``arm_
 from __future__ import annotations
 
 from acausal import Eq, Model, Parameter, Variable, connect
-from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource
-from acausal.library.control import PIDVariableLimit
+from acausal.library.blocks import Bias, SignalSource
 from acausal.library.drives import DCMotor, PWMDriver
-from acausal.library.electrical import ConstantVoltage, Ground, IdealNonRegenerativeRectifier, VoltageSensor
+from acausal.library.electrical import ConstantVoltage, Ground, IdealNonRegenerativeRectifier
 from acausal.library.gait import AnkleAngleSource, GaitProfile, unit_cycle
 from acausal.library.maccepa import Maccepa
 from acausal.library.rotational import AngleSensor, BearingFriction, IdealGear, LossyGear, Position, TorqueSensor
@@ -43,6 +42,7 @@ from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 from acausal.library.thermal import FixedTemperature, HeatCapacitor, ThermalConductor
 
 from .effects import effect
+from .drive_train import add_arm_controller, add_follower
 from .planning import plan_moment_arm
 
 N_GEAR = 860.0
@@ -124,25 +124,13 @@ class BenchAnkle(Model):
         if self.mode == "replay":
             self.ankle = Position(phi_ref=unit_cycle().angle_signal())
             self.arm_target = SignalSource(signal=plan_moment_arm(0.008, 132e3, 0.1, 0.06, 60.0).phi_profile)
-            self.follow = SignalConstraint()
-            connect(self.arm_angle.phi, self.follow.u)
-            connect(self.arm_target.y, self.follow.target)
-            connect(self.follow.y, self.driver.u)
+            add_follower(self, self.arm_angle.phi, self.arm_target.y)
             reference = self.arm_target.y
         else:
             self.ankle = AnkleAngleSource(stride_time=self.stride_time)
             self.arm_ref = GaitProfile(stride_time=self.stride_time,
                                        profile=plan_moment_arm(0.008, 132e3, 0.1, 0.06, 60.0).phi_profile)
-            self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
-            connect(self.arm_ref.y, self.controller.setpoint)
-            connect(self.arm_angle.phi, self.controller.measurement)
-            connect(self.controller.y, self.driver.u)
-            self.bus_voltage = VoltageSensor()
-            self.available = Gain(k=self.driver.d_max)
-            connect(self.rect.p_bus, self.bus_voltage.p)
-            connect(self.rect.n_bus, self.bus_voltage.n)
-            connect(self.bus_voltage.v_out, self.available.u)
-            connect(self.available.y, self.controller.limit)
+            add_arm_controller(self, self.arm_ref.y, self.arm_angle.phi)
             reference = self.arm_ref.y
         connect(self.torque_sensor.flange_b, self.ankle.flange)
         self._reference = reference

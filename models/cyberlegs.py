@@ -28,15 +28,12 @@ and B = 0.06 m, body mass 60 kg, supply 48 V, helical-stage efficiency 0.9 and o
 from __future__ import annotations
 
 from acausal import Eq, Model, Parameter, Variable, connect
-from acausal.library.blocks import Gain, SignalConstraint
-from acausal.library.control import PIDVariableLimit
-from acausal.library.electrical import VoltageSensor
 from acausal.library.gait import AnkleAngleSource, GaitProfile
 from acausal.library.maccepa import Maccepa
 from acausal.library.rotational import AngleSensor
 from acausal.library.sensors import MechanicalPowerSensor
 
-from .drive_train import add_drive_train
+from .drive_train import add_arm_controller, add_drive_train, add_follower
 from .planning import plan_moment_arm
 
 #: the paper's measurement points, in chain order: (label, power variable)
@@ -85,22 +82,9 @@ class CyberlegsAnkle(Model):
         self.arm_angle = AngleSensor()
         connect(gear_out, self.arm_angle.flange)
         if self.mode == "replay":
-            self.follow = SignalConstraint()
-            connect(self.arm_angle.phi, self.follow.u)
-            connect(self.arm_ref.y, self.follow.target)
-            connect(self.follow.y, self.driver.u)
+            add_follower(self, self.arm_angle.phi, self.arm_ref.y)
         else:
-            self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
-            connect(self.arm_ref.y, self.controller.setpoint)
-            connect(self.arm_angle.phi, self.controller.measurement)
-            connect(self.controller.y, self.driver.u)
-            # the controller's authority: the largest motor voltage the bridge can make from the present bus
-            self.bus_voltage = VoltageSensor()
-            self.available = Gain(k=self.driver.d_max)
-            connect(self.rect.p_bus, self.bus_voltage.p)
-            connect(self.rect.n_bus, self.bus_voltage.n)
-            connect(self.bus_voltage.v_out, self.available.u)
-            connect(self.available.y, self.controller.limit)
+            add_arm_controller(self, self.arm_ref.y, self.arm_angle.phi)
 
     def equations(self):
         return [Eq(self.tracking_error, self.arm_ref.y.value - self.arm_angle.phi.value)]

@@ -17,12 +17,11 @@ Measurement points: source, driver output, motor shaft and joint ("output"); ``l
 from __future__ import annotations
 
 from acausal import Model, Parameter, connect
-from acausal.library.blocks import SignalConstraint
 from acausal.library.gait import AnkleTorqueLoad, GaitProfile, unit_cycle
 from acausal.library.rotational import AngleSensor
 from acausal.library.sensors import MechanicalPowerSensor
 
-from .drive_train import add_drive_train
+from .drive_train import add_drive_train, add_follower
 
 MEASUREMENT_POINTS = [("source", "P_source.P"), ("driver", "P_driver.P"), ("motor", "P_motor.P"),
                       ("link", "P_output.P"), ("output", "P_output.P")]
@@ -43,8 +42,5 @@ class DirectDrive(Model):
         # the joint follows the gait angle: the compiler solves for the driver command
         self.joint_ref = GaitProfile(stride_time=self.stride_time, profile=unit_cycle().angle_signal())
         self.joint_angle = AngleSensor()
-        self.follow = SignalConstraint()
         connect(self.load.flange, self.joint_angle.flange)
-        connect(self.joint_angle.phi, self.follow.u)
-        connect(self.joint_ref.y, self.follow.target)
-        connect(self.follow.y, self.driver.u)
+        add_follower(self, self.joint_angle.phi, self.joint_ref.y)

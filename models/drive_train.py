@@ -91,3 +91,32 @@ def drive_train_accounts(supply: str = "rectifier", output_stage: str = "helical
     return {"loss_groups": {"driver": front, "motor": ["motor.loss_power"],
                             "gearing": ["planetary.loss_power", f"{last}.loss_power"]},
             "stored": stored}
+
+
+def add_follower(m, measured, target):
+    """Inverse model: the driver command ``m.follow`` makes ``measured`` (a RealOutput) equal ``target`` (the
+    compiler solves for the command)."""
+    from acausal.library.blocks import SignalConstraint
+    m.follow = SignalConstraint()
+    connect(measured, m.follow.u)
+    connect(target, m.follow.target)
+    connect(m.follow.y, m.driver.u)
+
+
+def add_arm_controller(m, reference, measured):
+    """Closed loop: ``m.controller`` (PID with anti-windup) drives ``m.driver`` so that ``measured`` follows
+    ``reference``, within the largest motor voltage the bridge can make from the present bus
+    (``m.bus_voltage`` times ``d_max``, ``m.available``)."""
+    from acausal.library.blocks import Gain
+    from acausal.library.control import PIDVariableLimit
+    from acausal.library.electrical import VoltageSensor
+    m.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
+    connect(reference, m.controller.setpoint)
+    connect(measured, m.controller.measurement)
+    connect(m.controller.y, m.driver.u)
+    m.bus_voltage = VoltageSensor()
+    m.available = Gain(k=m.driver.d_max)
+    connect(m.rect.p_bus, m.bus_voltage.p)
+    connect(m.rect.n_bus, m.bus_voltage.n)
+    connect(m.bus_voltage.v_out, m.available.u)
+    connect(m.available.y, m.controller.limit)

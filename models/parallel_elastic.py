@@ -25,12 +25,11 @@ import numpy as np
 from scipy.optimize import minimize
 
 from acausal import Model, Parameter, connect
-from acausal.library.blocks import SignalConstraint
 from acausal.library.gait import AnkleTorqueLoad, GaitProfile, unit_cycle
 from acausal.library.rotational import AngleSensor, Fixed, Spring
 from acausal.library.sensors import MechanicalPowerSensor
 
-from .drive_train import add_drive_train, drive_train_accounts
+from .drive_train import add_drive_train, add_follower, drive_train_accounts
 from .sea import DESIGN_STRIDE_TIME
 
 MEASUREMENT_POINTS = [("source", "P_source.P"), ("driver", "P_driver.P"), ("motor", "P_motor.P"),
@@ -94,11 +93,8 @@ class ParallelElastic(Model):
         connect(self.P_output.flange_b, self.load.flange)
         self.joint_ref = GaitProfile(stride_time=self.stride_time, profile=unit_cycle().angle_signal())
         self.joint_angle = AngleSensor()
-        self.follow = SignalConstraint()
         connect(self.load.flange, self.joint_angle.flange)
-        connect(self.joint_angle.phi, self.follow.u)
-        connect(self.joint_ref.y, self.follow.target)
-        connect(self.follow.y, self.driver.u)
+        add_follower(self, self.joint_angle.phi, self.joint_ref.y)
 
 
 def accounts() -> dict:
