@@ -11,6 +11,10 @@ cost. Parameters are arguments: changing one never recompiles.
   steps (implicit-function rule through numeric blocks);
 * ``zeros``: the event zero-crossing functions.
 
+On demand (never at compile time), :meth:`CodeGenerator.sensitivity_function` generates a function of the same
+signature returning chosen outputs with their exact partial derivatives with respect to the states and to chosen
+parameters (forward differentiation seeded at the states and the parameters), for parameter sensitivities.
+
 Common subexpressions are eliminated (sympy ``cse``) per function; a shared subexpression is emitted just before
 its first use, so it never runs ahead of the block that defines its inputs.
 """
@@ -64,6 +68,8 @@ class CodeGenerator:
         self.source = ""
         self.signal_orders: dict = {}  # token -> highest order used
         self.defined_by: dict = {}
+        self._namespace: dict = {}  # globals of the generated functions (set by generate)
+        self._sens_cache: dict = {}  # sensitivity functions generated on demand
         for k, st in enumerate(self.steps):
             for v in _step_vars(st):
                 self.defined_by[var_symbol(v)] = k
@@ -107,13 +113,22 @@ class CodeGenerator:
         return sorted(need)
 
     # ------------------------------------------------------------------ body
-    def _body(self, step_ids, with_jac=False):
-        """Statement list: ("assign", ident, expr) | ("code", text, used_symbols)."""
+    def _body(self, step_ids, with_jac=False, seeds=None):
+        """Statement list: ("assign", ident, expr) | ("code", text, used_symbols), and the derivative table.
+
+        Forward differentiation through the steps: ``D[symbol] = {column: derivative}`` starts from the seeds and
+        is propagated through every step (chain rule through assignments, implicit-function rule through linear
+        and Newton blocks). ``with_jac`` seeds the states (``D[x_i] = {i: 1}``); ``seeds`` adds any other seeds
+        (e.g. parameters, ``{par_symbol(name): {column: expr}}``). Without seeds no derivative is generated.
+        """
         items = []
         D: dict = {}
         if with_jac:
             for i, n in enumerate(self.states):
                 D[var_symbol(n)] = {i: sp.Integer(1)}
+        for s, col in (seeds or {}).items():
+            D[s] = dict(col)
+        track = with_jac or seeds is not None
         for k in step_ids:
             st = self.steps[k]
             if isinstance(st, Assign):
@@ -121,23 +136,23 @@ class CodeGenerator:
                 expr = self._signal_symbols(st.expr)
                 if isinstance(expr, sp.Symbol) and expr in self.names:
                     self.names[sym] = self.names[expr]  # a plain copy: share the value, emit nothing
-                    if with_jac and expr in D:
+                    if track and expr in D:
                         D[sym] = D[expr]
                     continue
                 items.append(("assign", self.names[sym], expr))
-                if with_jac:
+                if track:
                     self._jac_assign(sym, expr, D, items)
             elif isinstance(st, LinearSolve):
                 A = [[self._signal_symbols(e) for e in row] for row in st.A]
                 b = [self._signal_symbols(e) for e in st.b]
                 self._emit_linear(k, st.vars, A, b, items)
-                if with_jac:
+                if track:
                     ys = [var_symbol(v) for v in st.vars]
                     res = [sum(A[i][j] * ys[j] for j in range(len(ys))) - b[i] for i in range(len(ys))]
                     self._jac_block(k, ys, res, A, D, items)
             else:
                 self._emit_newton(k, st, items)
-                if with_jac:
+                if track:
                     ys = [var_symbol(v) for v in st.vars]
                     res = [self._signal_symbols(r) for r in st.residuals]
                     J = [[self._signal_symbols(e) for e in row] for row in st.jac]
@@ -325,7 +340,112 @@ class CodeGenerator:
               "_newton": runtime.newton, "_labels": self._labels}
         code = compile(self.source, "<acausal generated>", "exec")
         exec(code, ns)
+        self._namespace = ns  # shared by functions generated later (sensitivity_function)
         return {k: ns[k] for k in ("all_values", "rhs", "rhs_vec", "jac", "zeros")}
+
+    # ------------------------------------------------------------------ sensitivities (generated on demand)
+    def sensitivity_function(self, wrt, bindings=None, outputs=None):
+        """Generate (once per argument set, then cached) ``sens(t, x, p, d, u) -> (values, dx, dp)``.
+
+        ``values`` (shape ``(m,) + b``) are the outputs, ``dx`` (``(m, n_states) + b``) their partial derivatives
+        with respect to the states and ``dp`` (``(m, q) + b``) those with respect to the parameters named in
+        ``wrt`` (at fixed states), ``b`` the broadcast shape of ``t``/``p``. Outputs are the unknowns in
+        :attr:`unknowns` order by default, else ``outputs``: sympy expressions of states, unknowns, parameters,
+        modes, time and signal calls (e.g. alias definitions).
+
+        ``bindings`` maps a parameter to the expression of other parameters that defines its value (its default
+        binding, e.g. ``winding.C = 1/winding_heating``): such a parameter is seeded with its total derivative
+        through the chain of bindings (symbolic). A parameter named in ``wrt`` is independent (its own binding
+        is ignored). Discrete modes are piecewise constant (derivative zero). A requested parameter in the
+        argument of an input signal call is not supported (the signal is numeric): :class:`ModelError`.
+        """
+        from .errors import ModelError
+        from .symbols import par_symbol
+
+        wrt = tuple(wrt)
+        bindings = {k: sp.sympify(v) for k, v in (bindings or {}).items() if k not in wrt}
+        outs = [var_symbol(v) for v in self.unknowns] if outputs is None else [sp.sympify(o) for o in outputs]
+        key = (wrt, frozenset(bindings.items()), None if outputs is None else tuple(outs))
+        cache = self._sens_cache
+        if key in cache:
+            return cache[key]
+        for w in wrt:
+            if w not in self.params:
+                raise ModelError(f"sensitivity: {w!r} is no parameter of the model")
+        n, q, m = len(self.states), len(wrt), len(outs)
+        bound = {k: e.xreplace({s: par_symbol(s.name) for s in e.free_symbols}) for k, e in bindings.items()}
+        memo: dict = {}
+
+        def total(name, j):  # d name / d wrt[j] through the binding chain
+            if (name, j) not in memo:
+                if name == wrt[j]:
+                    memo[name, j] = sp.Integer(1)
+                elif name in bound:
+                    e = bound[name]
+                    memo[name, j] = sp.Add(*[e.diff(s) * total(s.name, j) for s in e.free_symbols])
+                else:
+                    memo[name, j] = sp.Integer(0)
+            return memo[name, j]
+
+        seeds = {var_symbol(s): {i: sp.Integer(1)} for i, s in enumerate(self.states)}
+        for name in self.params:
+            col = {n + j: total(name, j) for j in range(q)}
+            col = {c: e for c, e in col.items() if e != 0}
+            if col:
+                seeds[par_symbol(name)] = col
+        step_ids = list(range(len(self.steps))) if outputs is None else \
+            self._slice({s for o in outs for s in o.free_symbols})
+        for e in [e for k in step_ids for e in _step_exprs(self.steps[k])] + outs:
+            for call in (e.atoms(SignalCall) if e.has(SignalCall) else ()):
+                hit = sorted({wrt[c - n] for s in call.args[2].free_symbols for c in seeds.get(s, {}) if c >= n})
+                if hit:
+                    raise ModelError(f"sensitivity with respect to {', '.join(map(repr, hit))}: it enters the "
+                                     f"argument of the input signal {call.args[0].name!r} ({call.args[2]}), "
+                                     "which is not differentiated; not supported")
+        items, D = self._body(step_ids, seeds=seeds)
+        vals, dxs, dps = [], [], []
+        for k, o in enumerate(outs):
+            o = self._signal_symbols(o)
+            if isinstance(o, sp.Symbol) and o in self.names:
+                sym = o
+            else:  # an expression (alias definition): a value and its derivatives like any assignment
+                sym = sp.Dummy(f"o{k}", real=True)
+                self.names[sym] = f"_o{k}"
+                items.append(("assign", f"_o{k}", o))
+                self._jac_assign(sym, o, D, items)
+            vals.append(self.names[sym])
+            row = D.get(sym, {})
+            for c in range(n + q):
+                e = row.get(c, sp.Integer(0))
+                if isinstance(e, sp.Symbol) and e in self.names:
+                    ident = self.names[e]
+                elif e == 0:
+                    ident = "0.0"
+                else:
+                    ident = f"_o{k}_S{c}"
+                    items.append(("assign", ident, e))
+                (dxs if c < n else dps).append(ident)
+        fname = f"sens{len(cache)}"
+        body = [f"    _A = _stack([{', '.join(vals + dxs + dps)}])",
+                f"    return (_A[:{m}], _A[{m}:{m * (1 + n)}].reshape(({m}, {n}) + _A.shape[1:]), "
+                f"_A[{m * (1 + n)}:].reshape(({m}, {q}) + _A.shape[1:]))"]
+        src = self._render(fname, items, body)
+        for o in [s for s in self.names if isinstance(s, sp.Dummy)]:
+            del self.names[o]  # output placeholders are local to this function
+        ns = dict(self._namespace, _stack=_stack)
+        exec(compile("\n\n".join(self._blocks + [src]) + "\n", f"<acausal generated {fname}>", "exec"), ns)
+        fn = ns[fname]
+        fn.source = src
+        cache[key] = fn
+        return fn
+
+
+def _stack(values) -> np.ndarray:
+    """:func:`runtime.bstack`, with a fast path for plain floats (the integrator's scalar calls)."""
+    try:
+        return np.array(values, dtype=float)  # all scalars, or arrays of one shape
+    except ValueError:  # mixed shapes: broadcast
+        return runtime.bstack(values)
 
 
 def pr_const(e):

@@ -216,6 +216,19 @@ class CompiledModel:
                 raise self._unknown_name_error(n, "variable", self.names())
         return picked
 
+    def sensitivities(self, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
+                      *, t_start: float = 0.0, starts: dict | None = None, method: str = "BDF"):
+        """Values and exact parameter sensitivities ``d name / d wrt[j]`` at times ``t``: ``(values, sens)`` with
+        ``values[name]`` of shape ``(len(t),)`` and ``sens[name]`` of shape ``(len(wrt), len(t))``.
+
+        ``names`` may include aliases (default: every state and unknown). A model with states is integrated with
+        its sensitivities from ``t_start`` (start values independent of the parameters); ``rtol``/``atol`` and
+        ``method`` are the integrator's. See :func:`acausal.sensitivity.sensitivities`.
+        """
+        from .sensitivity import sensitivities
+        return sensitivities(self, t, wrt, names=names, params=params, inputs=inputs, rtol=rtol, atol=atol,
+                             t_start=t_start, starts=starts, method=method)
+
     # ------------------------------------------------------------------ report
     def report(self) -> str:
         red = self.reduction

@@ -196,6 +196,8 @@ def test_design_map_dask_equals_in_process():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
             distributed.Client(lc) as client:
         remote = design.efficiency_map(2.0, ks=ks, Ps=Ps, executor=client.get_executor(), tasks=3)
+    # the workers compile the model themselves, under another PYTHONHASHSEED: sympy's term order (and so the
+    # order of floating-point operations in the generated code) may differ in the last bit, nothing more
     for key in serial.values:
-        np.testing.assert_array_equal(serial.values[key], remote.values[key])
+        np.testing.assert_allclose(serial.values[key], remote.values[key], rtol=1e-12, atol=1e-300)
     assert np.isfinite(serial.values["efficiency"]).all()
