@@ -7,11 +7,12 @@
     acausal bench --out DIR [--effect NAME=VALUE ...] [--seed N]   virtual-bench recordings
     acausal fit DATA --params R,J,b --out DIR                      calibration (Table 2, Fig. 14)
 
+    acausal diagnose DATA --out DIR [--json FILE]                  name what the Eq. 4 model misses
+
     acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR | --list
 
-``diagnose`` belongs to the design (../shared/design.md) and is wired when ready; until then it exits with
-status 2 and says so. This module is the one place in ``acausal/`` that imports
-``acausal.models`` (the CLI wires verbs to models; see the dependency rules in the design).
+This module is the one place in ``acausal/`` that imports ``acausal.models`` (the CLI wires verbs to models;
+see the dependency rules in the design).
 """
 from __future__ import annotations
 
@@ -26,10 +27,6 @@ from pathlib import Path
 EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
             "fig15_efficiency", "table2", "fig14_calibration", "fig16_17_design"]
 
-#: verbs of the design that are not implemented yet: what they will do
-PLANNED = {
-    "diagnose": "rank candidate explanations of a model-vs-measurement residual",
-}
 
 
 def examples_dir() -> Path:
@@ -72,9 +69,6 @@ def cmd_paper(args) -> int:
           file=sys.stderr)
     print(f"report: {path}")
     return 0
-
-
-ISSUE = {"diagnose": 7}
 
 
 def cmd_bench(args) -> int:
@@ -124,17 +118,29 @@ def cmd_fit(args) -> int:
     return 0
 
 
-def _not_implemented(verb: str):
-    def run(args) -> int:
-        print(f"acausal {verb}: not implemented yet (issue {ISSUE[verb]}) - {PLANNED[verb]}. "
-              "Today only `acausal paper` works.", file=sys.stderr)
-        return 2
-    return run
+def cmd_diagnose(args) -> int:
+    from acausal.models import diagnosis
+    from acausal.models.diagnosis_report import write_json, write_report
+
+    out = Path(args.out)
+    candidates = [c.strip() for c in args.candidates.split(",") if c.strip()] if args.candidates else None
+    progress = None if args.no_progress else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
+    d, problem = diagnosis.run(args.data, split=diagnosis.Split(holdout_every=args.holdout_every),
+                               max_effects=args.max_effects, candidates=candidates, progress=progress)
+    write_report(out, d, problem, f"recordings in `{args.data}`")
+    if args.json:
+        write_json(args.json, d)
+    print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else ""))
+    for s in d.candidates:
+        print(f"  {s.id:26s} held-out gain {100 * s.heldout_rmse_gain:+6.1f} %  delta BIC {s.delta_bic:10.4g}"
+              f"  {s.parameter} = {s.value:.4g}{'  significant' if s.significant else ''}")
+    print(f"report: {out / 'report.md'}")
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="acausal", description="Modelica-style acausal modelling: the paper's "
-                                "results and (later) bench, fitting and diagnosis verbs.")
+                                "results, a virtual bench, calibration, diagnosis and drive-train comparison.")
     sub = p.add_subparsers(dest="verb", metavar="VERB")
     paper = sub.add_parser("paper", help="reproduce the CYBERLEGs paper's tables and figures into DIR/report.md")
     paper.add_argument("--out", required=True, help="output directory (created if missing)")
@@ -167,10 +173,16 @@ def build_parser() -> argparse.ArgumentParser:
     from acausal.models import compare  # the CLI wires verbs to models (design rule exception)
     cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
     compare.configure(cmp)
-    for verb, what in PLANNED.items():
-        q = sub.add_parser(verb, help=f"{what} (not implemented yet)")
-        q.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
-        q.set_defaults(run=_not_implemented(verb))
+    dg = sub.add_parser("diagnose", help="calibrate the Eq. 4 baseline on recordings, show its residuals, name the "
+                        "missing effect, extend the model and measure the gain")
+    dg.add_argument("data", help="folder of recordings")
+    dg.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
+    dg.add_argument("--json", help="also write the machine-readable verdict to this file")
+    dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all)")
+    dg.add_argument("--max-effects", type=int, default=2, help="effects to add at most (default 2)")
+    dg.add_argument("--holdout-every", type=int, default=3, help="hold out every n-th stride (default 3)")
+    dg.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    dg.set_defaults(run=cmd_diagnose)
     return p
 
 

@@ -74,6 +74,34 @@ class SpringDamper(PartialCompliantWithRelativeStates):
                 Eq(self.energy, self.c * (self.phi_rel - self.phi_rel0)**2 / 2)]
 
 
+class Backlash(PartialCompliant):
+    """Play of ``b`` between two rigid flanks (a dead zone in the drive train), smoothed over a small torque band:
+
+        phi_rel = (b / 2) tanh(tau / tau_s)
+
+    The relative angle sweeps across the play while the transmitted torque changes sign: a flank is in contact
+    (``phi_rel -> +-b/2``) once ``|tau|`` exceeds a few ``tau_s`` (think of ``tau_s`` as the drag of the lubricated
+    mesh that has to be overcome to cross the gap). The law is explicit in the torque, so with a massless element
+    on either side the play is an algebraic relation the index reduction can differentiate (motor speed and
+    acceleration pick up the gap crossings). The flanks are rigid: put a :class:`Spring` in series for their
+    compliance. ``b = 0`` is a rigid shaft.
+
+    The element is conservative; ``energy`` = integral of ``tau d(phi_rel)`` =
+    ``(b/2) (tau tanh(tau/tau_s) - tau_s ln cosh(tau/tau_s))`` (>= 0, bounded by ``b tau_s ln2 / 2`` as
+    ``|tau|`` grows), so ``der(energy) = tau w_rel`` holds exactly.
+    """
+
+    b = Parameter(0.0, unit="rad", min=0.0, doc="total play (flank to flank)")
+    tau_s = Parameter(0.5, unit="N.m", min=1e-9, doc="torque band over which the flanks change contact")
+    energy = Variable(unit="J", doc="stored energy of the smoothed law")
+
+    def equations(self):
+        x = self.tau / self.tau_s
+        ln_cosh = sp.Abs(x) + sp.log(1 + sp.exp(-2 * sp.Abs(x))) - sp.log(2)  # ln cosh x without overflow
+        return [*super().equations(), Eq(self.phi_rel, self.b / 2 * sp.tanh(x)),
+                Eq(self.energy, self.b / 2 * (self.tau * sp.tanh(x) - self.tau_s * ln_cosh))]
+
+
 class IdealGear(PartialTwoFlanges, OptionalSupport):
     """Ideal gear without inertia or losses: ``phi_a = ratio * phi_b``, ``0 = ratio * flange_a.tau + flange_b.tau``
     (angles relative to the support). ``ratio`` > 1 reduces speed from a to b."""

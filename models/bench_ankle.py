@@ -14,6 +14,7 @@ the baseline has exactly the parameters the paper calibrated (Table 2).
 components: ``gear_coulomb_friction`` (a BearingFriction before the gear), ``gear_load_dependent_loss`` (the
 ideal gear swapped for a LossyGear), ``winding_temperature`` (the motor's heat port on a thermal capacitance),
 ``driver_quiescent_power`` (the driver's P_q), ``torque_sensor_offset`` (a Bias block in the torque reading),
+``gear_backlash`` (a Backlash between the gear output and the moment arm, whose encoder reads the arm side)
 and ``precompression_error`` (the spring's actual precompression; a parameter of every variant).
 
 Modes:
@@ -37,7 +38,7 @@ from acausal.library.drives import DCMotor, PWMDriver
 from acausal.library.electrical import ConstantVoltage, Ground, IdealNonRegenerativeRectifier
 from acausal.library.gait import AnkleAngleSource, GaitProfile, unit_cycle
 from acausal.library.maccepa import Maccepa
-from acausal.library.rotational import AngleSensor, BearingFriction, IdealGear, LossyGear, Position, TorqueSensor
+from acausal.library.rotational import AngleSensor, Backlash, BearingFriction, IdealGear, LossyGear, Position, TorqueSensor
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 from acausal.library.thermal import FixedTemperature, HeatCapacitor, ThermalConductor
 
@@ -111,6 +112,10 @@ class BenchAnkle(Model):
             self.gear = IdealGear(ratio=N_GEAR)
         connect(shaft, self.gear.flange_a)
         arm = self.gear.flange_b
+        if self.has("gear_backlash"):
+            self.backlash = Backlash(b=0.0, tau_s=3.0)
+            connect(arm, self.backlash.flange_a)
+            arm = self.backlash.flange_b
         self.P_link = MechanicalPowerSensor()
         connect(arm, self.P_link.flange_a)
         self.link = Maccepa(k=132e3, P=self.P_nominal + self.precompression_error)

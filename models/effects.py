@@ -39,11 +39,12 @@ EFFECTS = {e.id: e for e in [
            "flow (the ideal gear swapped for the library LossyGear, smooth law). Typical: 85 % for the two "
            "stages (the gearhead catalogue gives at most 70 %, bearings and the helical stage included).",
            scale=0.1),
-    Effect("winding_temperature", "winding_heating", "K/J", 0.0, 0.1, (0.0, 5.0), "supply_current_A",
+    Effect("winding_temperature", "winding_heating", "K/J", 1e-9, 0.1, (1e-9, 5.0), "supply_current_A",
            "winding resistance rising with its temperature (copper, alpha_R = 0.00393 1/K) as I^2 R heats a thermal "
            "capacitance C = 1 / winding_heating coupled to ambient (library DCMotor heat port, HeatCapacitor, "
            "ThermalConductor, FixedTemperature). Each recording starts at ambient. Typical: 0.1 K/J (C = 10 J/K, "
-           "the winding alone: 2.11 s winding time constant / 0.21 K/W, parameters.md).", scale=0.1),
+           "the winding alone: 2.11 s winding time constant / 0.21 K/W, parameters.md). Its zero is 1e-9 K/J (a "
+           "capacitance of 1e9 J/K: no heating).", scale=0.1),
     Effect("driver_quiescent_power", "driver.P_q", "W", 0.0, 12.5, (0.0, 60.0), "supply_current_A",
            "constant standby draw of the motor driver (library PWMDriver P_q). Typical: the paper measured "
            "10-15 W for the EPOS2.", scale=10.0),
@@ -54,6 +55,11 @@ EFFECTS = {e.id: e for e in [
            "the spring's actual precompression differs from the nominal one (the MACCEPA's P parameter). "
            "Typical: 1-2 mm (the paper names an error in precompression length as a likely cause, section 4.3).",
            scale=1e-3),
+    Effect("gear_backlash", "backlash.b", "rad", 0.0, 0.0035, (0.0, 0.05), "motor_current_A",
+           "play between the gear output and the moment arm (library Backlash, rigid flanks, contact changing "
+           "over a 0.5 N m torque band): when the arm torque changes sign the motor has to cross the gap, "
+           "n = 860 times the play at the motor. Typical: 0.2 deg at the arm (a preloaded final stage; "
+           "planetary gearheads of this size are specified at about 1 deg).", scale=1e-3),
 ]}
 
 

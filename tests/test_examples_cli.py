@@ -5,7 +5,7 @@ import re
 
 import pytest
 
-from acausal.cli import EXAMPLES, PLANNED, main
+from acausal.cli import EXAMPLES, main
 
 FIGURES = ["table1_sankey", "fig07_direct_drive", "fig08_power_chain", "fig09_driver_loss", "fig10_motor_loss",
            "fig11_gearing_loss", "fig12_output_loss", "fig13_tracking", "fig15_efficiency", "table2_presets"]
@@ -81,11 +81,9 @@ def test_examples_registered():
     assert set(EXAMPLES) == {p.stem for p in examples_dir().glob("*.py")}
 
 
-@pytest.mark.parametrize("verb", sorted(PLANNED))
-def test_unimplemented_verbs_fail_loudly(verb, capsys):
-    assert main([verb]) == 2
-    err = capsys.readouterr().err
-    assert "not implemented yet" in err and verb in err
+def test_diagnose_on_a_missing_folder_fails_clearly(tmp_path, capsys):
+    assert main(["diagnose", str(tmp_path / "nowhere"), "--out", str(tmp_path / "o")]) == 2
+    assert "nowhere" in capsys.readouterr().err
 
 
 def test_no_verb_is_an_error(capsys):

@@ -41,6 +41,9 @@ class Experiment:
     test: np.ndarray  # bool mask: held-out samples
     stride: np.ndarray | None = None  # stride index of every sample (for leave-one-stride-out)
     info: dict = field(default_factory=dict)
+    #: optional exact derivatives: ``sensitivity(values, names) -> (predicted, sens)`` with ``sens[signal]`` of
+    #: shape ``(len(names), N)``; when every experiment has one, :func:`calibrate` uses it as the Jacobian
+    sensitivity: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -73,6 +76,7 @@ class Calibration:
     rmse_train: dict  # (experiment, signal) -> RMSE
     rmse_test: dict
     start: dict
+    scales: dict = field(default_factory=dict)  # signal -> residual scale used (noise level)
 
     def rmse(self, signal: str, which: str = "test") -> float:
         """RMSE of one signal over all experiments (pooled samples)."""
@@ -109,8 +113,11 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
 
 def calibrate(experiments, free, signals, weights: dict | None = None, scales: dict | None = None,
               fixed: dict | None = None, max_nfev: int = 100, loss: str = "soft_l1",
-              f_scale: float = 3.0) -> Calibration:
-    """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``."""
+              f_scale: float = 3.0, jac: str = "auto") -> Calibration:
+    """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``.
+
+    ``jac``: ``"auto"`` uses the experiments' exact ``sensitivity`` when all have one, ``"2-point"`` forward
+    differences (cheaper when a sensitivity needs an integration and a prediction does not)."""
     experiments = list(experiments)
     if not experiments:
         raise DataError("calibrate: no experiments")
@@ -130,11 +137,16 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     def fun(z):
         return residual_vector(experiments, values_of(z), signals, weights, scales)
 
+    exact = jac == "auto" and all(e.sensitivity is not None for e in experiments)
+
+    def jac_fn(z):
+        return jacobian_matrix(experiments, values_of(z), names, signals, weights, scales) * xs
+
     z0 = np.array([f.start for f in free]) / xs
     lo = np.array([f.lower for f in free]) / xs
     hi = np.array([f.upper for f in free]) / xs
-    sol = least_squares(fun, z0, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, loss=loss, f_scale=f_scale,
-                        diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10)
+    sol = least_squares(fun, z0, jac=jac_fn if exact else "2-point", bounds=(lo, hi), method="trf", x_scale=1.0,
+                        max_nfev=max_nfev, loss=loss, f_scale=f_scale, diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10)
     J = sol.jac * 1.0
     m, n = J.shape
     s2 = 2 * sol.cost / max(m - n, 1)
@@ -156,9 +168,23 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                     counts[which][(e.name, s)] = int(msk.sum())
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
-                      {f.name: f.start for f in free})
+                      {f.name: f.start for f in free}, scales)
     cal._counts = counts
     return cal
+
+
+def jacobian_matrix(experiments, values, names, signals, weights=None, scales=None, mask="train") -> np.ndarray:
+    """Derivative of :func:`residual_vector` with respect to ``names`` (rows in the same order), from the
+    experiments' exact ``sensitivity`` functions."""
+    weights = weights or {}
+    scales = scales or {s: 1.0 for s in signals}
+    parts = []
+    for e in experiments:
+        _, sens = e.sensitivity(values, list(names))
+        m = getattr(e, mask)
+        for s in signals:
+            parts.append(np.sqrt(weights.get(s, 1.0)) * sens[s][:, m].T / scales[s])
+    return np.concatenate(parts)
 
 
 def rmse_table(experiments, values: dict, signals, mask: str = "test") -> dict:

@@ -1,0 +1,99 @@
+"""Diagnosis of the ankle actuator's Eq. (4) model against bench recordings (``acausal diagnose``).
+
+The baseline is the paper's Eq. (4) model (:class:`~acausal.models.bench_ankle.BenchAnkle` without effects:
+DC motor R, L, k, J, b, ideal gear n = 860, MACCEPA at the nominal precompression, ideal PWM driver behind the
+non-regenerative rectifier, ideal sensors), calibrated on R, J and b. The candidates are the effects of
+:mod:`acausal.models.effects`, each a change of the model made with library components. The engine
+(:mod:`acausal.identify.diagnose`) fits, scores and chooses; this module says what the experiments, the baseline
+parameters and the regressors of the residual analysis are for this actuator:
+
+* signals: motor current, supply current and joint torque (each in units of its sensor noise);
+* regressors: sign of the motor speed, motor speed, |transmitted torque| (gear output), motor current squared,
+  elapsed time, sign of the driver's output power, joint torque, all from the calibrated model's replay.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from acausal.identify import load_recordings
+from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
+
+from .bench_ankle import SIGNALS
+from .calibration import Split, experiment, free_parameter, replay_model
+from .effects import EFFECTS
+from .recording_format import ANKLE_FORMAT
+
+DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
+BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
+
+CANDIDATES = {e.id: Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, e.signal, e.unit) for e in EFFECTS.values()}
+
+#: model variables behind the regressors
+_REGRESSOR_VARS = ("motor.w", "gear.flange_b.tau", "motor.i", "P_driver.P", "joint_torque")
+
+
+class AnkleProblem(Problem):
+    """The ankle actuator's recordings as a diagnosis problem."""
+
+    candidates = CANDIDATES
+
+    def __init__(self, recordings, split: Split = Split(), signals=DIAGNOSIS_SIGNALS, baseline=BASELINE_PARAMS,
+                 exact: bool = True):
+        if not isinstance(recordings, (list, tuple)):
+            recordings = load_recordings(recordings, ANKLE_FORMAT)
+        self.recordings = list(recordings)
+        self.split = split
+        self.signals = list(signals)
+        self.baseline = list(baseline)
+        self.exact = exact
+        self._cache: dict = {}
+
+    def experiments(self, effects: tuple) -> list:
+        key = tuple(sorted(effects))
+        if key not in self._cache:
+            exps = [experiment(r, key, self.split) for r in self.recordings]
+            cm = replay_model(key)
+            if self.exact and hasattr(cm, "sensitivities"):
+                for e in exps:
+                    e.sensitivity = _sensitivity(cm, e)
+            self._cache[key] = exps
+        return self._cache[key]
+
+    def base_free(self, start: dict) -> list:
+        return [free_parameter(n, start) for n in self.baseline]
+
+    def period(self, exp) -> float:
+        return float(exp.info["meta"]["stride_time_s"])
+
+    def regressors(self, exp, values: dict) -> dict:
+        cm = replay_model(exp.info["effects"])
+        v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params={**exp.info["params"], **values},
+                        inputs=exp.info["inputs"], dense_output=False)
+        w = np.asarray(v["motor.w"])
+        i = np.asarray(v["motor.i"])
+        return {"sign(motor speed)": np.tanh(w / 5.0), "motor speed": w,
+                "|transmitted torque|": np.abs(np.asarray(v["gear.flange_b.tau"])), "motor current^2": i * i,
+                "elapsed time": exp.t - exp.t[0], "sign(driver power)": np.tanh(np.asarray(v["P_driver.P"]) / 1.0),
+                "joint torque": np.asarray(v["joint_torque"])}
+
+
+def _sensitivity(cm, exp):
+    cols = {col: SIGNALS[col] for col in exp.measured if col in SIGNALS}
+    base, inputs, t = exp.info["params"], exp.info["inputs"], exp.t
+
+    def sens(values, names):
+        vals, S = cm.sensitivities(t, list(names), names=list(cols.values()), params={**base, **values},
+                                   inputs=inputs, t_start=t[0], method="LSODA")
+        return ({c: np.asarray(vals[v]) for c, v in cols.items()}, {c: np.asarray(S[v]) for c, v in cols.items()})
+    return sens
+
+
+def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(), max_effects: int = 2,
+        candidates=None, progress=None) -> tuple:
+    """Diagnose ``recordings`` (list or folder); returns ``(Diagnosis, AnkleProblem)``."""
+    problem = AnkleProblem(recordings, split)
+    d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)
+    return d, problem
+
+
+__all__ = ["AnkleProblem", "CANDIDATES", "Diagnosis", "Split", "Thresholds", "run", "residual_analysis"]
