@@ -25,7 +25,7 @@ from pathlib import Path
 
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
 EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
-            "fig15_efficiency", "table2", "fig14_calibration", "fig16_17_design"]
+            "fig15_efficiency", "table2", "fig14_calibration", "fig16_17_design", "diagnosis_gear_losses"]
 
 
 

@@ -72,7 +72,7 @@ class AnkleProblem(Problem):
         w = np.asarray(v["motor.w"])
         i = np.asarray(v["motor.i"])
         return {"sign(motor speed)": np.tanh(w / 5.0), "motor speed": w,
-                "|transmitted torque|": np.abs(np.asarray(v["gear.flange_b.tau"])), "motor current^2": i * i,
+                "abs(transmitted torque)": np.abs(np.asarray(v["gear.flange_b.tau"])), "motor current^2": i * i,
                 "elapsed time": exp.t - exp.t[0], "sign(driver power)": np.tanh(np.asarray(v["P_driver.P"]) / 1.0),
                 "joint torque": np.asarray(v["joint_torque"])}
 

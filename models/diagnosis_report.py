@@ -63,12 +63,16 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
     for k, st in enumerate(d.steps):
         title = "## 2. Candidates (added to the calibrated baseline, refitted with R, J, b)" if k == 0 else \
             f"### Step {k + 1}: candidates on top of {', '.join(f'`{e}`' for e in st.before.effects)}"
-        rows = [[f"`{s.id}`", f"{s.value:.4g} ± {s.std:.2g} {EFFECTS[s.id].unit}", f"{100 * s.heldout_rmse_gain:+.1f} %",
-                 f"{100 * s.loso_rmse_gain:+.1f} %", f"{s.t_stat:.1f}", f"{s.delta_bic:.4g}",
+        rows = [[f"`{s.id}`", "not refitted" if s.screened else f"{s.value:.4g} ± {s.std:.2g} {EFFECTS[s.id].unit}",
+                 f"{100 * s.heldout_rmse_gain:+.1f} %" + (" (lin.)" if s.screened else ""),
+                 "" if s.screened else f"{100 * s.loso_rmse_gain:+.1f} %", "" if s.screened else f"{s.t_stat:.1f}",
+                 f"{s.delta_bic:.4g}" + (" (lin.)" if s.screened else ""),
                  "" if np.isnan(s.fingerprint_match) else f"{s.fingerprint_match:+.2f}",
                  "**yes**" if s.significant else "no"] for s in st.scores]
         md += [title, "", md_table(["candidate", "fitted", "held-out gain", "leave-one-stride-out gain", "paired t",
                                      "delta BIC", "fingerprint match", "significant"], rows), "",
+               "(lin.): screened out, its fingerprint explains too little of the residual for a refit to matter; "
+               "the gain and BIC are the linearised best case.", "",
                f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here.", ""]
     if d.confusable:
         md += ["Confusable (fingerprints nearly collinear once R, J, b are refitted; the data alone can hardly tell "
