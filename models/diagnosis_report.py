@@ -63,7 +63,8 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
     for k, st in enumerate(d.steps):
         title = "## 2. Candidates (added to the calibrated baseline, refitted with R, J, b)" if k == 0 else \
             f"### Step {k + 1}: candidates on top of {', '.join(f'`{e}`' for e in st.before.effects)}"
-        rows = [[f"`{s.id}`", "not refitted" if s.screened else f"{s.value:.4g} ± {s.std:.2g} {EFFECTS[s.id].unit}",
+        rows = [[f"`{s.id}`", (("refit failed: " + s.failed) if s.failed else "not refitted") if s.screened
+                 else f"{s.value:.4g} ± {s.std:.2g} {EFFECTS[s.id].unit}",
                  f"{100 * s.heldout_rmse_gain:+.1f} %" + (" (lin.)" if s.screened else ""),
                  "" if s.screened else f"{100 * s.loso_rmse_gain:+.1f} %", "" if s.screened else f"{s.t_stat:.1f}",
                  f"{s.delta_bic:.4g}" + (" (lin.)" if s.screened else ""),

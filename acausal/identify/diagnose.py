@@ -117,12 +117,13 @@ class CandidateScore:
     significant: bool = False
     fit: Fit | None = None
     screened: bool = False  # not refitted: scores are the linearised prediction (training strides)
+    failed: str = ""  # why the refit failed (scores are then the linearised prediction)
 
     def summary(self) -> dict:
         return {"id": self.id, "heldout_rmse_gain": self.heldout_rmse_gain, "delta_bic": self.delta_bic,
                 "params": dict(self.params), "loso_rmse_gain": self.loso_rmse_gain, "t_stat": _num(self.t_stat),
                 "std": _num(self.std), "fingerprint_match": _num(self.fingerprint_match), "significant": self.significant,
-                "screened": self.screened,
+                "screened": self.screened, "failed": self.failed or None,
                 "heldout_rmse": {s: {"before": b, "after": a} for s, (b, a) in self.heldout_rmse.items()}}
 
 
@@ -321,7 +322,14 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                 scores.append(_screened(base, problem.candidates[cid], fp_step[None], fp_step[cid], cos))
                 continue
             say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))
-            ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
+            try:
+                ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
+            except AcausalError as err:  # e.g. a parameter leaving its range: the candidate cannot be scored
+                say(f"{cid}: refit failed: {err}")
+                sc = _screened(base, problem.candidates[cid], fp_step[None], fp_step[cid], cos)
+                sc.failed, sc.significant = str(err), False
+                scores.append(sc)
+                continue
             sc = score(base, ext, problem.candidates[cid], thresholds)
             sc.fingerprint_match = cos
             scores.append(sc)
