@@ -103,9 +103,8 @@ def _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method
     pl, dl = p.tolist(), d.tolist()
     eye_q = np.eye(q)
 
-    def parts(tt, x):
-        f, fx, fp = rhs_fn(tt, x.tolist(), pl, dl, u)
-        return f, fx, fp
+    def parts(tt, x):  # f, f_x, f_p at one time (plain lists are the generated code's fast path)
+        return rhs_fn(tt, x.tolist(), pl, dl, u)
 
     def fun(tt, y):
         x, S = y[:n], y[n:].reshape(n, q)

@@ -28,8 +28,8 @@ BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
 
 CANDIDATES = {e.id: Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, e.signal, e.unit) for e in EFFECTS.values()}
 
-#: model variables behind the regressors
-_REGRESSOR_VARS = ("motor.w", "gear.flange_b.tau", "motor.i", "P_driver.P", "joint_torque")
+#: speed [rad/s] and power [W] scales of the smooth sign regressors (tanh(x / scale))
+_SIGN_SPEED, _SIGN_POWER = 5.0, 1.0
 
 
 class AnkleProblem(Problem):
@@ -52,8 +52,8 @@ class AnkleProblem(Problem):
         key = tuple(sorted(effects))
         if key not in self._cache:
             exps = [experiment(r, key, self.split) for r in self.recordings]
-            cm = replay_model(key)
-            if self.exact and hasattr(cm, "sensitivities"):
+            if self.exact:
+                cm = replay_model(key)
                 for e in exps:
                     e.sensitivity = _sensitivity(cm, e)
             self._cache[key] = exps
@@ -71,9 +71,9 @@ class AnkleProblem(Problem):
                         inputs=exp.info["inputs"], dense_output=False)
         w = np.asarray(v["motor.w"])
         i = np.asarray(v["motor.i"])
-        return {"sign(motor speed)": np.tanh(w / 5.0), "motor speed": w,
+        return {"sign(motor speed)": np.tanh(w / _SIGN_SPEED), "motor speed": w,
                 "abs(transmitted torque)": np.abs(np.asarray(v["gear.flange_b.tau"])), "motor current^2": i * i,
-                "elapsed time": exp.t - exp.t[0], "sign(driver power)": np.tanh(np.asarray(v["P_driver.P"]) / 1.0),
+                "elapsed time": exp.t - exp.t[0], "sign(driver power)": np.tanh(np.asarray(v["P_driver.P"]) / _SIGN_POWER),
                 "joint torque": np.asarray(v["joint_torque"])}
 
 

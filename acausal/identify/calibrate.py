@@ -76,7 +76,6 @@ class Calibration:
     rmse_train: dict  # (experiment, signal) -> RMSE
     rmse_test: dict
     start: dict
-    scales: dict = field(default_factory=dict)  # signal -> residual scale used (noise level)
 
     def rmse(self, signal: str, which: str = "test") -> float:
         """RMSE of one signal over all experiments (pooled samples)."""
@@ -113,11 +112,11 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
 
 def calibrate(experiments, free, signals, weights: dict | None = None, scales: dict | None = None,
               fixed: dict | None = None, max_nfev: int = 100, loss: str = "soft_l1",
-              f_scale: float = 3.0, jac: str = "auto") -> Calibration:
+              f_scale: float = 3.0) -> Calibration:
     """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``.
 
-    ``jac``: ``"auto"`` uses the experiments' exact ``sensitivity`` when all have one, ``"2-point"`` forward
-    differences (cheaper when a sensitivity needs an integration and a prediction does not)."""
+    The Jacobian is exact when every experiment has a ``sensitivity`` function, else forward differences (which,
+    through an integrator's error control, can be too noisy to move a parameter that starts at zero)."""
     experiments = list(experiments)
     if not experiments:
         raise DataError("calibrate: no experiments")
@@ -137,7 +136,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     def fun(z):
         return residual_vector(experiments, values_of(z), signals, weights, scales)
 
-    exact = jac == "auto" and all(e.sensitivity is not None for e in experiments)
+    exact = all(e.sensitivity is not None for e in experiments)
 
     def jac_fn(z):
         return jacobian_matrix(experiments, values_of(z), names, signals, weights, scales) * xs
@@ -168,7 +167,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                     counts[which][(e.name, s)] = int(msk.sum())
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
-                      {f.name: f.start for f in free}, scales)
+                      {f.name: f.start for f in free})
     cal._counts = counts
     return cal
 

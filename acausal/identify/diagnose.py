@@ -32,6 +32,7 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 """
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -61,31 +62,28 @@ class Thresholds:
     screen: float = 0.005  # refit only candidates whose fingerprint alone could gain this much (linearised)
 
 
-class Problem:
-    """What a model supplies (override the methods)."""
+class Problem(ABC):
+    """What a model supplies: its experiments, baseline parameters, candidates, cycle and regressors."""
 
     signals: list = []
     candidates: dict = {}  # id -> Candidate
     loss: str = "soft_l1"
 
+    @abstractmethod
     def experiments(self, effects: tuple) -> list:
-        raise NotImplementedError
+        """The experiments (:class:`~.calibrate.Experiment`) of the model extended with ``effects``."""
 
+    @abstractmethod
     def base_free(self, start: dict) -> list:
         """The baseline's parameters to fit, as :class:`Free`, starting at ``start`` where given."""
-        raise NotImplementedError
 
-    def jacobian(self, effects: tuple) -> str:
-        """How calibrations with ``effects`` get their Jacobian (see :func:`~.calibrate.calibrate`)."""
-        return "auto"
+    @abstractmethod
+    def period(self, exp) -> float:
+        """The cycle (e.g. stride) over which residuals are folded."""
 
     def regressors(self, exp, values: dict) -> dict:
         """Physically meaningful regressors (name -> samples) of one experiment for the residual analysis."""
         return {}
-
-    def period(self, exp) -> float:
-        """The cycle (e.g. stride) over which residuals are folded."""
-        raise NotImplementedError
 
 
 @dataclass
@@ -181,33 +179,33 @@ def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict) -> Fi
         c = problem.candidates[eid]
         free.append(Free(c.parameter, float(np.clip(start.get(c.parameter, c.zero), *c.bounds)), c.bounds[0],
                          c.bounds[1], c.scale))
-    cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss, jac=problem.jacobian(effects))
+    cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss)
     return _assess(problem, tuple(effects), cal, exps, scales)
 
 
 def _assess(problem, effects, cal, exps, scales) -> Fit:
+    """Scores of a fitted model: training RSS, held-out MSE and RMSE, leave-one-stride-out MSE per stride (all
+    from one prediction per experiment; residuals noise-scaled and stacked like :func:`residual_vector`)."""
     signals = problem.signals
     values = dict(cal.values)
-    ones = {s: 1.0 for s in signals}
-    r = residual_vector(exps, values, signals, ones, scales, mask="train")
-    groups = np.concatenate([np.tile(_labels(e, "train"), 1) for e in exps for _ in signals])
-    J = _jacobian(exps, values, cal.names, signals, scales)
-    loso = leave_one_group_out(J, r, groups)
-    stride_mse = {}
-    for g in np.unique(groups):
-        stride_mse[g] = float(np.mean(loso[groups == g] ** 2))
-    rt = residual_vector(exps, values, signals, ones, scales, mask="test")
-    test_rmse = {}
-    for s in signals:
-        parts = [e.predict(values)[s][e.test] - e.measured[s][e.test] for e in exps]
-        test_rmse[s] = float(np.sqrt(np.mean(np.concatenate(parts) ** 2)))
+    preds = [e.predict(values) for e in exps]
+    train, test, groups, test_raw = [], [], [], {s: [] for s in signals}
+    for k, (e, pred) in enumerate(zip(exps, preds)):
+        stride = e.stride if e.stride is not None else np.zeros(e.t.size, dtype=int)
+        for s in signals:
+            r = pred[s] - e.measured[s]
+            train.append(r[e.train] / scales[s])
+            test.append(r[e.test] / scales[s])
+            test_raw[s].append(r[e.test])
+            groups.append(np.stack([np.full(int(e.train.sum()), k), stride[e.train]], axis=1))
+    r = np.concatenate(train)
+    rt = np.concatenate(test)
+    labels, group = np.unique(np.concatenate(groups), axis=0, return_inverse=True)
+    loso = leave_one_group_out(_jacobian(exps, values, cal.names, signals, scales), r, group.ravel())
+    mse = np.bincount(group.ravel(), loso**2) / np.bincount(group.ravel())
+    stride_mse = {(exps[k].name, int(st)): float(v) for (k, st), v in zip(labels, mse)}
+    test_rmse = {s: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for s, v in test_raw.items()}
     return Fit(effects, cal, exps, values, float(r @ r), r.size, float(np.mean(rt**2)), test_rmse, stride_mse)
-
-
-def _labels(e, mask):
-    m = getattr(e, mask)
-    stride = e.stride if e.stride is not None else np.zeros(e.t.size, dtype=int)
-    return np.array([f"{e.name}#{k}" for k in stride[m]])
 
 
 def _jacobian(exps, values, names, signals, scales, mask="train"):
