@@ -72,15 +72,19 @@ def cmd_paper(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    from acausal import DataError
     from acausal.models import bench
     from acausal.models.effects import parse_effects
 
     effects = parse_effects(args.effect)
     sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
     truth = {bench_name(k): float(v) for k, v in _pairs(args.truth, "--truth")}
-    conds = bench.default_conditions(strides=args.strides)
+    if args.body_mass <= 0:
+        raise DataError(f"--body-mass must be positive, got {args.body_mass:g} kg")
+    conds = bench.default_conditions(strides=args.strides, body_mass=args.body_mass)
     if args.quick:
-        conds = [bench.BenchCondition(P, T, args.strides) for P in (0.005, 0.011, 0.018) for T in (1.2, 2.0, 3.0)]
+        conds = [bench.BenchCondition(P, T, args.strides, body_mass=args.body_mass)
+                 for P in (0.005, 0.011, 0.018) for T in (1.2, 2.0, 3.0)]
     print(f"acausal bench: {len(conds)} recordings, effects: {effects or 'none'}", file=sys.stderr)
     paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed)
     print(f"wrote {len(paths)} recordings to {args.out} (answer key in {Path(args.out) / 'README.md'})")
@@ -159,6 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
     bench.add_argument("--quick", action="store_true", help="9 conditions instead of the paper's 36")
+    bench.add_argument("--body-mass", type=float, default=60.0, metavar="KG",
+                       help="body mass the gait torque is scaled with (default 60 kg)")
     bench.set_defaults(run=cmd_bench)
     fit = sub.add_parser("fit", help="calibrate model parameters on bench recordings (Table 2, Fig. 14)")
     fit.add_argument("data", help="folder of recordings")

@@ -63,6 +63,7 @@ class BenchCondition:
     stride_time: float  # [s]
     strides: int = 6
     settle: int = 1
+    body_mass: float = BODY_MASS  # [kg] the gait torque is scaled with (the user the bench emulates)
 
 
 _COMPILED: dict = {}
@@ -86,7 +87,7 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
     dt = 1.0 / sensors.rate
     n_settle = int(round(cond.settle * T / dt))
     n_rec = int(round(cond.strides * T / dt))
-    plan = plan_moment_arm(cond.P, K_SPRING, 0.1, 0.06, BODY_MASS)
+    plan = plan_moment_arm(cond.P, K_SPRING, 0.1, 0.06, cond.body_mass)
     res = sim.simulate((n_settle + n_rec) * dt, params=params, inputs={"arm_ref.profile": plan.phi_profile},
                        n_points=n_settle + n_rec + 1, rtol=1e-7, atol=1e-9, dense_output=False)
     w = slice(n_settle, n_settle + n_rec)
@@ -105,7 +106,7 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
                             + sensors.motor_current_noise * rng.standard_normal(n)),
     }
     meta = {"precompression_m": cond.P, "stride_time_s": T, "spring_stiffness_N_per_m": K_SPRING,
-            "body_mass_kg": BODY_MASS, "supply_voltage_V": 48.0, "strides": cond.strides,
+            "body_mass_kg": cond.body_mass, "supply_voltage_V": 48.0, "strides": cond.strides,
             "description": f"virtual bench (acausal bench), seed {seed}: simulated data, not a measurement"}
     return cols, meta
 
@@ -114,9 +115,9 @@ def _record(args):
     return record(*args)
 
 
-def default_conditions(strides: int = 6) -> list:
+def default_conditions(strides: int = 6, body_mass: float = BODY_MASS) -> list:
     """The paper's 36 conditions (precompression x stride time)."""
-    return [BenchCondition(P, T, strides) for P in PRECOMPRESSIONS for T in STRIDE_TIMES]
+    return [BenchCondition(P, T, strides, body_mass=body_mass) for P in PRECOMPRESSIONS for T in STRIDE_TIMES]
 
 
 def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict | None = None,

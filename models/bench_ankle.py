@@ -12,7 +12,7 @@ the baseline has exactly the parameters the paper calibrated (Table 2).
 
 ``effects`` (identifiers of :mod:`acausal.models.effects`) adds what Eq. (4) leaves out, each with library
 components: ``gear_coulomb_friction`` (a BearingFriction before the gear), ``gear_load_dependent_loss`` (the
-ideal gear swapped for a LossyGear), ``winding_temperature`` (the motor's heat port on a thermal capacitance),
+ideal gear swapped for a LossyGear), ``winding_temperature`` (the motor's heat port on its lumped thermal capacitance),
 ``driver_quiescent_power`` (the driver's P_q), ``torque_sensor_offset`` (a Bias block in the torque reading),
 ``gear_backlash`` (a Backlash between the gear output and the moment arm, whose encoder reads the arm side)
 and ``precompression_error`` (the spring's actual precompression; a parameter of every variant).
@@ -63,7 +63,8 @@ class BenchAnkle(Model):
     stride_time = Parameter(2.0, unit="s", min=0.1, doc="stride duration (closed loop)")
     P_nominal = Parameter(0.008, unit="m", min=0.0, max=0.018, doc="nominal spring precompression")
     precompression_error = Parameter(0.0, unit="m", doc="actual minus nominal precompression")
-    winding_heating = Parameter(0.1, unit="K/J", min=1e-9, doc="1 / winding heat capacity (winding_temperature)")
+    winding_heating = Parameter(1 / 170, unit="K/J", min=1e-9,
+                                doc="1 / the motor's lumped heat capacity (winding_temperature)")
     joint_torque = Variable(unit="N.m", doc="reading of the joint torque sensor (torque on the foot)")
     tracking_error = Variable(unit="rad", doc="moment-arm reference minus actual angle (closed loop)")
 

@@ -39,12 +39,17 @@ EFFECTS = {e.id: e for e in [
            "flow (the ideal gear swapped for the library LossyGear, smooth law). Typical: 85 % for the two "
            "stages (the gearhead catalogue gives at most 70 %, bearings and the helical stage included).",
            scale=0.1),
-    Effect("winding_temperature", "winding_heating", "K/J", 1e-9, 0.1, (1e-9, 5.0), "supply_current_A",
-           "winding resistance rising with its temperature (copper, alpha_R = 0.00393 1/K) as I^2 R heats a thermal "
-           "capacitance C = 1 / winding_heating coupled to ambient (library DCMotor heat port, HeatCapacitor, "
-           "ThermalConductor, FixedTemperature). Each recording starts at ambient. Typical: 0.1 K/J (C = 10 J/K, "
-           "the winding alone: 2.11 s winding time constant / 0.21 K/W, parameters.md). Its zero is 1e-9 K/J (a "
-           "capacitance of 1e9 J/K: no heating).", scale=0.1),
+    Effect("winding_temperature", "winding_heating", "K/J", 1e-9, 1 / 170, (1e-9, 5.0), "supply_current_A",
+           "winding resistance rising with its temperature (copper, alpha_R = 0.00393 1/K) as I^2 R heats the "
+           "motor's thermal capacitance C = 1 / winding_heating, coupled to ambient through the datasheet's "
+           "0.21 + 7.4 K/W (library DCMotor heat port, HeatCapacitor, ThermalConductor, FixedTemperature). Each "
+           "recording starts at ambient. Typical: 1/170 K/J, the motor lumped into one node (winding 2.11 s / "
+           "0.21 K/W = 10 J/K plus housing 1180 s / 7.4 K/W = 160 J/K, parameters.md), which gives the "
+           "datasheet's 1180 s motor time constant: the winding alone is no single node, it settles on the "
+           "housing within seconds. At that size a minute of gait at the paper's load warms the motor by about "
+           "1 K and changes the supply current by a fraction of a mA: it takes an endurance recording of many "
+           "minutes (and a precise supply-current sensor) to see. Its zero is 1e-9 K/J (no heating).",
+           scale=0.1),
     Effect("driver_quiescent_power", "driver.P_q", "W", 0.0, 12.5, (0.0, 60.0), "supply_current_A",
            "constant standby draw of the motor driver (library PWMDriver P_q). Typical: the paper measured "
            "10-15 W for the EPOS2.", scale=10.0),

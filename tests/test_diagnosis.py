@@ -16,12 +16,21 @@ from acausal.models.effects import EFFECTS
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]
 #: a smaller set for the runs that must answer "none"
 SMALL = [BenchCondition(0.008, T, strides=3) for T in (1.2, 2.0)]
-#: winding heating needs long runs and a precise supply-current sensor to show at all (see EFFECTS' doc)
-LONG = [BenchCondition(P, 2.5, strides=16) for P in (0.011, 0.015)]
-PRECISE_SUPPLY = Sensors(supply_current_noise=0.002)
+#: a high-grade bench (a tenth of the noise, 16-bit encoders), as in test_clean_recordings_give_none
+CLEAN = Sensors(encoder_bits=16, motor_current_noise=0.003, supply_current_noise=0.002, supply_voltage_noise=0.002,
+                torque_noise=0.04)
+#: Winding heating at its typical size (1/170 K/J, the motor's 1180 s time constant) shows only over an endurance
+#: run of about 20 minutes: a 100 kg user (6.3 W copper loss) warms the motor by ~29 K, the supply current drifts by
+#: ~15 mA and a precise supply sensor sees it. Replaying 20 minutes through the stateful model takes the diagnosis
+#: about that long, so the test runs the same run time-compressed 17-fold: a one-minute recording with 1/C = 0.1 K/J
+#: (time constant 76 s) has the same temperature rise (~26 K) and the same drift shape (t/tau = 0.8 against 0.9).
+#: In the short paper-protocol recordings with ordinary sensors it is below detection (the test after next).
+ENDURANCE = [BenchCondition(0.011, 2.0, strides=30, body_mass=100.0)]
+WINDING_COMPRESSED = 0.1
 
-#: the size each effect is hidden at (typical sizes, except winding heating: see above)
-SIZES = {e.id: e.typical for e in EFFECTS.values()} | {"winding_temperature": 1.0}
+#: the set and size each effect is hidden at
+SETS = {e.id: (CONDITIONS, Sensors(), e.typical) for e in EFFECTS.values()} | {
+    "winding_temperature": (ENDURANCE, CLEAN, WINDING_COMPRESSED)}
 
 
 def _record(tmp_path_factory, name, conditions, effects, seed, sensors=Sensors()):
@@ -30,18 +39,13 @@ def _record(tmp_path_factory, name, conditions, effects, seed, sensors=Sensors()
     return out
 
 
-DETECTABLE = sorted(set(EFFECTS) - {"winding_temperature"})
-
-
-@pytest.mark.parametrize("eid", DETECTABLE + [pytest.param("winding_temperature", marks=pytest.mark.xfail(
-    strict=True, reason="winding heating changes the supply current by a few mA over a recording: the refit does not "
-                        "yet recover it (issue 7 note)"))])
+@pytest.mark.parametrize("eid", sorted(EFFECTS))
 def test_each_hidden_effect_is_named_and_measured(eid, tmp_path_factory):
-    size = SIZES[eid]
-    if eid == "winding_temperature":
-        data = _record(tmp_path_factory, eid, LONG, {eid: size}, seed=11, sensors=PRECISE_SUPPLY)
-    else:
-        data = _record(tmp_path_factory, eid, CONDITIONS, {eid: size}, seed=11)
+    """Each effect hidden alone (at its typical size; winding heating time-compressed, see ENDURANCE): named, its
+    signal's held-out RMSE down by 30 % or more, its parameter within 20 %, and R, J back at the truth once the
+    model is extended."""
+    conditions, sensors, size = SETS[eid]
+    data = _record(tmp_path_factory, eid, conditions, {eid: size}, seed=11, sensors=sensors)
     d, _ = diagnosis.run(data, max_effects=1)
     assert d.cause == eid, [(s.id, s.heldout_rmse_gain, s.significant) for s in d.candidates]
     e = EFFECTS[eid]
@@ -65,9 +69,24 @@ def test_noise_and_quantisation_alone_give_none(seed, tmp_path_factory):
 @pytest.mark.parametrize("seed", [3, 4, 5, 6, 7])
 def test_clean_recordings_give_none(seed, tmp_path_factory):
     """A high-grade bench: a tenth of the sensor noise, 16-bit encoders, nothing hidden."""
-    clean = Sensors(encoder_bits=16, motor_current_noise=0.003, supply_current_noise=0.002,
-                    supply_voltage_noise=0.002, torque_noise=0.04)
-    data = _record(tmp_path_factory, f"clean{seed}", SMALL, {}, seed=seed, sensors=clean)
+    data = _record(tmp_path_factory, f"clean{seed}", SMALL, {}, seed=seed, sensors=CLEAN)
+    d, _ = diagnosis.run(data, max_effects=1)
+    assert d.cause == "none", [(s.id, s.heldout_rmse_gain, s.t_stat, s.delta_bic) for s in d.candidates]
+
+
+def test_endurance_recording_without_effects_gives_none(tmp_path_factory):
+    """The set winding heating is found in, with nothing hidden: the long, heavy recording alone is no cause."""
+    data = _record(tmp_path_factory, "endurance", ENDURANCE, {}, seed=13, sensors=CLEAN)
+    d, _ = diagnosis.run(data, max_effects=1)
+    assert d.cause == "none", [(s.id, s.heldout_rmse_gain, s.t_stat, s.delta_bic) for s in d.candidates]
+
+
+def test_winding_heating_below_its_detection_limit_is_not_blamed_on_another_effect(tmp_path_factory):
+    """At its typical size in the short paper-protocol recordings with ordinary sensors, winding heating changes
+    the supply current by a fraction of a mA against 20 mA of noise: the honest verdict is ``none``, not some other
+    candidate."""
+    size = EFFECTS["winding_temperature"].typical
+    data = _record(tmp_path_factory, "winding_small", CONDITIONS, {"winding_temperature": size}, seed=11)
     d, _ = diagnosis.run(data, max_effects=1)
     assert d.cause == "none", [(s.id, s.heldout_rmse_gain, s.t_stat, s.delta_bic) for s in d.candidates]
 

@@ -150,6 +150,20 @@ def test_bench_is_deterministic_and_quantised(tmp_path, clean_set):
     assert "simulated" in rec.meta["description"]
 
 
+def test_bench_command_line_body_mass_and_bad_input(tmp_path, capsys):
+    """``acausal bench --body-mass`` records a heavier user (more torque, more current); bad input exits 2 naming
+    the option or effect at fault."""
+    from acausal.cli import main
+    assert main(["bench", "--out", str(tmp_path / "x"), "--body-mass", "-5"]) == 2
+    assert "--body-mass" in capsys.readouterr().err
+    assert main(["bench", "--out", str(tmp_path / "x"), "--effect", "gear_rust=1"]) == 2
+    assert "gear_rust" in capsys.readouterr().err
+    light, heavy = (bench.record(bench.BenchCondition(0.011, 2.5, strides=1, body_mass=m), seed=1) for m in (60, 100))
+    assert heavy[1]["body_mass_kg"] == 100.0 and light[1]["body_mass_kg"] == 60.0
+    rms = [np.sqrt(np.mean(cols["motor_current_A"] ** 2)) for cols, _ in (light, heavy)]
+    assert rms[1] > 1.3 * rms[0]
+
+
 # ---------------------------------------------------------------------------------------------- calibration
 def test_calibration_recovers_truth(clean_set):
     cal, exps = calibration.fit(clean_set, "R,J,b")
