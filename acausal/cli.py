@@ -4,7 +4,7 @@
 
     acausal paper --out DIR [--quick] [--jobs N]   reproduce the paper's results into DIR/report.md (+ PNG, CSV)
 
-    acausal bench --out DIR [--effect NAME=VALUE ...] [--seed N]   virtual-bench recordings
+    acausal bench --out DIR [--effect NAME=VALUE ...] [--seed N] [--body-mass KG]   virtual-bench recordings
     acausal fit DATA --params R,J,b --out DIR                      calibration (Table 2, Fig. 14)
 
     acausal diagnose DATA --out DIR [--json FILE]                  name what the Eq. 4 model misses
