@@ -72,15 +72,12 @@ def cmd_paper(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from acausal import DataError
     from acausal.models import bench
     from acausal.models.effects import parse_effects
 
     effects = parse_effects(args.effect)
     sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
     truth = {bench_name(k): float(v) for k, v in _pairs(args.truth, "--truth")}
-    if args.body_mass <= 0:
-        raise DataError(f"--body-mass must be positive, got {args.body_mass:g} kg")
     conds = bench.default_conditions(strides=args.strides, body_mass=args.body_mass)
     if args.quick:
         conds = [bench.BenchCondition(P, T, args.strides, body_mass=args.body_mass)

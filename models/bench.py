@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from acausal import compile_model
+from acausal import DataError, compile_model
 from acausal.identify import write_recording
 
 from .bench_ankle import SIGNALS, BenchAnkle
@@ -64,6 +64,13 @@ class BenchCondition:
     strides: int = 6
     settle: int = 1
     body_mass: float = BODY_MASS  # [kg] the gait torque is scaled with (the user the bench emulates)
+
+    def __post_init__(self):
+        checks = (("P", self.P >= 0, "m"), ("stride_time", self.stride_time > 0, "s"),
+                  ("body_mass", self.body_mass > 0, "kg (acausal bench --body-mass)"))
+        for name, ok, unit in checks:
+            if not ok:
+                raise DataError(f"BenchCondition: {name} must be positive, got {getattr(self, name):g} {unit}")
 
 
 _COMPILED: dict = {}

@@ -42,7 +42,7 @@ from acausal.library.rotational import AngleSensor, Backlash, BearingFriction, I
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 from acausal.library.thermal import FixedTemperature, HeatCapacitor, ThermalConductor
 
-from .effects import effect
+from .effects import EFFECTS, effect
 from .drive_train import add_arm_controller, add_follower
 from .planning import plan_moment_arm
 
@@ -63,7 +63,7 @@ class BenchAnkle(Model):
     stride_time = Parameter(2.0, unit="s", min=0.1, doc="stride duration (closed loop)")
     P_nominal = Parameter(0.008, unit="m", min=0.0, max=0.018, doc="nominal spring precompression")
     precompression_error = Parameter(0.0, unit="m", doc="actual minus nominal precompression")
-    winding_heating = Parameter(1 / 170, unit="K/J", min=1e-9,
+    winding_heating = Parameter(EFFECTS["winding_temperature"].typical, unit="K/J", min=1e-9,
                                 doc="1 / the motor's lumped heat capacity (winding_temperature)")
     joint_torque = Variable(unit="N.m", doc="reading of the joint torque sensor (torque on the foot)")
     tracking_error = Variable(unit="rad", doc="moment-arm reference minus actual angle (closed loop)")
