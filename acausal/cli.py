@@ -48,7 +48,7 @@ def load_example(name: str):
 def cmd_paper(args) -> int:
     from concurrent.futures import ProcessPoolExecutor
 
-    from acausal.models import report  # the CLI is the one module of acausal/ that wires to models/
+    from acausal.models.ankle import paper as report  # the CLI is the one module of acausal/ that wires to models/
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -72,8 +72,8 @@ def cmd_paper(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from acausal.models import bench
-    from acausal.models.effects import parse_effects
+    from acausal.models.bench import virtual as bench
+    from acausal.models.ankle.effects import parse_effects
 
     effects = parse_effects(args.effect)
     sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
@@ -89,7 +89,7 @@ def cmd_bench(args) -> int:
 
 
 def bench_name(short: str) -> str:
-    from acausal.models.calibration import SHORT
+    from acausal.models.bench.calibration import SHORT
     return SHORT.get(short, short)
 
 
@@ -102,8 +102,8 @@ def _pairs(items, flag):
 
 
 def cmd_fit(args) -> int:
-    from acausal.models import calibration
-    from acausal.models.fit_report import fit_outputs
+    from acausal.models.bench import calibration
+    from acausal.models.bench.fit_report import fit_outputs
 
     out = Path(args.out)
     weights = {k: float(v) for k, v in _pairs(args.weight, "--weight")}
@@ -120,8 +120,8 @@ def cmd_fit(args) -> int:
 
 
 def cmd_diagnose(args) -> int:
-    from acausal.models import diagnosis
-    from acausal.models.diagnosis_report import write_json, write_report
+    from acausal.models.bench import diagnosis
+    from acausal.models.bench.diagnosis_report import write_json, write_report
 
     out = Path(args.out)
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()] if args.candidates else None
@@ -153,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="virtual test bench: record the paper's protocol on a truth model")
     bench.add_argument("--out", required=True, help="folder for the recordings (NAME.csv + NAME.json)")
     bench.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                       help="hide an effect in the truth model (repeatable); names: see acausal.models.effects")
+                       help="hide an effect in the truth model (repeatable); names: see acausal.models.ankle.effects")
     bench.add_argument("--truth", action="append", metavar="PARAM=VALUE", help="truth parameter, e.g. R=0.8")
     bench.add_argument("--sensor", action="append", metavar="NAME=VALUE", help="sensor setting, e.g. "
                        "motor_current_noise=0.05")
@@ -173,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--holdout-every", type=int, default=3, help="hold out every n-th stride (default 3)")
     fit.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     fit.set_defaults(run=cmd_fit)
-    from acausal.models import compare  # the CLI wires verbs to models (design rule exception)
+    from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
     cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
     compare.configure(cmp)
     dg = sub.add_parser("diagnose", help="calibrate the Eq. 4 baseline on recordings, show its residuals, name the "

@@ -15,7 +15,8 @@ from .alias import eliminate_aliases
 from .codegen import CodeGenerator
 from .errors import ModelError, SignalError
 from .flatten import FlatModel, flatten
-from .signals import Signal, SignalCall
+from .energy import accounts as energy_accounts
+from .signals import ParametricSignal, Signal, SignalCall
 from .solve import LinearSolve, NewtonSolve, solve_blocks
 from .structure import blt_blocks, check_balance, reduce_index
 from .symbols import ConstantSymbol, split_der, time
@@ -47,7 +48,9 @@ def compile_model(model) -> "CompiledModel":
                         red.unknowns, steps)
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)
-    return CompiledModel(flat, red, blocks, steps, gen, funcs, zeros, _time.perf_counter() - t0)
+    cm = CompiledModel(flat, red, blocks, steps, gen, funcs, zeros, _time.perf_counter() - t0)
+    cm.accounts = energy_accounts(model)  # losses, stored energies, sources, boundary, power sensors
+    return cm
 
 
 def _resolve(expr, flat: FlatModel):
@@ -162,7 +165,10 @@ class CompiledModel:
         cols = [self.param_vector(s) for s in sets]
         return np.stack(cols, axis=1)[:, :, None]
 
-    def input_tuple(self, inputs: dict | None = None) -> tuple:
+    def input_tuple(self, inputs: dict | None = None, p=None) -> tuple:
+        """The numeric inputs of a run, in :attr:`input_names` order: ``inputs`` replace the model's own by
+        name; a :class:`~acausal.signals.ParametricSignal` is bound to the run's parameter vector ``p`` (default
+        values when None)."""
         inputs = dict(inputs or {})
         for k, v in inputs.items():
             if k not in self.flat.inputs:
@@ -173,7 +179,16 @@ class CompiledModel:
             if v.max_order is not None and v.max_order < need:
                 raise SignalError(f"input {k!r}: the model needs derivatives up to order {need}, the replacement "
                                   f"{type(v).__name__} provides up to {v.max_order}")
-        return tuple(inputs.get(n, self.flat.inputs[n].signal) for n in self.input_names)
+        chosen = [inputs.get(n, self.flat.inputs[n].signal) for n in self.input_names]
+        if any(isinstance(v, ParametricSignal) for v in chosen):
+            values = dict(zip(self.param_names, self.param_vector() if p is None else p))
+            chosen = [v.bind(values) if isinstance(v, ParametricSignal) else v for v in chosen]
+            for n, v in zip(self.input_names, chosen):
+                need = self.generator.signal_orders.get(n, 0)
+                if v.max_order is not None and v.max_order < need:
+                    raise SignalError(f"input {n!r}: the model needs derivatives up to order {need}, the signal "
+                                      f"{v.name!r} provides up to {v.max_order}")
+        return tuple(chosen)
 
     def discrete_start(self) -> np.ndarray:
         return np.array([self.flat.discretes[n].start for n in self.discrete_names], dtype=float)
@@ -193,7 +208,7 @@ class CompiledModel:
         """
         t = np.asarray(t, dtype=float)
         p = params if isinstance(params, np.ndarray) else self.param_vector(params)
-        u = self.input_tuple(inputs)
+        u = self.input_tuple(inputs, p)
         d = self.discrete_start() if discrete is None else discrete
         if x is None:
             if self.state_names:

@@ -171,6 +171,16 @@ class Result:
         """
         return self._cumulative(what)
 
+    def energy_balance(self, t0: float | None = None, t1: float | None = None):
+        """The energy balance between output times ``t0`` and ``t1`` (default: the whole result), from the
+        model's accounts found by convention (:mod:`acausal.energy`): energy the sources and the boundary
+        delivered, lost per ``loss_power``, change of every stored ``energy``; ``print`` it for the table,
+        ``.residual`` is the relative residual."""
+        from .energy import balance
+        k0 = 0 if t0 is None else int(np.argmin(np.abs(self.t - t0)))
+        k1 = self.t.size - 1 if t1 is None else int(np.argmin(np.abs(self.t - t1)))
+        return balance(self, self.model.accounts, k0, k1)
+
     def integral(self, name: str) -> float:
         """Integral of a variable (or a port's power) over the whole result, like :meth:`energy`."""
         return float(self._cumulative(name)[-1])

@@ -55,7 +55,7 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     p = cm.param_vector(params)
     if p.dtype == object:
         raise ModelError("sensitivities: parameter values must be scalars (one parameter set)")
-    u = cm.input_tuple(inputs)
+    u = cm.input_tuple(inputs, p)
     d = cm.discrete_start()
     overridden = set(params or {})
     bindings = {n: info.value for n, info in cm.flat.parameters.items()

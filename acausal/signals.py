@@ -141,6 +141,48 @@ class PeriodicSpline(Signal):
         return y
 
 
+class ParametricSignal(Signal):
+    """A signal that depends on run-time parameters: ``make(**values)`` builds it from the values of
+    ``parameters`` (``{keyword: parameter}``, a parameter given by its sympy symbol inside ``build`` or by its
+    hierarchical name). The compiled model binds it per run with that run's parameter values (defaults included,
+    dependent parameters evaluated), so a parameter that shapes an input acts wherever it is set. Bound signals
+    are cached by value. ``max_order``: the highest derivative the built signals provide.
+
+    Parameter sensitivities treat the bound signal as fixed (its dependence on the parameters is not
+    differentiated)."""
+
+    def __init__(self, make, parameters: dict, name: str = "parametric signal", max_order: int | None = None):
+        self.make = make
+        self.parameters = {k: getattr(v, "name", v) for k, v in parameters.items()}
+        self.name = name
+        self.max_order = max_order
+        self._bound: dict = {}
+
+    def bind(self, values: dict) -> Signal:
+        """The signal for ``values`` (parameter name -> number); every parameter it depends on must be there."""
+        try:
+            args = {k: values[v] for k, v in self.parameters.items()}
+        except KeyError as exc:
+            raise SignalError(f"signal {self.name!r} depends on parameter {exc.args[0]!r}, which the model "
+                              "does not have") from None
+        if any(np.ndim(a) for a in args.values()):
+            raise SignalError(f"signal {self.name!r} depends on {', '.join(self.parameters.values())}: with a "
+                              "batch of values for them, give the input explicitly per member")
+        key = tuple(sorted((k, float(a)) for k, a in args.items()))
+        if key not in self._bound:
+            if len(self._bound) > 64:
+                self._bound.clear()
+            self._bound[key] = self.make(**{k: float(a) for k, a in args.items()})
+        return self._bound[key]
+
+    def evaluate(self, t, order):
+        raise SignalError(f"signal {self.name!r} depends on run-time parameters; it is evaluated once bound "
+                          "to a run's values (CompiledModel.input_tuple)")
+
+    def __getstate__(self):
+        return {**self.__dict__, "_bound": {}}
+
+
 class FourierSeries(Signal):
     """``y(t) = a0 + sum_k a_k cos(k w t) + b_k sin(k w t)``, ``w = 2 pi / period``; any derivative order."""
 

@@ -36,7 +36,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
     p = cm.param_vector(params)
-    u = cm.input_tuple(inputs)
+    u = cm.input_tuple(inputs, p)
     d = cm.discrete_start()
     t_out = np.linspace(t_start, t_end, n_points) if t_eval is None else np.asarray(t_eval, dtype=float)
     if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):

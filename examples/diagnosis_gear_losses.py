@@ -3,7 +3,7 @@
 The paper calibrated Eq. (4) (DC motor R, L, k, J, b behind an ideal gear) on its bench and found R inflated from
 0.7 to 2 ohm and J from 1.6e-5 to 3.5e-3 kg m2 (Table 2): lumped parameters soaking up what the model lacks. Here
 the virtual bench records the paper's protocol on a truth that has a load-dependent gear mesh efficiency (the
-gearhead catalogue's 70 %, :mod:`acausal.models.effects`), with realistic sensors. ``acausal diagnose``'s engine
+gearhead catalogue's 70 %, :mod:`acausal.models.ankle.effects`), with realistic sensors. ``acausal diagnose``'s engine
 then
 
 1. calibrates the baseline (R, J, b) and shows how they compensate for the missing loss;
@@ -18,11 +18,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from acausal.models import diagnosis
-from acausal.models.bench import TRUTH, BenchCondition, run_bench
-from acausal.models.diagnosis_report import write_json, write_report
-from acausal.models.presets import PRESETS
-from acausal.models.report import md_table, write_csv
+from acausal.models.bench import diagnosis
+from acausal.models.bench.virtual import TRUTH, BenchCondition, run_bench
+from acausal.models.bench.diagnosis_report import write_json, write_report
+from acausal.models.ankle.presets import PRESETS
+from acausal.models.reporting.tables import md_table, write_csv
 
 #: the hidden loss: the catalogue's mesh efficiency of the two-stage gearhead
 ETA = 0.7
@@ -65,7 +65,7 @@ def main(out_dir: Path, results=None, seed: int = 7) -> dict:
           f"b comes out {ratio('motor.b')} and J {ratio('motor.J')} the truth: the part of the loss that shows "
           "in the motor current grows with the transmitted torque, which a viscous term only partly mimics. A "
           "mesh loss does not inflate J by orders of magnitude, so the paper's J of 3.5e-3 kg m2 needs another "
-          "explanation (see the two readings of Table 2 in `acausal.models.presets`). Once the LossyGear is in "
+          "explanation (see the two readings of Table 2 in `acausal.models.ankle.presets`). Once the LossyGear is in "
           "the model, R, J and b return to the truth and the efficiency is recovered. Full report: "
           "`diagnosis_gear_losses/report.md`."]
     return {"title": "Diagnosis: the gear losses Eq. (4) leaves out (the paper's Table 2 story)",

@@ -13,8 +13,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.protocol import POINTS  # noqa: E402
-from acausal.models.report import PAPER, comparison, md_table, pick, write_columns  # noqa: E402
+from acausal.models.ankle.protocol import POINTS  # noqa: E402
+from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
+from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
 
 P, T = 0.008, 2.0
 TRACE = {"source": "P_source.P", "driver": "P_driver.P", "motor": "P_motor.P", "link": "P_link.P",

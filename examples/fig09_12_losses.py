@@ -18,8 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.report import (D_MAX, PAPER, comparison, grid_rows, heatmap, md_table, pct,  # noqa: E402
-                                   replay_grid, write_csv)
+from acausal.models.ankle.paper import D_MAX, PAPER, comparison, grid_rows, heatmap, replay_grid  # noqa: E402
+from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 
 # (file stem, point key of StrideResult.loss_fraction, stage, title, what the paper says, Table 1 at 8 mm/2 s)
 FIGURES = [

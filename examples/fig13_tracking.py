@@ -15,7 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.report import md_table, pick, rms, write_csv  # noqa: E402
+from acausal.models.ankle.paper import pick, rms  # noqa: E402
+from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
 
 P = 0.018
 STRIDE_TIMES = (1.2, 3.0)

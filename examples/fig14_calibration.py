@@ -4,7 +4,7 @@
 The paper's bench recordings are not public, so by default this records a small virtual-bench set first
 (``acausal.models.bench``: the paper's protocol in closed loop on the Eq. (4) truth with realistic sensors) into
 ``OUT/bench_data/`` and calibrates R, J, b on it; the report labels the data as simulated. With ``data=FOLDER`` it
-calibrates on recordings in that folder instead (the format of ``acausal.models.recording_format``).
+calibrates on recordings in that folder instead (the format of ``acausal.models.bench.recording_format``).
 
 Writes ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv``, ``fig14_calibration.png`` (+ CSV).
 Run: ``python examples/fig14_calibration.py`` (into ``results/``).
@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from acausal.models import calibration
-from acausal.models.bench import BenchCondition, run_bench
-from acausal.models.fit_report import fit_outputs
+from acausal.models.bench import calibration
+from acausal.models.bench.virtual import BenchCondition, run_bench
+from acausal.models.bench.fit_report import fit_outputs
 
 #: the on-the-fly bench set: 2 precompressions x 4 stride times, 3 recorded strides each
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.015) for T in (1.2, 1.5, 2.0, 3.0)]

@@ -13,8 +13,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from acausal.models.report import (D_MAX, PAPER, comparison, grid_rows, heatmap, md_table, pct,  # noqa: E402
-                                   pick, replay_grid, write_csv)
+from acausal.models.ankle.paper import D_MAX, PAPER, comparison, grid_rows, heatmap, pick, replay_grid  # noqa: E402
+from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 
 
 def main(out_dir: Path, results=None) -> dict:

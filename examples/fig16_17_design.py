@@ -20,9 +20,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models import design  # noqa: E402
-from acausal.models.bench import TRUTH  # noqa: E402
-from acausal.models.report import md_table, write_csv  # noqa: E402
+from acausal.models.bench import design  # noqa: E402
+from acausal.models.bench.virtual import TRUTH  # noqa: E402
+from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
 
 PAPER_DESIGN = (130e3, 0.007)  # N/m, m (paper section 4.4)
 

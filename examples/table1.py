@@ -13,12 +13,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from acausal.models.protocol import POINTS  # noqa: E402
-from acausal.models.report import PAPER, comparison, md_table, pct, pick, write_csv  # noqa: E402
-from acausal.models.sankey import LABELS, LOSS_NAMES, sankey  # noqa: E402
+from acausal.models.ankle.protocol import POINTS  # noqa: E402
+from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
+from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
+from acausal.models.reporting.sankey import LABELS, LOSS_NAMES, sankey  # noqa: E402
 
 P, T = 0.008, 2.0
-# what drives a difference at each point (see acausal.models.report.ASSUMPTIONS)
+# what drives a difference at each point (see acausal.models.ankle.paper.ASSUMPTIONS)
 WHY_ENERGY = {"source": "driver", "driver": ["gears", "motor"], "motor": "gears", "link": "geometry",
               "output": "geometry"}
 WHY_LOSS = {"driver": "driver", "motor": ["gears", "motor"], "link": "gears", "output": "maccepa"}

@@ -20,9 +20,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from acausal.library.drives import DCMotor  # noqa: E402
-from acausal.models.presets import DESCRIPTIONS, preset  # noqa: E402
-from acausal.models.protocol import POINTS  # noqa: E402
-from acausal.models.report import PAPER, TABLE2_PRESETS, md_table, pick, rms, write_csv  # noqa: E402
+from acausal.models.ankle.presets import DESCRIPTIONS, preset  # noqa: E402
+from acausal.models.ankle.protocol import POINTS  # noqa: E402
+from acausal.models.ankle.paper import PAPER, TABLE2_PRESETS, pick, rms  # noqa: E402
+from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
 
 P, T = 0.008, 2.0
 SHORT = {"library": "library (full model,\nlossy gears and driver)", "paper_datasheet": "Eq. 4: motor datasheet",

@@ -11,8 +11,8 @@ import types
 import pytest
 
 from acausal import ModelError
-from acausal.models import compare
-from acausal.models.protocol import MODELS
+from acausal.models.drivetrains import compare
+from acausal.models.ankle.protocol import MODELS
 
 
 @pytest.fixture(scope="module")

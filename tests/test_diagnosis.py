@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from acausal.cli import main
-from acausal.models import diagnosis
-from acausal.models.bench import BenchCondition, Sensors, run_bench
-from acausal.models.effects import EFFECTS
+from acausal.models.bench import diagnosis
+from acausal.models.bench.virtual import BenchCondition, Sensors, run_bench
+from acausal.models.ankle.effects import EFFECTS
 
 #: 2 precompressions x 2 stride times, 3 strides each (every third stride held out)
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]

@@ -8,8 +8,9 @@ import pytest
 
 from acausal import DataError
 from acausal.identify import load_recording, load_recordings
-from acausal.models import bench, calibration, design
-from acausal.models.recording_format import ANKLE_FORMAT
+from acausal.models.bench import calibration, design
+from acausal.models.bench import virtual as bench
+from acausal.models.bench.recording_format import ANKLE_FORMAT
 
 SLOW = [bench.BenchCondition(P, T, strides=4) for P in (0.005, 0.011, 0.018) for T in (2.5, 3.0)]
 

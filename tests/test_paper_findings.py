@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acausal.models.protocol import Condition, run_condition, sweep
+from acausal.models.ankle.protocol import Condition, run_condition, sweep
 
 Ps = [0.008, 0.011, 0.018]
 Ts = [2.0, 2.5, 3.0]  # at 1.5 s and 18 mm the replay already needs a duty of 0.93 > 0.9

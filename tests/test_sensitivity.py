@@ -21,8 +21,8 @@ def _agree(exact, fd, rel, floor=1e-8):
 # ---------------------------------------------------------------------------------------------- (a) stateless
 @pytest.fixture(scope="module")
 def lossy_replay():
-    from acausal.models.bench_ankle import BenchAnkle
-    return compile_model(BenchAnkle(mode="replay", effects=("gear_load_dependent_loss",)))
+    from acausal.models.ankle.actuator import AnkleActuator
+    return compile_model(AnkleActuator.eq4(mode="replay", effects=("gear_load_dependent_loss",)))
 
 
 @pytest.mark.parametrize("at", [{}, {"gear.eta": 0.85}])
@@ -86,8 +86,8 @@ def test_stateless_with_modes_settled_per_sample():
 # ---------------------------------------------------------------------------------------------- (b) with a state
 @pytest.fixture(scope="module")
 def thermal_replay():
-    from acausal.models.bench_ankle import BenchAnkle
-    return compile_model(BenchAnkle(mode="replay", effects=("winding_temperature",)))
+    from acausal.models.ankle.actuator import AnkleActuator
+    return compile_model(AnkleActuator.eq4(mode="replay", effects=("winding_temperature",)))
 
 
 def _simulate(cm, params, t):

@@ -4,8 +4,8 @@ as the compiled model (planning and spline evaluation are shared, so the ratio m
 import numpy as np
 
 from acausal.library.maccepa import stiffness, torque
-from acausal.models import design
-from acausal.models.bench import TRUTH
+from acausal.models.bench import design
+from acausal.models.bench.virtual import TRUTH
 
 N_GEAR = 860.0
 

@@ -3,7 +3,7 @@ on 2 cores, issue 8).
 
 The command runs in a fresh Python process, as a user would start it (imports, compilation in the workers,
 simulation, CSV, markdown and Sankey PNGs all included): through ``acausal.cli`` once the verb is wired there,
-else through :func:`acausal.models.compare.configure`/``run`` (the functions the CLI wires). One round; the wall
+else through :func:`acausal.models.drivetrains.compare.configure`/``run`` (the functions the CLI wires). One round; the wall
 time is in the benchmark table and in ``extra_info``. The only assertion on time is a loose regression guard (3x
 the goal); the written table is the functional check.
 """
@@ -14,7 +14,7 @@ import sys
 from acausal import cli
 
 ARGS = ["replay", "direct_drive", "sea", "--stride-time", "1.5", "2.0", "--jobs", "2", "--no-progress"]
-_VIA_MODELS = ("import argparse, sys; from acausal.models import compare; p = argparse.ArgumentParser(); "
+_VIA_MODELS = ("import argparse, sys; from acausal.models.drivetrains import compare; p = argparse.ArgumentParser(); "
                "compare.configure(p); a = p.parse_args(sys.argv[1:]); sys.exit(a.run(a))")
 
 

@@ -6,8 +6,8 @@ import time
 import numpy as np
 import pytest
 
-from acausal.models import calibration, design
-from acausal.models.bench import BenchCondition, default_conditions, run_bench
+from acausal.models.bench import calibration, design
+from acausal.models.bench.virtual import BenchCondition, default_conditions, run_bench
 
 from . import handwritten_design
 

@@ -10,7 +10,7 @@ import json
 import subprocess
 import sys
 
-from acausal.models.bench import default_conditions, run_bench
+from acausal.models.bench.virtual import default_conditions, run_bench
 
 
 def test_acausal_diagnose_36_recordings(benchmark, tmp_path):

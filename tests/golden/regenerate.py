@@ -10,7 +10,7 @@ few conditions, so that unintended changes show up in tests/test_paper_findings.
 import json
 from pathlib import Path
 
-from acausal.models.protocol import Condition, run_condition
+from acausal.models.ankle.protocol import Condition, run_condition
 
 GOLDEN = Path(__file__).with_name("paper_golden.json")
 CASES = {

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .calibration import START, rmse_before_after, table2  # noqa: E402
-from .report import md_table, write_csv  # noqa: E402
+from ..reporting.tables import md_table, write_csv  # noqa: E402
 
 
 def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None) -> dict:

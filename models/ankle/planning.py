@@ -40,3 +40,10 @@ def plan_moment_arm(P: float, k: float, A: float, B: float, body_mass: float, n:
     phi = theta + alpha
     prof = PeriodicSpline(s, phi, period=1.0, degree=5, name=f"planned moment-arm angle (P = {P * 1e3:g} mm)")
     return Plan(s, theta, M, alpha, phi, prof)
+
+
+def planned_arm_angle(P: float, k: float, A: float, B: float, body_mass: float) -> PeriodicSpline:
+    """The planned moment-arm angle over the gait fraction (period 1) for precompression ``P`` [m], stiffness
+    ``k`` [N/m], lever lengths ``A``, ``B`` [m] and ``body_mass`` [kg]: what the actuator's
+    :class:`~acausal.ParametricSignal` builds from a run's parameters."""
+    return plan_moment_arm(P, k, A, B, body_mass).phi_profile

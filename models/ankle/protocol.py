@@ -1,50 +1,69 @@
 """The paper's bench protocol (section 4): energy per stride at the five measurement points over precompression x
 stride time, stage efficiencies and losses (Table 1 layout), peak powers, tracking error, energy balance.
 
-One condition = one compiled model simulated over ``strides`` strides with that condition's run-time parameters
-and planned trajectory; the last stride is evaluated (the first lets the bus and, in closed loop, the controller
-settle). Sweeps run conditions through any ``concurrent.futures.Executor`` (default: a process pool on all
+One condition = one compiled model simulated over ``strides`` strides with that condition's run-time parameters;
+the last stride is evaluated (the first lets the bus and, in closed loop, the controller settle). Sweeps run
+conditions through any ``concurrent.futures.Executor`` (:func:`acausal.sweep.sweep`; default: a process pool on all
 cores); each worker process compiles each model once.
 
-Any model of the registry (:mod:`acausal.models.registry`: the paper's actuator in replay and closed loop, the
-direct drive and the alternative actuators) runs through the same protocol; its spec names its measurement
-points, losses and stored energies, so the energy balance is checked for every model the same way.
+Any model of the registry (:mod:`acausal.models.ankle.registry`: the paper's actuator in replay and closed
+loop, the direct drive and the alternative actuators) runs through the same protocol. Its measurement points,
+losses and stored energies are found from its components (:attr:`acausal.CompiledModel.accounts`: the power
+sensors in build order are the points of :data:`POINTS`), so the energy balance is
+checked for every model the same way and no list of them is kept by hand.
 """
 from __future__ import annotations
 
-import os
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from acausal import compile_model
-from acausal.sweep import progress_bar
+from acausal.energy import balance
+from acausal.sweep import sweep as run_sweep
 
-from . import registry
+from .registry import MODELS, spec
 from .presets import preset
-from .registry import spec
-
-MODELS = registry.MODELS  # name -> ModelSpec
 
 PRECOMPRESSIONS = [0.002, 0.005, 0.008, 0.011, 0.015, 0.018]  # m (paper section 4)
 STRIDE_TIMES = [1.2, 1.3, 1.5, 2.0, 2.5, 3.0]  # s per stride (paper section 4)
-POINTS = ["source", "driver", "motor", "link", "output"]
+#: the paper's measurement points in chain order: a drive train's power sensors, in the order it builds them
+POINTS = ("source", "driver", "motor", "link", "output")
+STAGES = [("driver", "source", "driver"), ("motor", "driver", "motor"), ("gearing", "motor", "link"),
+          ("output", "link", "output")]  # (stage, from point, to point)
 PAPER_TABLE1 = {"source": 64.5, "driver": 42.0, "motor": 33.0, "link": 15.4, "output": 12.0}  # J, 8 mm, 2 s
 
-#: every dissipation of the paper's actuator (the energy balance's loss side; other models: ``spec(name).losses``)
-LOSSES = ["supply.loss_power", "rect.loss_power", "driver.loss_power", "motor.loss_power",
-          "planetary.loss_power", "helical.loss_power"]
-
-_COMPILED: dict = {}  # per-process cache: build key -> CompiledModel (compiled once per worker)
+_COMPILED: dict = {}  # per-process cache: build key -> Compiled (compiled once per worker)
 
 
-def compiled(name: str):
+@dataclass
+class Compiled:
+    """A registered model, compiled, with its measurement points (label -> power-sensor reading) and the loss
+    variables of each stage between them."""
+
+    sim: object
+    points: dict
+    stages: dict
+
+
+def compiled(name: str) -> Compiled:
     """The compiled model of registered model ``name`` (compiled once per process; shared by models with the
-    same build key)."""
+    same build key), with the measurement points found from its power sensors."""
     s = spec(name)
     if s.key not in _COMPILED:
-        _COMPILED[s.key] = compile_model(s.build())
+        model = s.build()
+        sim = compile_model(model)
+        acc = sim.accounts
+        labels = [p for p in POINTS if p not in model.shared_points]
+        if len(acc.sensors) != len(labels):
+            raise RuntimeError(f"model {name!r}: {len(acc.sensors)} power sensors {acc.sensors}, expected one per "
+                               f"measurement point {labels}")
+        points = dict(zip(labels, acc.sensors))
+        points.update({a: points[b] for a, b in model.shared_points.items()})
+        stages = {st: (list(acc.stages.get(points[b], [])) if points[a] != points[b] else [])
+                  for st, a, b in STAGES}
+        _COMPILED[s.key] = Compiled(sim, points, stages)
     return _COMPILED[s.key]
 
 
@@ -76,6 +95,7 @@ class StrideResult:
     returned: float = 0.0  # J per stride flowing back into the supply at the source point (negative power)
     loss_energy: dict = field(default_factory=dict)  # J per stride of each loss power of the energy balance
     params: dict = field(default_factory=dict)  # the run-time parameters of the run (numbers only)
+    stages: dict = field(default_factory=dict)  # stage -> loss-power variables between its two points
     traces: dict = field(default_factory=dict)  # time series of the evaluated stride (when asked for)
 
     @property
@@ -106,44 +126,41 @@ class StrideResult:
 def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
     """Simulate one bench condition and evaluate its last stride."""
     s = spec(cond.model)
-    sim = compiled(cond.model)
+    c = compiled(cond.model)
+    sim = c.sim
     T = cond.stride_time
     params = {**preset(cond.preset), **s.params, "stride_time": T}
     if s.uses_precompression:
-        params["link.P"] = cond.P
+        params["P_nominal"] = cond.P
     params.update(cond.overrides)
-    inputs = s.inputs(cond.P, params) if s.inputs is not None else {}
+    values = dict(zip(sim.param_names, sim.param_vector(params)))
+    inputs = s.condition_inputs(values)
     pps = max(cond.points_per_stride, s.min_points_per_stride)
     n = cond.strides * (pps - 1) + 1
     res = sim.simulate(cond.strides * T, params=params, inputs=inputs, n_points=n, **s.tol)
     k0 = (cond.strides - 1) * (pps - 1)
     window = slice(k0, None)
-    points = dict(s.points)
+    points = c.points
 
     def stride_energy(name):
         e = res.energy(name)
         return float(e[-1] - e[k0])
 
     energy = {k: stride_energy(points[k]) for k in POINTS}
-    stage_loss = {b: energy[a] - energy[b] for a, b in zip(POINTS, POINTS[1:])}
-    stage_loss = {"driver": stage_loss["driver"], "motor": stage_loss["motor"], "gearing": stage_loss["link"],
-                  "output": stage_loss["output"]}
+    stage_loss = {st: energy[a] - energy[b] for st, a, b in STAGES}
     peak = {k: float(np.max(np.abs(res[points[k]][window]))) for k in POINTS}
-    d_stored = sum(float(res[n][-1] - res[n][k0]) for n in s.accounts["stored"])
-    src = stride_energy("supply.source_power")
-    loss_energy = {n: stride_energy(n) for n in s.losses}
-    out = energy["output"]
-    residual = (src - sum(loss_energy.values()) - out - d_stored) / src
+    bal = balance(res, sim.accounts, k0)
     t = res.t[window] - res.t[k0]
     i_m = np.asarray(res["motor.i"][window])
-    r = StrideResult(cond, energy, stage_loss, peak, residual,
+    r = StrideResult(cond, energy, stage_loss, peak, bal.residual,
                      max_duty=float(np.max(np.abs(res["driver.d"][window]))),
                      peak_motor_speed=float(np.max(np.abs(res["motor.w"][window]))),
                      peak_motor_current=float(np.max(np.abs(i_m))),
                      rms_motor_current=float(np.sqrt(np.sum(np.diff(t) * (i_m[1:]**2 + i_m[:-1]**2) / 2) / t[-1])),
                      peak_motor_voltage=float(np.max(np.abs(res["motor.v"][window]))),
                      returned=negative_energy(t, np.asarray(res[points["source"]][window])),
-                     loss_energy=loss_energy, params={k: float(v) for k, v in params.items()})
+                     loss_energy=dict(bal.losses), params={k: float(v) for k, v in params.items()},
+                     stages=c.stages)
     if "tracking_error" in res:
         e = res["tracking_error"][window]
         r.tracking_rms, r.tracking_max = float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))
@@ -175,26 +192,8 @@ def _run(args):
 def sweep(conditions, executor: Executor | None = None, progress: bool = True, traces: tuple = ()) -> list:
     """Run conditions (in order) through ``executor`` (default: a process pool on all cores), with a progress
     bar on stderr. Any ``concurrent.futures.Executor`` works (a dask ``Client.get_executor()``, ray...)."""
-    conditions = list(conditions)
-    own = executor is None
-    if own:
-        executor = ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
-    try:
-        futures = [executor.submit(_run, (c, traces)) for c in conditions]
-        out = []
-        for i, f in enumerate(futures, 1):
-            out.append(f.result())
-            if progress:
-                progress_bar(i, len(futures), "conditions")
-        return out
-    finally:
-        if own:
-            executor.shutdown()
-
-
-def protocol_conditions(model="replay", preset_name="library", Ps=PRECOMPRESSIONS, Ts=STRIDE_TIMES):
-    """The paper's 36 conditions (P x stride time)."""
-    return [Condition(P, T, model, preset_name) for P in Ps for T in Ts]
+    return run_sweep(_run, [(c, traces) for c in conditions], executor=executor, progress=progress,
+                     label="conditions")
 
 
 def as_grid(results, key) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 Each recording is replayed: its measured ankle angle theta(t) and moment-arm angle phi(t) are smoothed
 (:class:`~acausal.identify.smoothing.SmoothingSpline`, quintic least-squares spline, 80 knots per stride) and prescribed
-to :class:`~acausal.models.bench_ankle.BenchAnkle` in replay mode; index reduction derives speeds, accelerations,
+to the Eq. (4) model (:meth:`~acausal.models.ankle.actuator.AnkleActuator.eq4`) in replay mode; index reduction derives speeds, accelerations,
 the motor current, voltages and the supply current, and the replay is purely algebraic (no integrator) unless an
 effect adds a state. The chosen parameters are fitted by bounded least squares on motor current (and, by
 default, supply current, which is what makes R identifiable: the motor current does not depend on R when the
@@ -19,10 +19,10 @@ from acausal.identify import load_recordings
 from acausal.identify.calibrate import Calibration, Experiment, Free, calibrate, rmse_table
 from acausal.identify.smoothing import SmoothingSpline, edge_margin
 
-from .bench_ankle import SIGNALS, BenchAnkle
-from .effects import EFFECTS
-from .presets import PRESETS
-from .recording_format import ANKLE_FORMAT, model_params
+from ..ankle.actuator import AnkleActuator
+from ..ankle.presets import PRESETS
+from ..ankle.effects import EFFECTS
+from .recording_format import ANKLE_FORMAT, SIGNALS, model_params
 
 #: short names accepted by ``--params`` and the API
 SHORT = {"R": "motor.R", "J": "motor.J", "b": "motor.b", "L": "motor.L", "k": "motor.k"}
@@ -43,7 +43,7 @@ def replay_model(effects=()):
     """The compiled replay model with ``effects`` (cached per process)."""
     key = tuple(sorted(effects))
     if key not in _COMPILED:
-        _COMPILED[key] = compile_model(BenchAnkle(mode="replay", effects=key))
+        _COMPILED[key] = compile_model(AnkleActuator.eq4(mode="replay", effects=key))
     return _COMPILED[key]
 
 

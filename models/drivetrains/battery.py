@@ -9,21 +9,8 @@ prosthesis runs from a battery, which takes that energy back. Here the supply (4
 the driver's bus; nothing else changes. The source measurement point then sees the net energy (drawn minus
 returned); the energy returned per stride is reported separately (``StrideResult.returned``).
 
+Registered as ``battery``: :class:`~acausal.models.ankle.actuator.AnkleActuator` with ``supply="battery"``.
+
 Assumption: the internal resistance stays the lab supply's 0.05 ohm so that only regeneration differs
 (a 13S Li-ion pack of 18650 cells would have about 0.1-0.3 ohm: set ``supply.R_int``).
 """
-from __future__ import annotations
-
-from .elastic import ElasticAnkleReplay
-from .elastic import accounts as elastic_accounts
-
-
-class RegenerativeAnkle(ElasticAnkleReplay):
-    """The paper's MACCEPA actuator, replayed, with the supply connected straight to the driver (no rectifier)."""
-
-    def __init__(self, **kw):
-        super().__init__(supply="battery", **kw)
-
-
-def accounts() -> dict:
-    return elastic_accounts(supply="battery")

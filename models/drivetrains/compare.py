@@ -30,15 +30,13 @@ from pathlib import Path
 
 from acausal import ModelError
 
-from .presets import preset as preset_overrides
-from .protocol import POINTS, Condition, StrideResult, sweep
-from .registry import MODELS, RPM, spec
+from ..ankle.presets import preset as preset_overrides
+from ..ankle.protocol import POINTS, STAGES, Condition, StrideResult, sweep
+from ..ankle.registry import MODELS, RPM, spec
 
 DEFAULT_STRIDE_TIMES = (2.0,)  # s (the paper's Table 1 condition)
 DEFAULT_PRECOMPRESSIONS = (0.008,)  # m
 NO_SERIES_LINK = ("direct_drive", "parallel_elastic")  # their "link" point is the gear output at the joint
-STAGES = [("driver", "source", "driver"), ("motor", "driver", "motor"), ("gearing", "motor", "link"),
-          ("output", "link", "output")]  # (stage, from point, to point)
 
 
 # ------------------------------------------------------------------------------------------------ running
@@ -225,7 +223,7 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .sankey import LABELS, loss_names_from_groups, sankey
+    from ..reporting.sankey import LABELS, loss_names_from_groups, sankey
 
     paths = []
     scale = 1.0 / max(max(r.energy["source"] for r in results), 1e-9)
@@ -233,7 +231,7 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
         runs = [r for r in results if r.condition.model == m]
         fig, axes = plt.subplots(1, len(runs), figsize=(7 * len(runs), 5.2), squeeze=False)
         link = "parallel spring" if m == "parallel_elastic" else "series link"
-        names = loss_names_from_groups(spec(m).accounts["loss_groups"], link=link)
+        names = loss_names_from_groups(runs[0].stages, link=link)
         for ax, r in zip(axes[0], runs):
             c, e = r.condition, r.energy
             where = (f"{c.P * 1e3:g} mm, " if spec(m).uses_precompression else "") + f"{c.stride_time:g} s/stride"
@@ -252,7 +250,7 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
 
 def write_outputs(results, out_dir) -> dict:
     """Write ``compare.csv``, ``compare.md`` and the Sankey PNGs into ``out_dir``; returns their paths."""
-    from .report import write_csv
+    from ..reporting.tables import write_csv
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -33,8 +33,15 @@ ANKLE_FORMAT = RecordingFormat(
 )
 
 
+#: model variable behind each recorded column (the simulated reading of that sensor), in
+#: :meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`
+SIGNALS = {"motor_current_A": "motor.i", "supply_current_A": "P_source.i", "joint_torque_Nm": "joint_torque",
+           "supply_voltage_V": "P_source.v"}
+
+
 def model_params(meta: dict) -> dict:
-    """The recording's settings as parameter overrides of :class:`~acausal.models.bench_ankle.BenchAnkle`."""
+    """The recording's settings as parameter overrides of the Eq. (4) model
+    (:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`)."""
     p = {"P_nominal": meta["precompression_m"], "stride_time": meta["stride_time_s"],
          "link.k": meta["spring_stiffness_N_per_m"]}
     optional = {"supply_voltage_V": "supply.V", "lever_A_m": "link.A", "lever_B_m": "link.B", "gear_ratio": "gear.ratio"}

@@ -40,11 +40,11 @@ from acausal import Constant, Parameter, RealInput, Signal, connect
 from acausal.errors import ModelError
 from acausal.library.drives import PWMDriver
 from acausal.library.gait import GaitProfile, unit_cycle
+from acausal.library.maccepa import Maccepa
 from acausal.library.maccepa import torque as maccepa_torque
 
-from .elastic import ElasticAnkleReplay
-from .elastic import accounts as elastic_accounts
-from .planning import plan_moment_arm
+from ..ankle.actuator import AnkleActuator
+from ..ankle.planning import plan_moment_arm
 
 M_OFF = 3.0  # N m: "little torque" threshold of the switching rule
 BLEND = 0.05  # stride fractions: arm brought to rest / back onto the plan
@@ -158,14 +158,18 @@ class SwitchPlan:
     hold: Signal
 
 
-def switch_plan(P: float, k: float = 132e3, A: float = 0.1, B: float = 0.06, body_mass: float = 60.0,
-                M_off: float = M_OFF, blend: float = BLEND, ramp: float = RAMP) -> SwitchPlan | None:
+def switch_plan(P: float, k: float | None = None, A: float | None = None, B: float | None = None,
+                body_mass: float | None = None, M_off: float = M_OFF, blend: float = BLEND,
+                ramp: float = RAMP) -> SwitchPlan | None:
     """Apply the switching rule (module docstring) to the planned trajectory of precompression ``P`` [m] (``k``
-    [N/m], ``A``, ``B`` [m], ``body_mass`` [kg]); ``M_off`` [N m], ``blend`` and ``ramp`` [stride fractions].
+    [N/m], ``A``, ``B`` [m], ``body_mass`` [kg]; None: the model's defaults); ``M_off`` [N m], ``blend`` and ``ramp`` [stride fractions].
     Candidate hold starts are the samples with little torque; the longest window wins (the earliest on a tie).
     ``None`` if the driver would be fully off for no more than 2 % of the stride."""
     if not M_off > 0:
         raise ModelError(f"switch_off: threshold M_off must be > 0 N m, got {M_off!r}")
+    k, A, B = (Maccepa.k.default if k is None else k, Maccepa.A.default if A is None else A,
+               Maccepa.B.default if B is None else B)
+    body_mass = AnkleActuator.body_mass.default if body_mass is None else body_mass
     if not (0 < blend < 0.2 and 0 < ramp < 0.1):
         raise ModelError(f"switch_off: blend {blend!r} and ramp {ramp!r} must be small positive stride fractions")
     plan = plan_moment_arm(P, k, A, B, body_mass)
@@ -200,13 +204,13 @@ def switch_plan(P: float, k: float = 132e3, A: float = 0.1, B: float = 0.06, bod
                       HeldReference(plan.phi_profile, h, phi[i]), Complement(hold, name="driver enable"), hold)
 
 
-class SelfLockingMaccepa(ElasticAnkleReplay):
-    """The paper's actuator with a self-locking 10:1 stage ``worm`` and a switchable driver; the driver's
-    enable and the gear's hold come from the 1-periodic inputs ``enable_ref.profile`` and ``hold_ref.profile``
-    (defaults: always on, never held)."""
+class SelfLockingMaccepa(AnkleActuator):
+    """The paper's actuator (replayed) with a self-locking 10:1 stage ``worm`` and a switchable driver; the
+    driver's enable and the gear's hold come from the 1-periodic inputs ``enable_ref.profile`` and
+    ``hold_ref.profile`` (defaults: always on, never held)."""
 
     def __init__(self, **kw):
-        super().__init__(output_stage="self_locking", driver_cls=SwitchedPWMDriver, **kw)
+        super().__init__(gears="self_locking", driver_cls=SwitchedPWMDriver, **kw)
 
     def build(self):
         super().build()
@@ -216,19 +220,14 @@ class SelfLockingMaccepa(ElasticAnkleReplay):
         connect(self.hold_ref.y, self.worm.hold)
 
 
-def accounts() -> dict:
-    return elastic_accounts(output_stage="self_locking")
-
-
-def condition_inputs(P: float, params: dict, switching: bool, M_off: float = M_OFF) -> dict:
-    """Inputs for a condition with run-time parameters ``params``: the plan (``switching=False``, driver always
-    on) or the switching rule's reference and schedules (always on when the rule finds no stretch)."""
-    k = float(params.get("link.k", 132e3))
-    A, B = float(params.get("link.A", 0.1)), float(params.get("link.B", 0.06))
-    mass = float(params.get("body_mass", 60.0))
-    sp_ = switch_plan(P, k, A, B, mass, M_off=M_off) if switching else None
+def condition_inputs(spec, values: dict) -> dict:
+    """Inputs of registered model ``spec`` for a run with parameter values ``values`` (the model's own, every
+    parameter by name): ``switch_off`` applies the switching rule to the run's planned trajectory (the driver
+    stays on where the rule finds no stretch); ``self_locking`` keeps the driver on."""
+    args = (values["P_nominal"], values["link.k"], values["link.A"], values["link.B"], values["body_mass"])
+    sp_ = switch_plan(*args) if spec.name == "switch_off" else None
     if sp_ is None:
-        return {"arm_ref.profile": plan_moment_arm(P, k, A, B, mass).phi_profile,
+        return {"arm_ref.profile": plan_moment_arm(*args).phi_profile,
                 "enable_ref.profile": Constant(1.0, name="driver enable"),
                 "hold_ref.profile": Constant(0.0, name="gear holds")}
     return {"arm_ref.profile": sp_.reference, "enable_ref.profile": sp_.enable, "hold_ref.profile": sp_.hold}

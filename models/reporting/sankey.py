@@ -11,7 +11,6 @@ import logging
 
 from matplotlib.sankey import Sankey
 
-from .protocol import POINTS
 
 logging.getLogger("matplotlib.axes").setLevel(logging.ERROR)  # Sankey's equal aspect overrides fixed limits
 
@@ -34,12 +33,14 @@ def loss_names_from_groups(loss_groups: dict, link: str = "linkage") -> list:
 
 def sankey(ax, energy: dict, title: str, scale: float, labels: dict = LABELS, loss_names: list = LOSS_NAMES,
            lossless_note: str = "output loss 0 J\n(MACCEPA modelled\nlossless)"):
-    """Draw ``energy`` (J per stride at each of the five points) on ``ax``; ``scale``: arrow width per J."""
+    """Draw ``energy`` (J per stride at each point, in chain order: source first, joint last) on ``ax``;
+    ``scale``: arrow width per J."""
+    points = list(energy)
     s = Sankey(ax=ax, scale=scale, unit=" J", format="%.1f", gap=0.35, head_angle=120, shoulder=0.02,
                offset=0.12)
     prior = None
     gained = []
-    for i, (a, b) in enumerate(zip(POINTS, POINTS[1:])):
+    for i, (a, b) in enumerate(zip(points, points[1:])):
         loss = energy[a] - energy[b]
         if loss < -1e-6 * abs(energy["source"]):
             gained.append(f"{labels[b]} +{-loss:.2g} J")
@@ -48,7 +49,7 @@ def sankey(ax, energy: dict, title: str, scale: float, labels: dict = LABELS, lo
         flows = [energy[a], -loss, -energy[b]]
         if loss < 1e-6 * abs(energy["source"]):
             flows[1], name = 0.0, None  # nothing lost here: drawn as a note below
-        lab = [labels[a] if i == 0 else None, name, labels[b] if b == "output" else None]
+        lab = [labels[a] if i == 0 else None, name, labels[b] if b == points[-1] else None]
         kw = dict(prior=prior, connect=(2, 0)) if prior is not None else {}
         s.add(flows=flows, orientations=[0, -1, 0], labels=lab, pathlengths=[0.25, 0.35, 0.25],
               trunklength=1.0, facecolor=f"C{i}", alpha=0.75, **kw)
@@ -58,11 +59,11 @@ def sankey(ax, energy: dict, title: str, scale: float, labels: dict = LABELS, lo
         for t in d.texts:
             t.set_fontsize(8)
     # annotate the energy passed on at each intermediate point along the top edge of the band
-    for i, b in enumerate(POINTS[1:-1]):
+    for i, b in enumerate(points[1:-1]):
         x, y = diagrams[i].tips[2]
         ax.annotate(f"{labels[b]}\n{energy[b]:.1f} J", (x, y + 0.5 * energy[b] * scale), xytext=(0, 6),
                     textcoords="offset points", ha="center", va="bottom", fontsize=8)
-    last = energy["link"] - energy["output"]
+    last = energy[points[-2]] - energy[points[-1]]
     if abs(last) < 1e-6 * abs(energy["source"]) and lossless_note:
         x, y = diagrams[-1].tips[2]
         ax.annotate(lossless_note, (x, y), xytext=(0, -14), textcoords="offset points", ha="center", va="top",

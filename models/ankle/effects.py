@@ -1,6 +1,6 @@
 """Effects the paper's Eq. (4) model leaves out, each a change of the ankle model made with library components.
 
-:class:`~acausal.models.bench_ankle.BenchAnkle` takes a tuple of effect identifiers and adds or swaps the
+:class:`~acausal.models.ankle.actuator.AnkleActuator` takes a tuple of effect identifiers and adds or swaps the
 components; the virtual bench hides effects in its truth model (``acausal bench --effect ID=VALUE``) and the
 diagnosis (``acausal diagnose``) tries them as candidate extensions of the calibrated baseline.
 

@@ -1,9 +1,9 @@
 """Diagnosis of the ankle actuator's Eq. (4) model against bench recordings (``acausal diagnose``).
 
-The baseline is the paper's Eq. (4) model (:class:`~acausal.models.bench_ankle.BenchAnkle` without effects:
+The baseline is the paper's Eq. (4) model (:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>` without effects:
 DC motor R, L, k, J, b, ideal gear n = 860, MACCEPA at the nominal precompression, ideal PWM driver behind the
 non-regenerative rectifier, ideal sensors), calibrated on R, J and b. The candidates are the effects of
-:mod:`acausal.models.effects`, each a change of the model made with library components. The engine
+:mod:`acausal.models.ankle.effects`, each a change of the model made with library components. The engine
 (:mod:`acausal.identify.diagnose`) fits, scores and chooses; this module says what the experiments, the baseline
 parameters and the regressors of the residual analysis are for this actuator:
 
@@ -18,10 +18,9 @@ import numpy as np
 from acausal.identify import load_recordings
 from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
-from .bench_ankle import SIGNALS
 from .calibration import Split, experiment, free_parameter, replay_model
-from .effects import EFFECTS
-from .recording_format import ANKLE_FORMAT
+from ..ankle.effects import EFFECTS
+from .recording_format import ANKLE_FORMAT, SIGNALS
 
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")

@@ -15,7 +15,8 @@ mechanical power at the moment arm, ``max |M(t) dphi/dt|``, when the actuator fo
 Time scaling multiplies ``P_arm`` by ``1 / stride_time``, so the optimum does not depend on the stride time.
 For the packaged gait data it is about 401 N m/rad (peak 69.5 W at 1.2 s; the direct drive needs 193 W).
 A rigid link (``c -> infinity``) is the direct drive. The planned trajectory is the swappable input
-``arm_ref.profile`` (:func:`plan_sea`); ``link.c`` is a run-time parameter.
+``arm_ref.profile``, planned by :func:`plan_sea` from the run's ``link.c`` and ``body_mass`` (both run-time
+parameters).
 """
 from __future__ import annotations
 
@@ -24,14 +25,13 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from acausal import PeriodicSpline
+from acausal import ParametricSignal, PeriodicSpline
 from acausal.errors import ModelError
-from acausal.library.gait import unit_cycle
+from acausal.library.gait import DEFAULT_BODY_MASS, unit_cycle
 from acausal.library.rotational import Spring
 
-from .elastic import ElasticAnkleReplay
-from .elastic import accounts as elastic_accounts
-from .planning import N_PLAN, Plan
+from ..ankle.actuator import SeriesLinkAnkle
+from ..ankle.planning import N_PLAN, Plan
 
 DESIGN_STRIDE_TIME = 1.2  # s: the paper's design condition ("1.2 s per stride")
 _N_DESIGN = 4000  # gait-fraction samples for the peak-power criterion
@@ -43,7 +43,7 @@ def _gait(body_mass: float, n: int = _N_DESIGN):
     return body_mass * cyc.torque(s), body_mass * cyc.torque(s, 1), cyc.angle(s, 1)
 
 
-def peak_arm_power(c: float, body_mass: float = 60.0, stride_time: float = DESIGN_STRIDE_TIME,
+def peak_arm_power(c: float, body_mass: float = DEFAULT_BODY_MASS, stride_time: float = DESIGN_STRIDE_TIME,
                    n: int = _N_DESIGN) -> float:
     """Peak |M dphi/dt| [W] at the moment arm of a linear SEA of stiffness ``c`` [N m/rad] following the gait."""
     if not c > 0:
@@ -53,7 +53,7 @@ def peak_arm_power(c: float, body_mass: float = 60.0, stride_time: float = DESIG
 
 
 @lru_cache(maxsize=8)
-def design_stiffness(body_mass: float = 60.0) -> float:
+def design_stiffness(body_mass: float = DEFAULT_BODY_MASS) -> float:
     """The stiffness [N m/rad] minimising :func:`peak_arm_power` (paper's design criterion): a log-spaced scan
     over 10-10^5 N m/rad, refined by bounded Brent minimisation around the best sample (deterministic)."""
     M, dM, dtheta = _gait(body_mass)
@@ -70,7 +70,7 @@ def design_stiffness(body_mass: float = 60.0) -> float:
     return float(np.exp(best.x)) if best.fun <= pk[i] else float(cs[i])
 
 
-def plan_sea(c: float, body_mass: float = 60.0, n: int = N_PLAN) -> Plan:
+def plan_sea(c: float, body_mass: float = DEFAULT_BODY_MASS, n: int = N_PLAN) -> Plan:
     """The moment-arm trajectory of the linear SEA: ``alpha = M / c``, ``phi = theta + alpha`` (one stride)."""
     if not c > 0:
         raise ModelError(f"SEA: stiffness link.c must be > 0 N m/rad, got {c!r}")
@@ -84,22 +84,17 @@ def plan_sea(c: float, body_mass: float = 60.0, n: int = N_PLAN) -> Plan:
     return Plan(s, theta, M, alpha, phi, prof)
 
 
-class SeriesElastic(ElasticAnkleReplay):
-    """The paper's drive train with a linear torsion spring ``link`` (``c`` [N m/rad]) as the series element."""
+def _planned(c, body_mass):
+    return plan_sea(c, body_mass).phi_profile
+
+
+class SeriesElastic(SeriesLinkAnkle):
+    """The paper's drive train with a linear torsion spring ``link`` (``c`` [N m/rad]) as the series element,
+    designed for the model's default body mass."""
 
     def make_link(self):
-        return Spring(c=design_stiffness())
+        return Spring(c=design_stiffness(type(self).body_mass.default))
 
-    def default_profile(self):
-        return plan_sea(design_stiffness()).phi_profile
-
-
-def condition_inputs(params: dict) -> dict:
-    """The planned trajectory for the run-time parameters ``link.c`` and ``body_mass`` (defaults: design)."""
-    c = float(params.get("link.c", design_stiffness()))
-    return {"arm_ref.profile": plan_sea(c, float(params.get("body_mass", 60.0))).phi_profile}
-
-
-def accounts() -> dict:
-    """Loss groups and stored energies (the spring's energy is ``link.energy``)."""
-    return elastic_accounts()
+    def planned_arm(self):
+        return ParametricSignal(_planned, {"c": self.link.c, "body_mass": self.body_mass},
+                                name="SEA moment-arm angle", max_order=5)

@@ -1,6 +1,7 @@
 """The paper's results in one report: the conditions ``acausal paper`` runs, helpers the example scripts share
-(pick a condition out of a sweep, run what is missing, write CSV and markdown tables, compare with the paper),
-and :func:`write_report`, which assembles ``report.md`` and ``protocol.csv`` from the examples' outputs.
+(pick a condition out of a sweep, run what is missing, compare with the paper, heat maps), and
+:func:`write_report`, which assembles ``report.md`` and ``protocol.csv`` from the examples' outputs (tables and
+CSV through :mod:`acausal.models.reporting.tables`).
 
 Nothing here is tuned to the paper: the simulation runs the ``library`` preset (datasheet motor, catalogue gear
 efficiency, the paper's measured driver draw and the assumptions listed in :data:`ASSUMPTIONS`), and the paper's
@@ -8,12 +9,12 @@ numbers are only printed next to it.
 """
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
 import numpy as np
 
+from ..reporting.tables import md_table, pct, write_csv
 from .protocol import (PAPER_TABLE1, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
 
@@ -28,7 +29,7 @@ D_MAX = 0.9
 QUICK_PRECOMPRESSIONS = [0.005, 0.008, 0.018]
 QUICK_STRIDE_TIMES = [1.2, 2.0, 3.0]
 
-#: Table 2's Eq. 4 presets (models/presets.py), in the paper's column order
+#: Table 2's Eq. 4 presets (models/ankle/presets.py), in the paper's column order
 TABLE2_PRESETS = ["paper_datasheet", "paper_estimated_total", "paper_optimized_total_as_printed",
                   "paper_optimized_total_arm_side"]
 
@@ -136,39 +137,6 @@ def rms(x) -> float:
 
 # ---------------------------------------------------------------------------------------------- files, tables
 
-def write_csv(path: Path, rows: list[dict]) -> Path:
-    """Rows of dictionaries (same keys) as CSV; floats with enough digits to re-plot."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        for row in rows:
-            w.writerow({k: (f"{v:.9g}" if isinstance(v, (float, np.floating)) else v) for k, v in row.items()})
-    return path
-
-
-def write_columns(path: Path, columns: dict) -> Path:
-    """Equal-length columns (time series) as CSV."""
-    keys = list(columns)
-    n = len(columns[keys[0]])
-    return write_csv(path, [{k: float(columns[k][i]) for k in keys} for i in range(n)])
-
-
-def md_table(header: list, rows: list[list]) -> str:
-    def cell(v):
-        return v if isinstance(v, str) else f"{v:.4g}"
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
-def pct(v: float, digits: int = 1) -> str:
-    """A fraction as percent, without a '-0.0 %' for round-off."""
-    v = 0.0 if abs(v) < 0.5 * 10 ** -(digits + 2) else v
-    return f"{100 * v:.{digits}f} %"
-
-
 def comparison(quantity: str, sim: float, paper: float, unit: str, assumption=None, fmt: str = ".3g",
                note: str = "") -> dict:
     """One simulation-vs-paper number. ``assumption`` (a key of ASSUMPTIONS, or a list of keys) is named, with
@@ -229,14 +197,14 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
 
     L = ["# CYBERLEGs ankle actuator: the paper's results in simulation", ""]
     L += ["Reproduces section 4 of *cyberlegs-maccepa-energetics* (Table 1, Figs. 7-13, 15, Table 2) with "
-          "`acausal.models.cyberlegs` on the embedded healthy-gait data (Winter 1991): the joint angle and the "
+          "`acausal.models.ankle.actuator` on the embedded healthy-gait data (Winter 1991): the joint angle and the "
           "planned moment-arm angle are replayed (the paper's Simulink approach), the compiler derives the motor "
           "current, every voltage and every power; Fig. 13 runs the closed loop.", ""]
     L += [f"- grid: precompression {', '.join(f'{1e3 * P:g}' for P in Ps)} mm x stride time "
           f"{', '.join(f'{T:g}' for T in Ts)} s ({len(grid)} replay conditions"
           + ("; **quick mode: reduced grid and resolution, for tests**" if quick else "") + f"); "
           f"{len(results)} simulated conditions in all" + (f", {elapsed:.1f} s wall time" if elapsed else "") + ".",
-          "- parameters: the `library` preset (models/presets.py) unless a section says otherwise. "
+          "- parameters: the `library` preset (models/ankle/presets.py) unless a section says otherwise. "
           "**No number is tuned to the paper**: every parameter is a datasheet or catalogue value, one of the "
           "paper's own measurements (driver draw 10-15 W) or one of the assumptions below; the paper's numbers "
           "are only printed next to the simulation.",

@@ -14,8 +14,8 @@ import numpy as np  # noqa: E402
 
 from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
-from .effects import EFFECTS  # noqa: E402
-from .report import md_table, write_csv  # noqa: E402
+from ..ankle.effects import EFFECTS  # noqa: E402
+from ..reporting.tables import md_table, write_csv  # noqa: E402
 
 _UNITS = {"motor_current_A": "A", "supply_current_A": "A", "joint_torque_Nm": "N m"}
 

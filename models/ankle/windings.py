@@ -19,7 +19,7 @@ The matching supply (assumptions): no-load voltage = the winding's nominal volta
 with the voltage squared from the lab supply's 0.05 ohm at 48 V (the same relative drop at the same power);
 the rectifier's brake-chopper threshold scaled with the voltage (50 V at 48 V). Rotor inertia, friction and
 temperature coefficient do not depend on the winding and keep the library's values. Everything else is the
-paper's actuator (MACCEPA, replayed). These are parameter sets of :class:`CyberlegsAnkle` (``mode="replay"``):
+paper's actuator (MACCEPA, replayed). These are parameter sets of :class:`~acausal.models.ankle.actuator.AnkleActuator` (``mode="replay"``):
 they share its compiled model.
 """
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 The bench does what the real one did (paper section 4): the output motor moves the ankle along the gait angle
 at the condition's stride time, and the actuator's controller tracks the planned moment-arm angle for the
-condition's precompression (closed loop, :class:`~acausal.models.bench_ankle.BenchAnkle`). The truth model is the
-paper's Eq. (4) structure with ``truth`` parameter values, plus hidden ``effects`` (:mod:`acausal.models.effects`)
+condition's precompression (closed loop, :meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`). The truth model is the
+paper's Eq. (4) structure with ``truth`` parameter values, plus hidden ``effects`` (:mod:`acausal.models.ankle.effects`)
 at chosen sizes. Each condition is simulated for ``settle`` strides (discarded: the controller settles) and then
 ``strides`` recorded strides.
 
@@ -24,17 +24,20 @@ import numpy as np
 from acausal import DataError, compile_model
 from acausal.identify import write_recording
 
-from .bench_ankle import SIGNALS, BenchAnkle
-from .effects import EFFECTS, effect
-from .planning import plan_moment_arm
-from .protocol import PRECOMPRESSIONS, STRIDE_TIMES
-from .recording_format import ANKLE_FORMAT
+from acausal.library.drives import DCMotor
+from acausal.library.maccepa import Maccepa
 
-#: the truth's parameters when nothing else is said (Eq. 4 values of the order the paper's data implies:
-#: R as Table 2's estimated total, J = rotor + gearhead input inertia, b = the no-load friction; see presets)
-TRUTH = {"motor.R": 0.7, "motor.L": 6.53e-5, "motor.k": 0.0274, "motor.J": 4.07e-6, "motor.b": 7.0e-6}
-BODY_MASS = 60.0
-K_SPRING = 132e3
+from ..ankle.actuator import AnkleActuator
+from ..ankle.presets import EQ4_LUMPED
+from ..ankle.protocol import PRECOMPRESSIONS, STRIDE_TIMES
+from ..ankle.effects import EFFECTS, effect
+from .recording_format import ANKLE_FORMAT, SIGNALS
+
+#: the truth's parameters when nothing else is said: Eq. 4's lumped values (presets.EQ4_LUMPED) and the motor's
+#: datasheet L and k (the DCMotor defaults)
+TRUTH = {**EQ4_LUMPED, "motor.L": DCMotor.L.default, "motor.k": DCMotor.k.default}
+BODY_MASS = AnkleActuator.body_mass.default
+K_SPRING = Maccepa.k.default
 
 
 @dataclass(frozen=True)
@@ -78,7 +81,7 @@ _COMPILED: dict = {}
 
 def _truth_model(effects: tuple):
     if effects not in _COMPILED:
-        _COMPILED[effects] = compile_model(BenchAnkle(mode="closed_loop", effects=effects))
+        _COMPILED[effects] = compile_model(AnkleActuator.eq4(mode="closed_loop", effects=effects))
     return _COMPILED[effects]
 
 
@@ -87,15 +90,15 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
     """Simulate one condition on the truth model; returns ``(columns, meta)`` of the recording."""
     effects = dict(effects or {})
     sim = _truth_model(tuple(sorted(effects)))
-    params = {**TRUTH, **(truth or {}), "stride_time": cond.stride_time, "P_nominal": cond.P, "link.k": K_SPRING}
+    params = {**TRUTH, **(truth or {}), "stride_time": cond.stride_time, "P_nominal": cond.P, "link.k": K_SPRING,
+              "body_mass": cond.body_mass}
     for name, value in effects.items():
         params[effect(name).parameter] = value
     T = cond.stride_time
     dt = 1.0 / sensors.rate
     n_settle = int(round(cond.settle * T / dt))
     n_rec = int(round(cond.strides * T / dt))
-    plan = plan_moment_arm(cond.P, K_SPRING, 0.1, 0.06, cond.body_mass)
-    res = sim.simulate((n_settle + n_rec) * dt, params=params, inputs={"arm_ref.profile": plan.phi_profile},
+    res = sim.simulate((n_settle + n_rec) * dt, params=params,
                        n_points=n_settle + n_rec + 1, rtol=1e-7, atol=1e-9, dense_output=False)
     w = slice(n_settle, n_settle + n_rec)
     rng = np.random.default_rng([seed, index])
@@ -113,7 +116,7 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
                             + sensors.motor_current_noise * rng.standard_normal(n)),
     }
     meta = {"precompression_m": cond.P, "stride_time_s": T, "spring_stiffness_N_per_m": K_SPRING,
-            "body_mass_kg": cond.body_mass, "supply_voltage_V": 48.0, "strides": cond.strides,
+            "body_mass_kg": cond.body_mass, "supply_voltage_V": float(res["supply.V"][0]), "strides": cond.strides,
             "description": f"virtual bench (acausal bench), seed {seed}: simulated data, not a measurement"}
     return cols, meta
 
@@ -156,7 +159,7 @@ def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict
 def _write_readme(out: Path, conditions, effects, truth, sensors, seed):
     lines = ["# Virtual bench recordings (simulated, not measured)", "",
              f"Written by `acausal bench` with seed {seed}: {len(conditions)} recordings in the format of "
-             "`acausal.models.recording_format` (closed loop, paper protocol).", "",
+             "`acausal.models.bench.recording_format` (closed loop, paper protocol).", "",
              "## Truth model (the answer key)", "", "Eq. (4) structure with:", ""]
     lines += [f"- `{k}` = {v:g}" for k, v in sorted(truth.items())]
     lines += ["", "Hidden effects: " + (", ".join(f"`{k}` = {v:g} {EFFECTS[k].unit}" for k, v in effects.items())

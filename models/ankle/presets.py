@@ -15,6 +15,11 @@ driver to lossless and the supply to stiff (1 milliohm), so that only Eq. (4)'s 
 """
 N_TOTAL = 860.0
 
+#: Eq. (4)'s lumped motor values the paper's data implies (the Eq. 4 model's defaults and the virtual bench's
+#: truth): R as Table 2's estimated total; J = rotor 3.33e-6 + gearhead input 0.7e-6 kg m2 (= Table 2's optimized
+#: total / 860); b = the no-load friction 7.0e-6 N m s/rad (= Table 2's optimized total / 860)
+EQ4_LUMPED = {"motor.R": 0.7, "motor.J": 4.07e-6, "motor.b": 7.0e-6}
+
 # our component model's physical defaults (datasheet motor, catalogue gear efficiency, measured driver draw)
 LIBRARY = {}
 

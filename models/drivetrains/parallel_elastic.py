@@ -24,16 +24,14 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import minimize
 
-from acausal import Model, Parameter, connect
-from acausal.library.gait import AnkleTorqueLoad, GaitProfile, unit_cycle
+from acausal import connect
+from acausal.library.gait import DEFAULT_BODY_MASS, AnkleTorqueLoad, GaitProfile, unit_cycle
 from acausal.library.rotational import AngleSensor, Fixed, Spring
 from acausal.library.sensors import MechanicalPowerSensor
 
-from .drive_train import add_drive_train, add_follower, drive_train_accounts
+from ..ankle.actuator import DriveTrain
 from .sea import DESIGN_STRIDE_TIME
 
-MEASUREMENT_POINTS = [("source", "P_source.P"), ("driver", "P_driver.P"), ("motor", "P_motor.P"),
-                      ("link", "P_link.P"), ("output", "P_output.P")]
 _N_DESIGN = 2000
 
 
@@ -43,7 +41,7 @@ def _gait(body_mass: float, n: int = _N_DESIGN):
     return body_mass * cyc.torque(s), cyc.angle(s), cyc.angle(s, 1)
 
 
-def peak_drive_power(c: float, theta0: float, body_mass: float = 60.0, stride_time: float = DESIGN_STRIDE_TIME,
+def peak_drive_power(c: float, theta0: float, body_mass: float = DEFAULT_BODY_MASS, stride_time: float = DESIGN_STRIDE_TIME,
                      n: int = _N_DESIGN) -> float:
     """Peak |(M - c (theta0 - theta)) dtheta/dt| [W] the drive delivers with a parallel spring (c [N m/rad],
     theta0 [rad])."""
@@ -52,7 +50,7 @@ def peak_drive_power(c: float, theta0: float, body_mass: float = 60.0, stride_ti
 
 
 @lru_cache(maxsize=8)
-def design_spring(body_mass: float = 60.0) -> tuple[float, float]:
+def design_spring(body_mass: float = DEFAULT_BODY_MASS) -> tuple[float, float]:
     """``(c [N m/rad], theta0 [rad])`` minimising :func:`peak_drive_power` at 1.2 s/stride (c >= 0): a grid
     scan (c 0-1500 N m/rad, theta0 -25..25 deg) refined by Nelder-Mead from the best grid point."""
     M, theta, dtheta = _gait(body_mass)
@@ -72,15 +70,13 @@ def design_spring(body_mass: float = 60.0) -> tuple[float, float]:
     return float(cs[i]), float(t0s[j])
 
 
-class ParallelElastic(Model):
-    """Motor and gears (n = 860) moving the joint along the gait angle, with a parallel torsion spring."""
-
-    body_mass = Parameter(60.0, unit="kg", min=1.0, doc="body mass scaling the gait torque (assumption)")
-    stride_time = Parameter(2.0, unit="s", min=0.1, doc="stride duration")
+class ParallelElastic(DriveTrain):
+    """Motor and gears (n = 860) moving the joint along the gait angle, with a parallel torsion spring designed
+    for the model's default body mass."""
 
     def build(self):
-        gear_out = add_drive_train(self, saturate=False)
-        c, theta0 = design_spring()
+        gear_out = self.build_drive()
+        c, theta0 = design_spring(type(self).body_mass.default)
         self.P_link = MechanicalPowerSensor()
         self.leg = Fixed()
         self.parallel = Spring(c=c, phi_rel0=theta0)
@@ -94,11 +90,4 @@ class ParallelElastic(Model):
         self.joint_ref = GaitProfile(stride_time=self.stride_time, profile=unit_cycle().angle_signal())
         self.joint_angle = AngleSensor()
         connect(self.load.flange, self.joint_angle.flange)
-        add_follower(self, self.joint_angle.phi, self.joint_ref.y)
-
-
-def accounts() -> dict:
-    acc = drive_train_accounts()
-    acc["loss_groups"]["output"] = []
-    acc["stored"].append("parallel.energy")
-    return acc
+        self.add_follower(self.joint_angle.phi, self.joint_ref.y)

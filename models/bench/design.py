@@ -1,8 +1,8 @@
 """Efficiency-optimal spring design (paper section 4.4, Figs. 16-17).
 
 For a spring stiffness k and precompression P the moment-arm trajectory is planned so that the MACCEPA delivers the
-gait torque (paper section 3, :func:`~acausal.models.planning.plan_moment_arm`), and the calibrated Eq. (4) model
-(:class:`~acausal.models.bench_ankle.BenchAnkle`, replay mode: algebraic) is evaluated over one stride. The overall
+gait torque (paper section 3, :func:`~acausal.models.ankle.planning.plan_moment_arm`), and the calibrated Eq. (4) model
+(:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`, replay mode: algebraic) is evaluated over one stride. The overall
 efficiency per stride is the joint energy over the source energy (the rectifier returns nothing, so the source
 energy is the integral of the positive bus power).
 
@@ -26,13 +26,15 @@ from scipy.optimize import minimize
 
 from acausal import Signal
 from acausal.library.gait import unit_cycle
-from acausal.library.maccepa import inverse_torque, max_torque
+from acausal.library.maccepa import Maccepa, inverse_torque, max_torque
 from acausal.sweep import chunks, sweep
 
-from .bench import BODY_MASS, TRUTH
+from ..ankle.actuator import AnkleActuator
+from ..ankle.presets import EQ4_LUMPED
 from .calibration import replay_model
 
-A_LEVER, B_LEVER = 0.1, 0.06
+A_LEVER, B_LEVER = Maccepa.A.default, Maccepa.B.default  # the lever lengths every design keeps
+BODY_MASS = AnkleActuator.body_mass.default
 N_STRIDE = 400  # samples per stride
 K_GRID = np.linspace(40e3, 280e3, 25)  # N/m (10 N/mm steps)
 P_GRID = np.linspace(0.001, 0.018, 18)  # m
@@ -108,7 +110,7 @@ def evaluate_designs(ks, Ps, stride_time: float, params: dict | None = None, n: 
     sim = replay_model()
     theta = PeriodicSplineBatch(d.t, d.theta[:, None], T, "gait angle")
     phi = PeriodicSplineBatch(d.t, d.phi.T, T, "planned moment-arm angles")
-    base = {**TRUTH, **(params or {}), "stride_time": T}
+    base = {**EQ4_LUMPED, **(params or {}), "stride_time": T}
     pb = sim.param_batch([{**base, "link.k": k, "P_nominal": P} for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
     vals = sim.evaluate(d.t, params=pb, names=list(POINTS.values()) + ["driver.d"],
                         inputs={"ankle.phi_ref": theta, "arm_target.signal": phi})

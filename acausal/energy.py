@@ -1,0 +1,166 @@
+"""Energy accounts found by convention, and the energy balance of any simulated model.
+
+A component says what it does with energy by the names of its variables (the library follows this everywhere):
+
+* ``loss_power`` [W]: power it dissipates (>= 0);
+* ``energy`` or ``*_energy`` [J]: energy it stores;
+* ``source_power`` [W]: power an ideal source inside it delivers to the model;
+* a class whose name ends in ``PowerSensor`` with a variable ``P`` [W]: a lossless power meter (a measurement
+  point, not an account).
+
+Only the outermost declaration counts: a rectifier's ``loss_power`` already holds its diode's, so the diode is not
+counted again. Every other component with physical ports (pins, flanges, heat ports) that is not inside an
+accounted component is a *boundary*: the power it delivers into the model through its ports (a prescribed motion,
+an ideal voltage source, a ground, an ideal gear's round-off) enters the balance as it is, so that
+
+    sum(source_power) + sum(boundary power delivered) = sum(loss_power) + d/dt sum(stored energy)
+
+holds for any model built from such components (Tellegen's theorem per connection set).
+
+Measurement points and stages follow the build order: the power sensors in the order the model created them, and
+each loss in the stage that ends at the first sensor created after it (losses created before the first sensor
+join the first stage). A model that builds its chain from source to load therefore needs no hand-kept lists.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .components import Component, Connector
+
+LOSS = "loss_power"
+SOURCE = "source_power"
+SENSOR_SUFFIX = "PowerSensor"
+PHYSICAL_DOMAINS = ("electrical", "rotational", "thermal")
+
+
+def _is_stored(var: str) -> bool:
+    return var == "energy" or var.endswith("_energy")
+
+
+@dataclass(frozen=True)
+class Accounts:
+    """The energy accounts of a model (variable and port names, in build order)."""
+
+    losses: tuple  # loss-power variables
+    stored: tuple  # stored-energy variables
+    sources: tuple  # source-power variables (power delivered by ideal sources)
+    boundary: tuple  # (component, (ports...)): power delivered into the model through these ports
+    sensors: tuple  # power-sensor readings ("P_source.P", ...), build order
+    stages: dict = field(default_factory=dict)  # sensor reading -> loss variables between it and the previous one
+
+    def losses_under(self, path: str) -> list:
+        """Loss variables of the sub-tree ``path`` (its own and its parts')."""
+        return [n for n in self.losses if n == f"{path}.{LOSS}" or n.startswith(f"{path}.")]
+
+
+def _ordered(root: Component) -> list:
+    """Components below ``root`` (excluded) depth-first in build order."""
+    out = []
+
+    def visit(c):
+        for child in c._children.values():
+            out.append(child)
+            visit(child)
+    visit(root)
+    return out
+
+
+def accounts(model: Component) -> Accounts:
+    """The accounts of a built model instance (a compiled model keeps them as ``CompiledModel.accounts``)."""
+    model._ensure_built()
+    losses, stored, sources, boundary, sensors = [], [], [], [], []
+    stages: dict = {}
+    pending: list = []  # losses waiting for the next sensor
+    covered: list = []  # paths of accounted components (their parts are not looked at)
+    for c in _ordered(model):
+        if isinstance(c, Connector) or any(c.path.startswith(p + ".") for p in covered):
+            continue
+        decl = c.declarations()
+        names = [k for k in decl if not isinstance(decl[k], Component)]
+        if type(c).__name__.endswith(SENSOR_SUFFIX) and "P" in names:
+            sensors.append(f"{c.path}.P")
+            stages[sensors[-1]] = pending
+            pending = []
+            covered.append(c.path)
+            continue
+        own = [f"{c.path}.{n}" for n in names if n == LOSS]
+        keep = [f"{c.path}.{n}" for n in names if _is_stored(n)]
+        src = [f"{c.path}.{n}" for n in names if n == SOURCE]
+        if own or keep or src:
+            losses += own
+            pending += own
+            stored += keep
+            sources += src
+            covered.append(c.path)
+            continue
+        if any(isinstance(ch, Component) and not isinstance(ch, Connector) for ch in c._children.values()):
+            continue  # a composite without accounts of its own: its parts are looked at
+        ports = tuple(ch.path for ch in c._children.values()
+                      if isinstance(ch, Connector) and ch.domain in PHYSICAL_DOMAINS)
+        if ports:
+            boundary.append((c.path, ports))
+    if pending and sensors:  # losses after the last sensor: the last stage
+        stages[sensors[-1]] = stages[sensors[-1]] + pending
+    elif pending:
+        stages[""] = pending
+    if sensors and "" not in stages:
+        first = sensors[0]
+        # losses before the first sensor join the first stage that has a predecessor
+        if len(sensors) > 1 and stages[first]:
+            stages[sensors[1]] = stages[first] + stages[sensors[1]]
+            stages[first] = []
+    return Accounts(tuple(losses), tuple(stored), tuple(sources), tuple(boundary), tuple(sensors), stages)
+
+
+@dataclass
+class Balance:
+    """An energy balance over ``[t0, t1]`` [J]: what the sources and the boundary delivered, what was lost and
+    stored; ``residual`` = (delivered - lost - stored change) / delivered."""
+
+    t0: float
+    t1: float
+    sources: dict
+    boundary: dict
+    losses: dict
+    stored: dict
+
+    @property
+    def delivered(self) -> float:
+        return sum(self.sources.values()) + sum(v for v in self.boundary.values() if v > 0)
+
+    @property
+    def residual(self) -> float:
+        total = sum(self.sources.values()) + sum(self.boundary.values()) - sum(self.losses.values()) \
+            - sum(self.stored.values())
+        return total / self.delivered if self.delivered else float(total)
+
+    def table(self) -> str:
+        rows = [("source", k, v) for k, v in self.sources.items()]
+        rows += [("boundary (delivered)", k, v) for k, v in self.boundary.items() if abs(v) > 0]
+        rows += [("loss", k, v) for k, v in self.losses.items()]
+        rows += [("stored (change)", k, v) for k, v in self.stored.items()]
+        width = max([len(k) for _, k, _ in rows] + [8])
+        lines = [f"energy balance over {self.t0:g} .. {self.t1:g} s [J]"]
+        lines += [f"  {kind:<21} {k:<{width}} {v:12.6g}" for kind, k, v in rows]
+        lines.append(f"  relative residual {self.residual:.2e}")
+        return "\n".join(lines)
+
+    def __str__(self):
+        return self.table()
+
+
+def balance(res, acc: Accounts, k0: int = 0, k1: int = -1) -> Balance:
+    """The energy balance of a :class:`~acausal.result.Result` between output samples ``k0`` and ``k1``."""
+    def between(name):
+        e = res.energy(name)
+        return float(e[k1] - e[k0])
+
+    boundary = {}
+    for comp, ports in acc.boundary:
+        delivered = -sum(between(p) for p in ports)
+        boundary[comp] = delivered
+    return Balance(float(res.t[k0]), float(res.t[k1]), {n: between(n) for n in acc.sources}, boundary,
+                   {n: between(n) for n in acc.losses},
+                   {n: float(np.asarray(res[n])[k1] - np.asarray(res[n])[k0]) for n in acc.stored})

@@ -1,0 +1,325 @@
+"""The CYBERLEGs alpha-prosthesis ankle actuator (paper sections 2-3), one model with declared options.
+
+::
+
+    supply -[P_source]- rectifier - PWM driver -[P_driver]- DC motor -[P_motor]- gears (planetary 86:1, helical
+        10:1) -[P_link]- MACCEPA -[P_output]- torque_sensor - ankle joint (moved along the gait)
+
+``P_*`` are power sensors at the paper's five measurement points (Fig. 6): source (electrical, supply -> driver
+side), driver output (electrical, at the motor terminals), motor shaft, moment arm ("link") and joint ("output"),
+mechanical ones positive in the direction supply -> joint. The energy accounts (losses, stored energies, the
+measurement points) are found by convention from the components (:mod:`acausal.energy`): nothing here lists them.
+
+:class:`DriveTrain` is the partial model every ankle drive shares (supply to gear output); :class:`AnkleActuator`
+completes it with the MACCEPA, the joint and the way the moment arm is moved. Options (constructor keywords):
+
+* ``mode``: ``"replay"`` (the paper's Simulink approach: the moment-arm angle is imposed through an inverse
+  constraint on the driver command, so index reduction derives current, voltages and every power; the driver
+  does not saturate, check ``driver.d`` against ``d_max``) or ``"closed_loop"`` (a PID tracks the reference
+  within the bus voltage: the motor's limits show up as tracking error, paper Fig. 13).
+* ``motion``: ``"gait"`` (the joint follows the healthy gait at ``stride_time``, the arm the planned trajectory)
+  or ``"recorded"`` (replay only: joint and arm angles are absolute-time inputs ``ankle.phi_ref`` and
+  ``arm_target.signal``, e.g. smoothed bench recordings).
+* ``supply``: ``"rectifier"`` (the bench: lab supply behind the non-regenerative rectifier), ``"battery"``
+  (the supply straight on the driver's bus, so regenerated energy returns) or ``"ideal"`` (Eq. 4: a stiff
+  48 V source and an ideal non-regenerative rectifier).
+* ``gears``: ``"paper"`` (planetary 86:1 with the catalogue's 70 % and 0.7 g cm2 input inertia, helical 10:1 at
+  an assumed 90 %, smooth mesh law), ``"self_locking"`` (a self-locking 10:1 worm ``worm`` in place of the
+  helical stage) or ``"ideal"`` (Eq. 4: one ideal gear ``gear`` of ratio 860).
+* ``driver``: ``"paper"`` (the EPOS2 model: quiescent draw, conduction, switching) or ``"ideal"`` (lossless);
+  ``driver_cls`` the driver's class (default :class:`~acausal.library.drives.PWMDriver`).
+* ``effects``: what Eq. (4) leaves out, as swap-in parts (:mod:`acausal.models.ankle.effects`):
+  ``gear_coulomb_friction`` (a BearingFriction before the gear), ``gear_load_dependent_loss`` (the ideal gear
+  swapped for a LossyGear), ``winding_temperature`` (the motor's heat port on its lumped thermal capacitance),
+  ``torque_sensor_offset`` (a Bias in the torque reading), ``gear_backlash`` (a Backlash between gear output and
+  moment arm, whose encoder reads the arm side); ``driver_quiescent_power`` and ``precompression_error`` are
+  parameters of every variant.
+
+:meth:`AnkleActuator.eq4` is the paper's Eq. (4) bench model (ideal supply, driver and gear; the motor's lumped
+R, J, b), the truth of the virtual bench and the baseline of calibration and diagnosis.
+
+Parameters travel through the model: the planned moment-arm angle is a :class:`~acausal.ParametricSignal` of the
+run's ``P_nominal``, ``link.k``, ``link.A``, ``link.B`` and ``body_mass``, so setting any of them (e.g.
+``simulate(params={"body_mass": 90})``) replans the trajectory. The spring's actual precompression is
+``link.P = P_nominal + precompression_error``.
+
+Assumptions (not published, ``../shared/data/parameters.md``): lever lengths A = 0.1 m and B = 0.06 m, body mass
+60 kg, supply 48 V, helical-stage efficiency 0.9.
+"""
+from __future__ import annotations
+
+from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable, connect
+from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource
+from acausal.library.control import PIDVariableLimit
+from acausal.library.drives import DCMotor, PWMDriver
+from acausal.library.electrical import (ConstantVoltage, Ground, IdealNonRegenerativeRectifier,
+                                        NonRegenerativeRectifier, Supply, VoltageSensor)
+from acausal.library.gait import DEFAULT_BODY_MASS, AnkleAngleSource, GaitProfile, unit_cycle
+from acausal.library.maccepa import Maccepa
+from acausal.library.rotational import (AngleSensor, Backlash, BearingFriction, Gearbox, IdealGear, LossyGear,
+                                        Position, SelfLockingGear, TorqueSensor)
+from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
+from acausal.library.thermal import FixedTemperature, HeatCapacitor, ThermalConductor
+
+from .effects import EFFECTS, effect
+from .planning import planned_arm_angle
+from .presets import EQ4_LUMPED, N_TOTAL  # N_TOTAL: planetary 86:1 x helical 10:1
+
+
+OPTIONS = {"mode": ("replay", "closed_loop"), "motion": ("gait", "recorded"),
+           "supply": ("rectifier", "battery", "ideal"), "gears": ("paper", "self_locking", "ideal"),
+           "driver": ("paper", "ideal")}
+
+
+def check_option(owner: str, name: str, value) -> str:
+    """``value`` if it is one of ``OPTIONS[name]``, else a :class:`ModelError` naming owner, option and choices."""
+    if value not in OPTIONS[name]:
+        raise ModelError(f"{owner}: option {name} must be one of {', '.join(map(repr, OPTIONS[name]))}, "
+                         f"got {value!r}")
+    return value
+
+
+class DriveTrain(Model):
+    """Supply -[P_source]- (rectifier) - driver -[P_driver]- motor -[P_motor]- gears: the partial model every
+    ankle drive extends (MSL style: a subclass's ``build`` calls :meth:`build_drive` and connects the returned gear
+    output). Options ``supply``, ``gears``, ``driver``, ``driver_cls`` and ``saturate`` (the driver clamps its
+    duty: closed loop) as in the module docstring. ``shared_points``: measurement points that are the same sensor
+    as another (a drive without a series link: ``{"link": "output"}``)."""
+
+    body_mass = Parameter(DEFAULT_BODY_MASS, unit="kg", min=1.0, doc="body mass scaling the gait torque "
+                          "(assumption, library/gait)")
+    stride_time = Parameter(2.0, unit="s", min=0.1, doc="stride duration (paper: 1.2-3 s)")
+
+    shared_points: dict = {}
+
+    def __init__(self, supply: str = "rectifier", gears: str = "paper", driver: str = "paper",
+                 driver_cls=PWMDriver, saturate: bool = False, **kw):
+        name = type(self).__name__
+        self.options = dict(supply=check_option(name, "supply", supply), gears=check_option(name, "gears", gears),
+                            driver=check_option(name, "driver", driver))
+        super().__init__(**kw)
+        self.driver_cls, self.saturate = driver_cls, saturate
+
+    def motor_options(self) -> dict:
+        """Keywords of the DC motor (the Eq. 4 variant sets its lumped values)."""
+        return {}
+
+    def build_drive(self):
+        """Add the drive to this model and return the gear output flange."""
+        o = self.options
+        if o["supply"] == "ideal":
+            self.supply = ConstantVoltage(V=Supply.V.default)
+        else:
+            self.supply = Supply()
+        self.P_source = ElectricalPowerSensor()
+        if o["supply"] == "rectifier":
+            self.rect = NonRegenerativeRectifier()
+        elif o["supply"] == "ideal":
+            self.rect = IdealNonRegenerativeRectifier()
+        lossless = dict(R_on=0.0, k_sw=0.0, P_q=0.0) if o["driver"] == "ideal" else {}
+        self.driver = self.driver_cls(command="voltage", saturate=self.saturate, **lossless)
+        self.P_driver = ElectricalPowerSensor()
+        self.motor = DCMotor(**self.motor_options())
+        self.gnd = Ground()
+        connect(self.supply.p, self.P_source.pc, self.P_source.pv)
+        if o["supply"] == "battery":
+            connect(self.P_source.nc, self.driver.bus_p)
+            connect(self.supply.n, self.P_source.nv, self.driver.bus_n, self.gnd.p)
+        else:
+            connect(self.P_source.nc, self.rect.p_in)
+            connect(self.supply.n, self.P_source.nv, self.rect.n_in, self.gnd.p)
+            connect(self.rect.p_bus, self.driver.bus_p)
+            connect(self.rect.n_bus, self.driver.bus_n)
+        connect(self.driver.mot_p, self.P_driver.pc, self.P_driver.pv)
+        connect(self.P_driver.nc, self.motor.p)
+        connect(self.driver.mot_n, self.P_driver.nv, self.motor.n)
+        self.P_motor = MechanicalPowerSensor()
+        connect(self.motor.flange, self.P_motor.flange_a)
+        return self.build_gears(self.P_motor.flange_b)
+
+    def build_gears(self, shaft):
+        """The transmission from the motor-side flange ``shaft``; returns its output flange."""
+        if self.options["gears"] == "ideal":
+            self.gear = IdealGear(ratio=N_TOTAL)
+            connect(shaft, self.gear.flange_a)
+            return self.gear.flange_b
+        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")
+        connect(shaft, self.planetary.flange_a)
+        if self.options["gears"] == "paper":
+            self.helical = Gearbox(ratio=N_TOTAL / 86.0, eta=0.9, law="smooth")
+            connect(self.planetary.flange_b, self.helical.flange_a)
+            return self.helical.flange_b
+        self.worm = SelfLockingGear(ratio=N_TOTAL / 86.0)
+        connect(self.planetary.flange_b, self.worm.flange_a)
+        return self.worm.flange_b
+
+    def add_follower(self, measured, target):
+        """Inverse model: the driver command ``follow`` makes ``measured`` (a RealOutput) equal ``target`` (the
+        compiler solves for the command)."""
+        self.follow = SignalConstraint()
+        connect(measured, self.follow.u)
+        connect(target, self.follow.target)
+        connect(self.follow.y, self.driver.u)
+
+    def add_controller(self, reference, measured):
+        """Closed loop: ``controller`` (PID with anti-windup, assumed gains) drives the driver so that
+        ``measured`` follows ``reference``, within the largest motor voltage the bridge can make from the
+        present bus (``bus_voltage`` times ``d_max``, ``available``)."""
+        self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
+        connect(reference, self.controller.setpoint)
+        connect(measured, self.controller.measurement)
+        connect(self.controller.y, self.driver.u)
+        self.bus_voltage = VoltageSensor()
+        self.available = Gain(k=self.driver.d_max)
+        bus = (self.driver.bus_p, self.driver.bus_n) if self.options["supply"] == "battery" else \
+            (self.rect.p_bus, self.rect.n_bus)
+        connect(bus[0], self.bus_voltage.p)
+        connect(bus[1], self.bus_voltage.n)
+        connect(self.bus_voltage.v_out, self.available.u)
+        connect(self.available.y, self.controller.limit)
+
+
+def _plan(P, k, A, B, body_mass):
+    return planned_arm_angle(P, k, A, B, body_mass)
+
+
+class SeriesLinkAnkle(DriveTrain):
+    """A :class:`DriveTrain` whose gear output moves a moment arm that drives the joint through a series
+    elastic link: ``-[P_link]- link -[P_output]- torque_sensor - ankle``, with the moment arm following a planned
+    angle (``mode``, ``motion``: module docstring). Extensions say what the link is (:meth:`make_link`) and how
+    the arm angle is planned (:meth:`planned_arm`)."""
+
+    joint_torque = Variable(unit="N.m", doc="reading of the joint torque sensor (torque on the foot)")
+    tracking_error = Variable(unit="rad", doc="moment-arm reference minus actual angle")
+
+    def __init__(self, mode: str = "replay", motion: str = "gait", **kw):
+        name = type(self).__name__
+        self.mode = check_option(name, "mode", mode)
+        self.motion = check_option(name, "motion", motion)
+        if motion == "recorded" and mode != "replay":
+            raise ModelError(f"{name}: motion 'recorded' needs mode 'replay' (closed loop follows the gait)")
+        super().__init__(saturate=mode == "closed_loop", **kw)
+
+    def make_link(self):
+        """The elastic element between moment arm (``flange_b``) and joint (``flange_a``)."""
+        raise NotImplementedError
+
+    def planned_arm(self):
+        """The planned moment-arm angle over the gait fraction (a Signal of period 1)."""
+        raise NotImplementedError
+
+    def build_extras(self):
+        """Parts added to the drive before the link (none here)."""
+
+    def reading(self, tau):
+        """The joint-torque reading from the sensor's output ``tau`` (a RealOutput)."""
+        return tau
+
+    def build(self):
+        arm = self.build_drive()
+        self.build_extras()
+        self.P_link = MechanicalPowerSensor()
+        self.link = self.make_link()
+        self.P_output = MechanicalPowerSensor()
+        self.torque_sensor = TorqueSensor()
+        connect(arm, self.P_link.flange_a)
+        connect(self.P_link.flange_b, self.link.flange_b)
+        # the output sensor measures power from the link into the joint (link.flange_a side is the foot)
+        connect(self.link.flange_a, self.P_output.flange_a)
+        connect(self.P_output.flange_b, self.torque_sensor.flange_a)
+        self.arm_angle = AngleSensor()
+        connect(arm, self.arm_angle.flange)
+        if self.motion == "recorded":
+            self.ankle = Position(phi_ref=unit_cycle().angle_signal())
+            self.arm_target = SignalSource(signal=self.planned_arm())
+            reference = self.arm_target.y
+        else:
+            self.ankle = AnkleAngleSource(stride_time=self.stride_time)
+            self.arm_ref = GaitProfile(stride_time=self.stride_time, profile=self.planned_arm())
+            reference = self.arm_ref.y
+        connect(self.torque_sensor.flange_b, self.ankle.flange)
+        if self.mode == "replay":
+            self.add_follower(self.arm_angle.phi, reference)
+        else:
+            self.add_controller(reference, self.arm_angle.phi)
+        self._reference = reference
+        self._reading = self.reading(self.torque_sensor.tau)
+
+    def equations(self):
+        return [Eq(self.joint_torque, self._reading.value),
+                Eq(self.tracking_error, self._reference.value - self.arm_angle.phi.value)]
+
+
+class AnkleActuator(SeriesLinkAnkle):
+    """The paper's ankle actuator: :class:`DriveTrain`, MACCEPA, joint, and the moment arm moved by ``mode``
+    (see the module docstring for every option)."""
+
+    P_nominal = Parameter(Maccepa.P.default, unit="m", min=0.0, max=0.018,
+                          doc="nominal spring precompression (the paper's 0-18 mm; the trajectory is planned for it)")
+    precompression_error = Parameter(0.0, unit="m", doc="actual minus nominal precompression")
+    winding_heating = Parameter(EFFECTS["winding_temperature"].typical, unit="K/J", min=1e-9,
+                                doc="1 / the motor's lumped heat capacity (effect winding_temperature)")
+
+    def __init__(self, mode: str = "replay", effects=(), **kw):
+        self.effects = tuple(sorted({effect(e).id for e in effects}))
+        if "gear_load_dependent_loss" in self.effects and kw.get("gears", "paper") != "ideal":
+            raise ModelError(f"{type(self).__name__}: effect gear_load_dependent_loss swaps the ideal gear "
+                             "(gears='ideal')")
+        super().__init__(mode=mode, **kw)
+
+    @classmethod
+    def eq4(cls, mode: str = "replay", effects=(), **kw) -> "AnkleActuator":
+        """The paper's Eq. (4) bench model: stiff 48 V supply, ideal rectifier and driver, ideal gear of ratio
+        860, the motor's lumped R, J, b (:data:`~acausal.models.ankle.presets.EQ4_LUMPED`); a replay takes
+        recorded angles."""
+        kw.setdefault("motion", "recorded" if mode == "replay" else "gait")
+        return cls(mode=mode, effects=effects, supply="ideal", gears="ideal", driver="ideal", **kw)
+
+    def has(self, name: str) -> bool:
+        return name in self.effects
+
+    def motor_options(self) -> dict:
+        opts = {"use_heat_port": self.has("winding_temperature")}
+        if self.options["gears"] == "ideal":
+            opts.update({k.split(".", 1)[1]: v for k, v in EQ4_LUMPED.items()})
+        return opts
+
+    def build_gears(self, shaft):
+        if self.has("gear_coulomb_friction"):
+            self.gear_friction = BearingFriction(tau_c=0.0, w_c=5.0)
+            connect(shaft, self.gear_friction.flange_a)
+            shaft = self.gear_friction.flange_b
+        if self.has("gear_load_dependent_loss"):
+            self.gear = LossyGear(ratio=N_TOTAL, eta=1.0, law="smooth", P_s=0.5)
+            connect(shaft, self.gear.flange_a)
+            out = self.gear.flange_b
+        else:
+            out = super().build_gears(shaft)
+        if self.has("gear_backlash"):
+            self.backlash = Backlash(b=0.0, tau_s=3.0)
+            connect(out, self.backlash.flange_a)
+            out = self.backlash.flange_b
+        return out
+
+    def build_extras(self):
+        if self.has("winding_temperature"):
+            self.winding = HeatCapacitor(C=1 / self.winding_heating)
+            self.cooling = ThermalConductor(G=1 / 7.61)  # winding-housing-ambient, 0.21 + 7.4 K/W (datasheet)
+            self.ambient = FixedTemperature(T=self.motor.T_ref)
+            connect(self.motor.heat_port, self.winding.port, self.cooling.port_a)
+            connect(self.cooling.port_b, self.ambient.port)
+
+    def make_link(self):
+        return Maccepa(P=self.P_nominal + self.precompression_error)
+
+    def planned_arm(self) -> ParametricSignal:
+        """The planned moment-arm angle over the gait fraction, from this run's parameters."""
+        return ParametricSignal(_plan, {"P": self.P_nominal, "k": self.link.k, "A": self.link.A, "B": self.link.B,
+                                        "body_mass": self.body_mass}, name="planned moment-arm angle", max_order=5)
+
+    def reading(self, tau):
+        if self.has("torque_sensor_offset"):
+            self.torque_offset = Bias(bias=0.0)
+            connect(tau, self.torque_offset.u)
+            return self.torque_offset.y
+        return tau

@@ -1,0 +1,41 @@
+"""CSV files and markdown tables for every report (``acausal paper``, ``fit``, ``diagnose``, ``compare``)."""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+
+def write_csv(path: Path, rows: list[dict]) -> Path:
+    """Rows of dictionaries (same keys) as CSV; floats with enough digits to re-plot."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for row in rows:
+            w.writerow({k: (f"{v:.9g}" if isinstance(v, (float, np.floating)) else v) for k, v in row.items()})
+    return path
+
+
+def write_columns(path: Path, columns: dict) -> Path:
+    """Equal-length columns (time series) as CSV."""
+    keys = list(columns)
+    n = len(columns[keys[0]])
+    return write_csv(path, [{k: float(columns[k][i]) for k in keys} for i in range(n)])
+
+
+def md_table(header: list, rows: list[list]) -> str:
+    """A markdown table; numbers with 4 significant digits, strings as they are."""
+    def cell(v):
+        return v if isinstance(v, str) else f"{v:.4g}"
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def pct(v: float, digits: int = 1) -> str:
+    """A fraction as percent, without a '-0.0 %' for round-off."""
+    v = 0.0 if abs(v) < 0.5 * 10 ** -(digits + 2) else v
+    return f"{100 * v:.{digits}f} %"

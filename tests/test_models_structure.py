@@ -1,0 +1,163 @@
+"""One actuator that owns its parameters: parameters travel through the model (body mass, precompression replan the
+trajectory), energy accounts are found by convention, and models/ stays a shallow house that loads only what it
+uses."""
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from acausal import Model, ModelError, ParametricSignal, Start, compile_model, connect
+from acausal.library.electrical import Capacitor, Ground, PrescribedVoltage, Resistor
+from acausal.models.ankle.actuator import AnkleActuator
+from acausal.models.ankle.planning import planned_arm_angle
+from acausal.models.ankle.protocol import Condition, compiled, run_condition
+
+MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+
+
+@pytest.fixture(scope="module")
+def replay():
+    return compiled("replay").sim
+
+
+def test_body_mass_acts_through_the_planned_trajectory(replay):
+    """The joint torque is the gait moment times body mass: the trajectory is replanned from the run's value."""
+    T = 2.0
+    runs = {m: replay.simulate(T, params={"stride_time": T, "body_mass": m}, n_points=401, rtol=1e-8, atol=1e-10)
+            for m in (60.0, 90.0)}
+    for m, res in runs.items():
+        moment = m * np.interp(res.t / T % 1.0, *_unit_moment())
+        assert np.max(np.abs(res["joint_torque"] - moment)) < 0.02 * np.max(np.abs(moment)), m
+    e60, e90 = (abs(r.energy("P_output.P")[-1]) for r in runs.values())
+    assert e90 > 1.3 * e60  # more joint work for the heavier user (the angle is the same, the torque is not)
+
+
+def _unit_moment():
+    from acausal.library.gait import unit_cycle
+    s = np.linspace(0, 1, 2001)
+    return s, unit_cycle().torque(s)
+
+
+def test_a_run_parameter_replans_exactly_as_an_explicit_input(replay):
+    """Setting P_nominal, link.k and body_mass gives the same run as handing the planned trajectory over."""
+    params = {"stride_time": 1.5, "P_nominal": 0.011, "link.k": 150e3, "body_mass": 75.0}
+    own = replay.simulate(3.0, params=params, n_points=301)
+    given = replay.simulate(3.0, params=params, n_points=301,
+                            inputs={"arm_ref.profile": planned_arm_angle(0.011, 150e3, 0.1, 0.06, 75.0)})
+    np.testing.assert_array_equal(own["motor.i"], given["motor.i"])
+    default = replay.simulate(3.0, params={"stride_time": 1.5}, n_points=301)
+    assert np.max(np.abs(default["motor.i"] - own["motor.i"])) > 0.1
+
+
+def test_parametric_signal_errors_name_the_parameter():
+    sig = ParametricSignal(lambda c: c, {"c": "link.c"}, name="plan")
+    with pytest.raises(Exception, match="link.c"):
+        sig.bind({"link.k": 1.0})
+    with pytest.raises(Exception, match="batch"):
+        sig.bind({"link.c": np.array([1.0, 2.0])})
+
+
+def test_accounts_of_the_paper_actuator_are_found_by_convention(replay):
+    acc = replay.accounts
+    assert acc.sensors == ("P_source.P", "P_driver.P", "P_motor.P", "P_link.P", "P_output.P")
+    assert acc.losses == ("supply.loss_power", "rect.loss_power", "driver.loss_power", "motor.loss_power",
+                          "planetary.loss_power", "helical.loss_power")
+    assert acc.stored == ("rect.bus_energy", "motor.energy", "planetary.energy", "helical.energy", "link.energy")
+    assert acc.sources == ("supply.source_power",)
+    assert "rect.diode.loss_power" not in acc.losses  # inside an accounted component: counted by it
+    r = run_condition(Condition(0.008, 2.0))
+    assert r.stages == {"driver": ["supply.loss_power", "rect.loss_power", "driver.loss_power"],
+                        "motor": ["motor.loss_power"], "gearing": ["planetary.loss_power", "helical.loss_power"],
+                        "output": []}
+
+
+class _RC(Model):
+    def build(self):
+        import sympy as sp
+        from acausal import time
+        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * time))
+        self.R = Resistor(R=2.0)
+        self.C = Capacitor(C=0.05, v=Start(0.0))
+        self.gnd = Ground()
+        connect(self.src.p, self.R.p)
+        connect(self.R.n, self.C.p)
+        connect(self.C.n, self.src.n, self.gnd.p)
+
+
+def test_energy_balance_of_any_model():
+    """A user's model with no accounts listed: the source's boundary work = resistor loss + capacitor energy."""
+    res = compile_model(_RC()).simulate(1.3, rtol=1e-9, atol=1e-12)
+    b = res.energy_balance()
+    assert set(b.boundary) >= {"src"} and list(b.losses) == ["R.loss_power"] and list(b.stored) == ["C.energy"]
+    assert abs(b.residual) < 1e-6
+    assert b.boundary["src"] == pytest.approx(b.losses["R.loss_power"] + b.stored["C.energy"], rel=1e-6)
+    assert "relative residual" in str(b)
+
+
+def test_options_are_checked_with_model_errors():
+    with pytest.raises(ModelError, match="option supply"):
+        AnkleActuator(supply="solar")
+    with pytest.raises(ModelError, match="option mode"):
+        AnkleActuator(mode="open_loop")
+    with pytest.raises(ModelError, match="recorded"):
+        AnkleActuator(mode="closed_loop", motion="recorded")
+    with pytest.raises(ModelError, match="gears='ideal'"):
+        AnkleActuator(effects=("gear_load_dependent_loss",))
+
+
+def _loaded(code: str) -> list:
+    out = subprocess.run([sys.executable, "-c", code + "; import sys; print(' '.join(sorted(m for m in sys.modules "
+                          "if m.startswith(('acausal.models', 'acausal.library')))))"],
+                         capture_output=True, text=True, check=True)
+    return out.stdout.split()
+
+
+def test_reports_and_the_command_line_load_no_model():
+    for code in ("import acausal.models.bench.diagnosis_report", "import acausal.models.reporting.tables",
+                 "from acausal.cli import build_parser; build_parser()"):
+        loaded = _loaded(code)
+        assert not [m for m in loaded if m.startswith("acausal.library") or m.endswith(
+            ("actuator", "direct_drive", "sea", "parallel_elastic", "switch_off"))], (code, loaded)
+
+
+def _imports(path: Path) -> set:
+    """Modules of models/ that ``path`` imports (absolute or relative), by dotted name under acausal.models."""
+    pkg = path.relative_to(MODELS_DIR).with_suffix("").parts
+    here = pkg[:-1] if pkg[-1] != "__init__" else pkg[:-1]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = list(here[:len(here) - node.level + 1]) if node.level > 1 else list(here)
+                parts = base + (node.module.split(".") if node.module else [])
+            elif node.module and node.module.startswith("acausal.models"):
+                parts = node.module.split(".")[2:]
+            else:
+                continue
+            for alias in node.names:
+                for cand in (parts + [alias.name], parts):
+                    if (MODELS_DIR.joinpath(*cand).with_suffix(".py")).exists():
+                        out.add(".".join(cand))
+                        break
+    return out
+
+
+def test_models_is_a_shallow_house():
+    top = [p.name for p in MODELS_DIR.iterdir() if p.name != "__pycache__"]
+    assert len(top) <= 6, top
+    mods = {".".join(p.relative_to(MODELS_DIR).with_suffix("").parts): p for p in MODELS_DIR.rglob("*.py")
+            if p.name != "__init__.py"}
+    graph = {m: _imports(p) & set(mods) for m, p in mods.items()}
+    depth: dict = {}
+
+    def floor(m, seen=()):
+        if m in seen:
+            raise AssertionError(f"import cycle through {m}")
+        if m not in depth:
+            depth[m] = 1 + max((floor(d, seen + (m,)) for d in graph[m]), default=0)
+        return depth[m]
+    deepest = max(mods, key=floor)
+    assert floor(deepest) <= 5, (deepest, depth)
