@@ -24,10 +24,10 @@ P, T = 0.008, 3.0
 def main(out_dir: Path, results=None) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    act = pick(results, P, T, traces=("P_source.P",))
-    dd = pick(results, P, T, model="direct_drive", traces=("P_source.P",))
-    t_a, p_a = act.traces["time"], act.traces["P_source.P"]
-    t_d, p_d = dd.traces["time"], dd.traces["P_source.P"]
+    act = pick(results, P, T)
+    dd = pick(results, P, T, model="direct_drive")
+    t_a, p_a = act.time, act.power["source"]
+    t_d, p_d = dd.time, dd.power["source"]
     p_d_on_a = np.interp(t_a, t_d, p_d)
 
     rows = [dict(drive="MACCEPA actuator", peak_source_power_W=act.peak_power["source"],

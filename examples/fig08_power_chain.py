@@ -18,8 +18,6 @@ from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
 
 P, T = 0.008, 2.0
-TRACE = {"source": "P_source.P", "driver": "P_driver.P", "motor": "P_motor.P", "link": "P_link.P",
-         "output": "P_output.P"}
 LABELS = {"source": "source (driver input)", "driver": "driver output (motor terminals)", "motor": "motor shaft",
           "link": "moment arm (link)", "output": "joint (output)"}
 
@@ -27,9 +25,9 @@ LABELS = {"source": "source (driver input)", "driver": "driver output (motor ter
 def main(out_dir: Path, results=None) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    r = pick(results, P, T, traces=tuple(TRACE.values()))
-    t_ms = 1e3 * r.traces["time"]
-    power = {k: r.traces[TRACE[k]] for k in POINTS}
+    r = pick(results, P, T)
+    t_ms = 1e3 * r.time
+    power = r.power
     csv_path = write_columns(out_dir / "fig08_power_chain.csv",
                              {"time_ms": t_ms, **{f"P_{k}_W": power[k] for k in POINTS}})
 

@@ -20,7 +20,7 @@ from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
 
 P = 0.018
 STRIDE_TIMES = (1.2, 3.0)
-TRACES = ("arm_ref.y.value", "arm_angle.phi.value", "P_output.P")
+TRACES = ("arm_ref.y.value", "arm_angle.phi.value")
 
 
 def main(out_dir: Path, results=None) -> dict:
@@ -30,11 +30,11 @@ def main(out_dir: Path, results=None) -> dict:
     rows, table = [], []
     for col, T in enumerate(STRIDE_TIMES):
         cl = pick(results, P, T, model="closed_loop", traces=TRACES)
-        rp = pick(results, P, T, traces=("P_output.P",))
+        rp = pick(results, P, T)
         t = 1e3 * cl.traces["time"]
         ref, act = np.degrees(cl.traces["arm_ref.y.value"]), np.degrees(cl.traces["arm_angle.phi.value"])
-        p_cl = cl.traces["P_output.P"]
-        p_rp = np.interp(cl.traces["time"], rp.traces["time"], rp.traces["P_output.P"])
+        p_cl = cl.power["output"]
+        p_rp = np.interp(cl.time, rp.time, rp.power["output"])
         err_rms = np.degrees(cl.tracking_rms)
         ax = axes[0, col]
         ax.plot(t, ref, color="0.2", lw=1.4, ls="--", label="desired (planned) moment-arm angle")

@@ -1,5 +1,5 @@
 """Table 2 of the paper under both readings: the 8 mm, 2 s/stride replay with each of the paper's Eq. 4 parameter
-sets (models/presets.py) next to the full component model (``library``).
+sets (models/ankle/presets.py) next to the full component model (``library``).
 
 The ``paper_*`` presets switch the gear stages to ideal (eta = 1, no gearhead inertia), the driver to lossless and
 the supply to stiff (1 milliohm), so that only Eq. 4's J, b, R, L act: their energy chain is *not* comparable with Table 1's

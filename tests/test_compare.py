@@ -1,4 +1,4 @@
-"""``acausal compare`` (models/compare.py): the conditions it runs, the table, the flags on exceeded limits,
+"""``acausal compare`` (models/drivetrains/compare.py): the conditions it runs, the table, the flags on exceeded limits,
 the files it writes, and the CLI's arguments and errors."""
 import argparse
 import csv

@@ -14,16 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
+from acausal.library.drives import PWMDriver
+
 from ..reporting.tables import md_table, pct, write_csv
 from .protocol import (PAPER_TABLE1, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
 
 #: every time series the examples plot (names a model lacks are skipped by ``run_condition``)
-TRACES = ("P_source.P", "P_driver.P", "P_motor.P", "P_link.P", "P_output.P", "arm_ref.y.value",
-          "arm_angle.phi.value", "motor.i")
+TRACES = ("arm_ref.y.value", "arm_angle.phi.value", "motor.i")
 
 #: the driver's largest duty cycle: a replay needing more means the motor cannot follow at the bus voltage
-D_MAX = 0.9
+D_MAX = PWMDriver.d_max.default
 
 #: the reduced grid of ``acausal paper --quick`` (for tests)
 QUICK_PRECOMPRESSIONS = [0.005, 0.008, 0.018]

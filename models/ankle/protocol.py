@@ -94,8 +94,10 @@ class StrideResult:
     peak_motor_voltage: float = 0.0  # V, largest |v| at the motor terminals
     returned: float = 0.0  # J per stride flowing back into the supply at the source point (negative power)
     loss_energy: dict = field(default_factory=dict)  # J per stride of each loss power of the energy balance
-    params: dict = field(default_factory=dict)  # the run-time parameters of the run (numbers only)
+    params: dict = field(default_factory=dict)  # every parameter's value in the run (defaults included)
     stages: dict = field(default_factory=dict)  # stage -> loss-power variables between its two points
+    time: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, from the start of the evaluated stride
+    power: dict = field(default_factory=dict)  # W over the evaluated stride at each measurement point
     traces: dict = field(default_factory=dict)  # time series of the evaluated stride (when asked for)
 
     @property
@@ -159,8 +161,8 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
                      rms_motor_current=float(np.sqrt(np.sum(np.diff(t) * (i_m[1:]**2 + i_m[:-1]**2) / 2) / t[-1])),
                      peak_motor_voltage=float(np.max(np.abs(res["motor.v"][window]))),
                      returned=negative_energy(t, np.asarray(res[points["source"]][window])),
-                     loss_energy=dict(bal.losses), params={k: float(v) for k, v in params.items()},
-                     stages=c.stages)
+                     loss_energy=dict(bal.losses), params={k: float(v) for k, v in values.items()},
+                     stages=c.stages, time=t, power={k: np.asarray(res[points[k]][window]) for k in POINTS})
     if "tracking_error" in res:
         e = res["tracking_error"][window]
         r.tracking_rms, r.tracking_max = float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))

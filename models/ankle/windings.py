@@ -24,9 +24,11 @@ they share its compiled model.
 """
 from __future__ import annotations
 
-V_PAPER = 48.0  # V: the paper's winding and supply
-R_INT_PAPER = 0.05  # ohm: lab supply (assumption, library default)
-V_BRAKE_PAPER = 50.0  # V: brake chopper threshold at 48 V (library default)
+from acausal.library.electrical import NonRegenerativeRectifier, Supply
+
+V_PAPER = Supply.V.default  # V: the paper's winding and supply (48 V)
+R_INT_PAPER = Supply.R_int.default  # ohm: lab supply (assumption)
+V_BRAKE_PAPER = NonRegenerativeRectifier.V_brake.default  # V: brake chopper threshold at 48 V
 
 #: datasheet values per winding: R [ohm], L [H], k [N m/A], nominal torque [N m]
 WINDINGS = {

@@ -95,8 +95,7 @@ def limits_of(r: StrideResult) -> dict:
     lower of the motor's nominal current and the driver's continuous rating), motor voltage [V] (the driver's
     largest duty times the supply voltage)."""
     lim = spec(r.condition.model).limits
-    k = r.params.get("motor.k", 0.0274)
-    V = r.params.get("supply.V", 48.0)
+    k, V = r.params["motor.k"], r.params["supply.V"]
     return {"speed": lim.motor_speed, "current_peak": lim.driver_current_peak,
             "current_rms": min(lim.nominal_torque / k, lim.driver_current_continuous),
             "voltage": lim.duty * V}
