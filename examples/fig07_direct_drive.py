@@ -17,6 +17,7 @@ import numpy as np  # noqa: E402
 
 from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns, write_csv  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 3.0
 
@@ -61,10 +62,7 @@ def main(out_dir: Path, results=None) -> dict:
     tab.auto_set_font_size(False)
     tab.set_fontsize(9)
     tab.scale(1, 1.4)
-    fig.tight_layout()
-    png = out_dir / "fig07_direct_drive.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out_dir / "fig07_direct_drive.png")
 
     md = md_table(["drive", "peak source power [W]", "energy per stride sim [J]", "energy per stride paper [J]",
                    "joint work [J]"],

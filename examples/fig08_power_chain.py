@@ -16,6 +16,7 @@ import numpy as np  # noqa: E402
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
 from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 2.0
 LABELS = {"source": "source (driver input)", "driver": "driver output (motor terminals)", "motor": "motor shaft",
@@ -49,10 +50,7 @@ def main(out_dir: Path, results=None) -> dict:
                  "(simulation)", fontsize=10)
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    png = out_dir / "fig08_power_chain.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out_dir / "fig08_power_chain.png")
 
     md = md_table(["measurement point", "energy per stride [J]", "mean power [W]", "peak magnitude of power [W]",
                    "time of the peak [ms]"],

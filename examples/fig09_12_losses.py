@@ -20,6 +20,7 @@ import numpy as np  # noqa: E402
 
 from acausal.models.ankle.paper import D_MAX, PAPER, comparison, grid_rows, heatmap, replay_grid  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 # (file stem, point key of StrideResult.loss_fraction, stage, title, what the paper says, Table 1 at 8 mm/2 s)
 FIGURES = [
@@ -76,10 +77,7 @@ def main(out_dir: Path, results=None) -> dict:
                 cmap="magma_r", vmin=vmin, vmax=vmax,
                 mark=(0.008, 2.0, f"Table 1 condition (paper: {100 * table1:.1f} %)"))
         ax.set_title(title + "\n" + "\n".join(textwrap.wrap(f"({paper_says})", 80)), fontsize=9.5)
-        fig.tight_layout()
-        png = out_dir / f"{stem}.png"
-        fig.savefig(png, dpi=110)
-        plt.close(fig)
+        png = save_figure(fig, out_dir / f"{stem}.png")
         figures.append(png)
         csvs.append(write_csv(out_dir / f"{stem}.csv",
                               grid_rows(grid, {"loss_pct_of_previous_point": lambda r, k=key: 100 * r.loss_fraction[k],

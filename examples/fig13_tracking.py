@@ -17,6 +17,7 @@ import numpy as np  # noqa: E402
 
 from acausal.models.ankle.paper import pick, rms  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P = 0.018
 STRIDE_TIMES = (1.2, 3.0)
@@ -63,10 +64,7 @@ def main(out_dir: Path, results=None) -> dict:
                       f"{rms(p_cl - p_rp):.1f}"])
     fig.suptitle("Fig. 13: tracking of the moment-arm angle (upper) and its effect on the power to the joint (lower),"
                  " closed loop at 48 V", fontsize=10.5)
-    fig.tight_layout()
-    png = out_dir / "fig13_tracking.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out_dir / "fig13_tracking.png")
     csv_path = write_csv(out_dir / "fig13_tracking.csv", rows)
     md = md_table(["stride time [s]", "rms tracking error [deg]", "max tracking error [deg]", "largest duty",
                    "source energy [J/stride]", "joint work, closed loop [J/stride]", "joint work, planned [J/stride]",

@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from acausal.models.ankle.paper import D_MAX, PAPER, comparison, grid_rows, heatmap, pick, replay_grid  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 
 def main(out_dir: Path, results=None) -> dict:
@@ -27,10 +28,7 @@ def main(out_dir: Path, results=None) -> dict:
             mark=(0.008, 2.0, f"Table 1 condition (paper: {100 * PAPER['fig15_efficiency_8mm_2s']:.1f} %)"))
     ax.set_title("Fig. 15: overall efficiency of the actuator over precompression and stride time\n"
                  "(simulation, library preset; paper Fig. 15 plots measurement and its fitted model)", fontsize=9.5)
-    fig.tight_layout()
-    png = out_dir / "fig15_efficiency.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out_dir / "fig15_efficiency.png")
     csv_path = write_csv(out_dir / "fig15_efficiency.csv",
                          grid_rows(grid, {"efficiency_pct": lambda r: 100 * r.efficiency["output"],
                                           "E_source_J": lambda r: r.energy["source"],

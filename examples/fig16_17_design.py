@@ -23,6 +23,7 @@ import numpy as np  # noqa: E402
 from acausal.models.bench import design  # noqa: E402
 from acausal.models.bench.virtual import TRUTH  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 PAPER_DESIGN = (130e3, 0.007)  # N/m, m (paper section 4.4)
 
@@ -102,10 +103,7 @@ def _plot(out_dir, m, paper, peak, refined, T):
     fig_no = 16 if T < 1.5 else 17
     ax.set_title(f"Fig. {fig_no}: efficiency at {T} s per stride (hatched: duty > 0.9)", fontsize=10)
     ax.legend(fontsize=7.5, loc="lower right")
-    fig.tight_layout()
-    png = Path(out_dir) / f"fig{fig_no}_efficiency_{T}s.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, Path(out_dir) / f"fig{fig_no}_efficiency_{T}s.png")
     return png
 
 

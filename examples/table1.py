@@ -16,7 +16,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
 from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
-from acausal.models.reporting.sankey import LABELS, LOSS_NAMES, sankey  # noqa: E402
+from acausal.models.reporting.sankey import LABELS, loss_names_from_groups, sankey  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 2.0
 # what drives a difference at each point (see acausal.models.ankle.paper.ASSUMPTIONS)
@@ -56,21 +57,19 @@ def main(out_dir: Path, results=None) -> dict:
     # Sankey: simulation and paper side by side, on the same scale (J per stride)
     fig, axes = plt.subplots(1, 2, figsize=(14, 5.2))
     scale = 1.0 / max(r.energy["source"], paper_e["source"])
-    sankey(axes[0], r.energy, scale=scale,
+    loss_names = loss_names_from_groups(r.stages, link="MACCEPA linkage")
+    sankey(axes[0], r.energy, scale=scale, loss_names=loss_names,
            title=f"Simulation: {r.energy['source']:.1f} J/stride from the source, "
                  f"{r.energy['output']:.1f} J to the joint ({100 * eff['output']:.1f} %)")
-    sankey(axes[1], paper_e, scale=scale,
+    sankey(axes[1], paper_e, scale=scale, loss_names=loss_names,
            title=f"Paper (Table 1, measured): {paper_e['source']:.1f} J/stride from the source, "
                  f"{paper_e['output']:.1f} J to the joint ({100 * paper_eff['output']:.1f} %)")
     fig.suptitle("Table 1: where the energy of one stride goes (8 mm precompression, 2 s/stride; "
                  "arrow widths proportional to J per stride)", fontsize=11)
-    fig.tight_layout()
-    png = out_dir / "table1_sankey.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out_dir / "table1_sankey.png")
     flows = []
     for name, e in (("simulation", r.energy), ("paper", paper_e)):
-        for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), LOSS_NAMES):
+        for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), loss_names):
             flows.append(dict(source=name, from_point=a, to_point=b, passed_on_J=e[b], loss_name=lname.split("\n")[0],
                               loss_J=e[a] - e[b]))
     sankey_csv = write_csv(out_dir / "table1_sankey.csv", flows)
@@ -85,7 +84,7 @@ def main(out_dir: Path, results=None) -> dict:
                        f"{r.stage_loss['driver']:.1f} vs {paper_e['source'] - paper_e['driver']:.1f} J, "
                        "on a smaller driver output."}
     comps += [comparison(f"Table 1 {n.splitlines()[0]} (vs previous point)", loss[k], paper_loss[k], "%",
-                         WHY_LOSS[k], note=notes.get(k, "")) for k, n in LOSS_NAMES]
+                         WHY_LOSS[k], note=notes.get(k, "")) for k, n in loss_names]
     return dict(title="Table 1: energy chain at 8 mm, 2 s/stride", figures=[png], csv=[csv_path, sankey_csv],
                 markdown=md, comparisons=comps, result=r)
 

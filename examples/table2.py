@@ -24,6 +24,7 @@ from acausal.models.ankle.presets import DESCRIPTIONS, preset  # noqa: E402
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
 from acausal.models.ankle.paper import PAPER, TABLE2_PRESETS, pick, rms  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
+from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 2.0
 SHORT = {"library": "library (full model,\nlossy gears and driver)", "paper_datasheet": "Eq. 4: motor datasheet",
@@ -99,10 +100,7 @@ def main(out_dir: Path, results=None) -> dict:
     ax.legend(fontsize=7.5, ncol=3, loc="upper right")
     ax.grid(axis="y", alpha=0.3)
     ax.set_ylim(0, top)
-    fig.tight_layout()
-    png = out_dir / "table2_presets.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out_dir / "table2_presets.png")
     bars_csv = write_csv(out_dir / "table2_presets.csv", bars)
     return dict(title="Table 2: the paper's Eq. 4 parameter sets (both readings)", figures=[png],
                 csv=[csv_path, bars_csv], markdown=md, comparisons=[])

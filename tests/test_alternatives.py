@@ -10,8 +10,8 @@ from acausal.library.rotational import SelfLockingGear
 from acausal.models.ankle import windings
 from acausal.models.drivetrains import sea, switch_off
 from acausal.models.drivetrains.parallel_elastic import design_spring, peak_drive_power
-from acausal.models.ankle.protocol import MODELS, Condition, run_condition, sweep
-from acausal.models.ankle.registry import spec
+from acausal.models.ankle.protocol import Condition, run_condition, sweep
+from acausal.models.ankle.registry import MODELS, spec
 
 P, T = 0.008, 2.0  # the paper's Table 1 condition
 WORM = ("worm.loss_power", "motor.w", "motor.i", "enable_ref.y.value", "hold_ref.y.value", "link.T", "ankle.theta")

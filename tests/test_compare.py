@@ -12,7 +12,7 @@ import pytest
 
 from acausal import ModelError
 from acausal.models.drivetrains import compare
-from acausal.models.ankle.protocol import MODELS
+from acausal.models.ankle.registry import MODELS
 
 
 @pytest.fixture(scope="module")

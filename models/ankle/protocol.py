@@ -23,7 +23,7 @@ from acausal import compile_model
 from acausal.energy import balance
 from acausal.sweep import sweep as run_sweep
 
-from .registry import MODELS, spec
+from .registry import spec
 from .presets import preset
 
 PRECOMPRESSIONS = [0.002, 0.005, 0.008, 0.011, 0.015, 0.018]  # m (paper section 4)

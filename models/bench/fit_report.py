@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 
 from .calibration import START, rmse_before_after, table2  # noqa: E402
 from ..reporting.tables import md_table, write_csv  # noqa: E402
+from ..reporting.figures import save_figure  # noqa: E402
 
 
 def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None) -> dict:
@@ -70,10 +71,7 @@ def _fig14(out: Path, cal, exps, name):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="upper right")
     axes[1].set_xlabel(f"time [s] (recording {e.name}, first two strides)")
-    fig.tight_layout()
-    png = out / "fig14_calibration.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
+    png = save_figure(fig, out / "fig14_calibration.png")
     csv = write_csv(out / "fig14_calibration.csv", [dict(time_s=a, measured_A=b, before_A=c, after_A=d)
                                                     for a, b, c, d in zip(e.t[show], meas[show], before[show],
                                                                           after[show])])

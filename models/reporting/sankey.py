@@ -16,14 +16,12 @@ logging.getLogger("matplotlib.axes").setLevel(logging.ERROR)  # Sankey's equal a
 
 LABELS = {"source": "source", "driver": "driver output", "motor": "motor shaft", "link": "moment arm (link)",
           "output": "joint (output)"}
-#: (point after the stage, loss label) of the paper's actuator
-LOSS_NAMES = [("driver", "driver loss\n(supply, rectifier, driver)"), ("motor", "motor loss"),
-              ("link", "gearing loss\n(planetary, helical)"), ("output", "output loss\n(MACCEPA linkage)")]
 
 
 def loss_names_from_groups(loss_groups: dict, link: str = "linkage") -> list:
-    """Loss labels for a model from its loss groups (``{"driver": [...], "motor": [...], "gearing": [...],
-    "output": [...]}`` of loss-power names such as ``"rect.loss_power"``)."""
+    """``(point after the stage, label)`` of each stage's loss, from a model's loss groups (``{"driver": [...],
+    "motor": [...], "gearing": [...], "output": [...]}`` of loss-power names such as ``"rect.loss_power"``, as
+    :attr:`StrideResult.stages <acausal.models.ankle.protocol.StrideResult.stages>` holds them)."""
     def who(stage):
         names = [n.split(".")[0] for n in loss_groups.get(stage, [])]
         return f"\n({', '.join(names)})" if names and names != [stage] else ""
@@ -31,7 +29,7 @@ def loss_names_from_groups(loss_groups: dict, link: str = "linkage") -> list:
             ("link", "gearing loss" + who("gearing")), ("output", f"output loss\n({link})")]
 
 
-def sankey(ax, energy: dict, title: str, scale: float, labels: dict = LABELS, loss_names: list = LOSS_NAMES,
+def sankey(ax, energy: dict, title: str, scale: float, loss_names: list, labels: dict = LABELS,
            lossless_note: str = "output loss 0 J\n(MACCEPA modelled\nlossless)"):
     """Draw ``energy`` (J per stride at each point, in chain order: source first, joint last) on ``ax``;
     ``scale``: arrow width per J."""
