@@ -98,7 +98,9 @@ class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
     ideal sign law only for ``|w| <~ 3 w_c`` (w_c = 1 rad/s, against speeds of ~10^3 rad/s here).
     ``loss_power`` = copper ``R(T) i^2`` + friction. With ``use_heat_port=True`` the winding temperature is the
     port's temperature and the copper loss leaves through it (friction heat is not routed); otherwise the
-    winding stays at ``T_ref``. ``energy`` = ``L i^2/2 + J w^2/2``.
+    winding stays at ``T_ref``. ``energy`` = ``L i^2/2 + J w^2/2``. With ``use_support=True`` the housing
+    (``support``) takes the reaction of the air-gap and friction torques, ``support.tau = tau_e - tau_f``, so
+    ``flange.tau + support.tau = J dw/dt``.
 
     Defaults: maxon EC-4pole 30, 200 W, 48 V winding (part 305015): R = 0.386 ohm and L = 6.53e-5 H (paper,
     Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, ../shared/data/parameters.md), J = 3.33e-6
@@ -151,7 +153,7 @@ class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
                Eq(self.shaft_power, -self.flange.tau * self.w),
                Eq(self.energy, self.L * self.i**2 / 2 + self.J * self.w**2 / 2)]
         if self.use_support:
-            eqs.append(Eq(self.support.tau, -(self.tau_e - self.tau_f)))
+            eqs.append(Eq(self.support.tau, self.tau_e - self.tau_f))
         if self.use_heat_port:
             eqs.append(Eq(self.heat_port.Q_flow, -self.copper_loss))
         return eqs
