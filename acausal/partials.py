@@ -4,10 +4,13 @@ Sign conventions: current flows from ``p`` through the component to ``n`` (``i =
 ``v = p.v - n.v``. A flange torque acts on the component; ``phi_rel = flange_b.phi - flange_a.phi`` and the
 compliant torque ``tau = flange_b.tau`` (so a spring with positive elongation pulls ``flange_b`` back).
 """
+import abc
+
 from sympy import Eq
 
-from .components import Component, Variable
+from .components import Component, Parameter, Variable
 from .connectors import Flange, Pin
+from .errors import ModelError
 from .symbols import der
 
 
@@ -20,7 +23,8 @@ class OnePort(Component):
     i = Variable(unit="A", doc="current from p through the component to n")
 
     def equations(self):
-        return [Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i), Eq(self.i, self.p.i)]
+        return [*super().equations(), Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i),
+                Eq(self.i, self.p.i)]
 
 
 class TwoPin(Component):
@@ -31,7 +35,7 @@ class TwoPin(Component):
     v = Variable(unit="V", doc="voltage drop p -> n")
 
     def equations(self):
-        return [Eq(self.v, self.p.v - self.n.v)]
+        return [*super().equations(), Eq(self.v, self.p.v - self.n.v)]
 
 
 class PartialTwoFlanges(Component):
@@ -49,7 +53,7 @@ class PartialCompliant(PartialTwoFlanges):
     tau = Variable(unit="N.m", doc="torque between the flanges (= flange_b.tau)")
 
     def equations(self):
-        return [Eq(self.phi_rel, self.flange_b.phi - self.flange_a.phi),
+        return [*super().equations(), Eq(self.phi_rel, self.flange_b.phi - self.flange_a.phi),
                 Eq(self.flange_b.tau, self.tau), Eq(self.flange_a.tau, -self.tau)]
 
 
@@ -60,6 +64,87 @@ class PartialCompliantWithRelativeStates(PartialCompliant):
 
     def equations(self):
         return [*super().equations(), Eq(self.w_rel, der(self.phi_rel))]
+
+
+class PartialOptionalSupport(Component, abc.ABC):
+    """A conditional support (housing) flange and the reaction torque on it (MSL ``useSupport``).
+
+    ``use_support=True`` gives the component a ``support`` flange with ``support.tau = support_torque()``, the
+    reaction of the torques the component exerts on its flanges; otherwise the housing is fixed at angle 0 and no
+    reaction is exposed. ``phi_support`` is the support angle to write relative angles with (``support.phi``, or
+    0). The flag is structural (it changes the equations), so it is a constructor argument, not a parameter.
+    """
+
+    def __init__(self, use_support: bool = False, **kw):
+        if use_support not in (True, False):
+            raise ModelError(f"{type(self).__name__}: option use_support must be True or False, got {use_support!r}")
+        super().__init__(**kw)
+        self.use_support = bool(use_support)
+        if self.use_support:
+            self.support = Flange(doc="support/housing flange")
+
+    @property
+    def phi_support(self):
+        """Angle of the support: ``support.phi``, or 0 when the housing is fixed (``use_support=False``)."""
+        return self.support.phi if self.use_support else 0
+
+    @abc.abstractmethod
+    def support_torque(self):
+        """The torque acting on the support (the reaction), as an expression."""
+
+    def equations(self):
+        eqs = super().equations()
+        return [*eqs, Eq(self.support.tau, self.support_torque())] if self.use_support else eqs
+
+
+class PartialElementaryOneFlangeAndSupport2(PartialOptionalSupport):
+    """One flange and an optional support (MSL ``PartialElementaryOneFlangeAndSupport2``) of a massless element:
+    the support takes the reaction ``support.tau = -flange.tau``. Angles relative to the support are
+    ``flange.phi - phi_support``."""
+
+    flange = Flange(doc="driven flange")
+
+    def support_torque(self):
+        return -self.flange.tau
+
+
+class PartialElementaryTwoFlangesAndSupport2(PartialTwoFlanges, PartialOptionalSupport):
+    """Two flanges and an optional support (MSL ``PartialElementaryTwoFlangesAndSupport2``) of a massless element:
+    the support takes the reaction ``support.tau = -(flange_a.tau + flange_b.tau)``. Angles relative to the
+    support are ``flange_a.phi - phi_support`` and ``flange_b.phi - phi_support``."""
+
+    def support_torque(self):
+        return -(self.flange_a.tau + self.flange_b.tau)
+
+
+class PartialGear(PartialElementaryTwoFlangesAndSupport2):
+    """Kinematics of a massless gear stage on an optional support (MSL ``IdealGear``'s): with the flange angles
+    relative to the support, ``phi_a = ratio * phi_b``; ``ratio`` > 1 reduces speed from a to b. A subclass
+    writes the torque law, one equation between ``flange_a.tau`` and ``flange_b.tau``."""
+
+    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
+    phi_a = Variable(unit="rad", doc="flange_a (input) angle relative to the support")
+    phi_b = Variable(unit="rad", doc="flange_b (output) angle relative to the support")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.phi_a, self.flange_a.phi - self.phi_support),
+                Eq(self.phi_b, self.flange_b.phi - self.phi_support), Eq(self.phi_a, self.ratio * self.phi_b)]
+
+
+class PartialElementaryRotationalToElectrical(OnePort, PartialElementaryOneFlangeAndSupport2):
+    """An electrical one-port driving a shaft that turns against an optional support (the frame of MSL ``EMF``):
+    pins ``p``, ``n`` with ``v`` and ``i`` (:class:`OnePort`), the ``flange`` with the reaction
+    ``support.tau = -flange.tau``, and the shaft's angle and speed relative to the support,
+    ``phi = flange.phi - phi_support``, ``w = der(phi)``. A subclass writes the conversion law (``v`` and
+    ``flange.tau`` from ``w`` and ``i``); one with rotor inertia is not elementary and overrides
+    :meth:`support_torque`."""
+
+    flange = Flange(doc="shaft")
+    phi = Variable(unit="rad", doc="flange angle relative to the support")
+    w = Variable(unit="rad/s", doc="angular velocity relative to the support")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.phi, self.flange.phi - self.phi_support), Eq(self.w, der(self.phi))]
 
 
 class PartialElementaryOneFlangeAndSupport(Component):
