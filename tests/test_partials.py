@@ -148,8 +148,9 @@ def test_without_support_the_housing_is_fixed():
     assert "support" in eqs.children
 
 
-@pytest.mark.parametrize("make", [lambda: BeltDrive(use_support=1.5), lambda: RampTorque(use_support="no")],
-                         ids=["BeltDrive", "RampTorque"])
+@pytest.mark.parametrize("make", [lambda: IdealGear(use_support="yes"), lambda: BeltDrive(use_support=1.5),
+                                  lambda: LossyGear(use_support=None), lambda: RampTorque(use_support="no")],
+                         ids=["IdealGear", "BeltDrive", "LossyGear", "RampTorque"])
 def test_bad_use_support_names_component_and_option(make, request):
     with pytest.raises(ModelError, match=rf"{request.node.callspec.id}: option use_support must be True or False"):
         make()
