@@ -144,13 +144,14 @@ def test_dc_motor_housing_takes_the_reaction():
 def test_without_support_the_housing_is_fixed():
     gear = BeltDrive(ratio=2.0)
     assert not gear.use_support and "support" not in gear.children and gear.phi_support == 0
-    eqs = BeltDrive(ratio=2.0, use_support=True)
-    assert "support" in eqs.children
+    housed = BeltDrive(ratio=2.0, use_support=True)
+    assert "support" in housed.children
 
 
 @pytest.mark.parametrize("make", [lambda: IdealGear(use_support="yes"), lambda: BeltDrive(use_support=1.5),
-                                  lambda: LossyGear(use_support=None), lambda: RampTorque(use_support="no")],
-                         ids=["IdealGear", "BeltDrive", "LossyGear", "RampTorque"])
+                                  lambda: LossyGear(use_support=None), lambda: DCMotor(use_support="no"),
+                                  lambda: EMF(use_support=2)],
+                         ids=["IdealGear", "BeltDrive", "LossyGear", "DCMotor", "EMF"])
 def test_bad_use_support_names_component_and_option(make, request):
     with pytest.raises(ModelError, match=rf"{request.node.callspec.id}: option use_support must be True or False"):
         make()
