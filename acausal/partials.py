@@ -69,10 +69,12 @@ class PartialCompliantWithRelativeStates(PartialCompliant):
 class PartialOptionalSupport(Component, abc.ABC):
     """A conditional support (housing) flange and the reaction torque on it (MSL ``useSupport``).
 
-    ``use_support=True`` gives the component a ``support`` flange with ``support.tau = support_torque()``, the
-    reaction of the torques the component exerts on its flanges; otherwise the housing is fixed at angle 0 and no
-    reaction is exposed. ``phi_support`` is the support angle to write relative angles with (``support.phi``, or
-    0). The flag is structural (it changes the equations), so it is a constructor argument, not a parameter.
+    ``use_support=True`` gives the component a ``support`` flange with ``support.tau = support_torque()``: the
+    torque on the housing that balances those at the flanges (for a massless element minus their sum). Left
+    unconnected, the support carries no torque, so connect it to a ``Fixed`` (or a housing) when the reaction
+    matters. ``use_support=False``: the housing is fixed at angle 0 and no reaction is exposed. ``phi_support`` is
+    the support angle to write relative angles with (``support.phi``, or 0). The flag is structural (it changes
+    the equations), so it is a constructor argument, not a parameter.
     """
 
     def __init__(self, use_support: bool = False, **kw):
@@ -145,31 +147,3 @@ class PartialElementaryRotationalToElectrical(OnePort, PartialElementaryOneFlang
 
     def equations(self):
         return [*super().equations(), Eq(self.phi, self.flange.phi - self.phi_support), Eq(self.w, der(self.phi))]
-
-
-class PartialElementaryOneFlangeAndSupport(Component):
-    """One flange and a support flange (MSL ``PartialElementaryOneFlangeAndSupport2``); the support is optional:
-    left unconnected, it carries no torque, so connect it to a :class:`Fixed` (or a housing) when the reaction
-    matters. ``phi`` is the flange angle relative to the support."""
-
-    flange = Flange(doc="driven flange")
-    support = Flange(doc="support/housing flange")
-    phi = Variable(unit="rad", doc="flange angle relative to the support")
-
-    def equations(self):
-        return [Eq(self.phi, self.flange.phi - self.support.phi)]
-
-
-class OptionalSupport:
-    """Mixin for a conditional support flange (MSL ``useSupport``): call ``self._init_support(use_support)`` in
-    ``__init__``. With ``use_support=True`` the component gets a ``support`` flange that takes the reaction
-    torque; otherwise its housing is fixed at angle 0 and no reaction is exposed. ``support_phi()`` is the
-    support angle to use in equations."""
-
-    def _init_support(self, use_support: bool):
-        self.use_support = use_support
-        if use_support:
-            self.support = Flange(doc="support/housing flange")
-
-    def support_phi(self):
-        return self.support.phi if self.use_support else 0
