@@ -14,6 +14,15 @@ from .errors import ModelError
 from .symbols import der
 
 
+def check_option(component, option: str, value, allowed: tuple):
+    """``value`` if it is one of ``allowed``; otherwise a :class:`ModelError` naming the component's class and the
+    option. For constructor options (``law``, ``use_support``, ...), which choose equations, not parameters."""
+    if value not in allowed:
+        choices = ", ".join(map(repr, allowed[:-1])) + f" or {allowed[-1]!r}" if len(allowed) > 1 else repr(allowed[0])
+        raise ModelError(f"{type(component).__name__}: option {option} must be {choices}, got {value!r}")
+    return value
+
+
 class OnePort(Component):
     """Two pins, voltage drop ``v = p.v - n.v`` and current ``i`` from p to n (MSL ``OnePort``)."""
 
@@ -78,8 +87,7 @@ class PartialOptionalSupport(Component, abc.ABC):
     """
 
     def __init__(self, use_support: bool = False, **kw):
-        if use_support not in (True, False):
-            raise ModelError(f"{type(self).__name__}: option use_support must be True or False, got {use_support!r}")
+        check_option(self, "use_support", use_support, (True, False))
         super().__init__(**kw)
         self.use_support = bool(use_support)
         if self.use_support:

@@ -23,6 +23,7 @@ import sympy as sp
 from sympy import Eq, Max, Min
 
 from acausal import Component, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
+from acausal.partials import check_option
 
 __all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "CascadeServo", "clamp"]
 
@@ -285,7 +286,8 @@ class CascadeServo(Model):
 
     def __init__(self, use_voltage_limit_input: bool = False, **kw):
         super().__init__(**kw)
-        self.use_voltage_limit_input = use_voltage_limit_input
+        self.use_voltage_limit_input = check_option(self, "use_voltage_limit_input", use_voltage_limit_input,
+                                                    (True, False))
         if use_voltage_limit_input:
             self.v_limit = RealInput(doc="available voltage magnitude [V] (replaces v_max)")
 

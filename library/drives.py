@@ -9,14 +9,14 @@ from sympy import Eq
 
 from acausal import Component, Parameter, RealInput, Variable, der
 from acausal.connectors import HeatPort, Pin
-from acausal.partials import PartialElementaryRotationalToElectrical
+from acausal.partials import PartialElementaryRotationalToElectrical, check_option
 
 
 class _OptionalHeatPort:
     """Mixin: ``use_heat_port=True`` adds ``heat_port`` through which the dissipated heat leaves."""
 
     def _init_heat_port(self, use_heat_port):
-        self.use_heat_port = use_heat_port
+        self.use_heat_port = check_option(self, "use_heat_port", use_heat_port, (True, False))
         if use_heat_port:
             self.heat_port = HeatPort(doc="dissipated heat leaves here")
 
@@ -63,10 +63,8 @@ class PWMDriver(Component, _OptionalHeatPort):
 
     def __init__(self, command: str = "duty", saturate: bool = True, use_heat_port: bool = False, **kw):
         super().__init__(**kw)
-        if command not in ("duty", "voltage"):
-            raise ValueError(f"PWMDriver: command must be 'duty' or 'voltage', got {command!r}")
-        self.command = command
-        self.saturate = saturate
+        self.command = check_option(self, "command", command, ("duty", "voltage"))
+        self.saturate = check_option(self, "saturate", saturate, (True, False))
         self._init_heat_port(use_heat_port)
 
     def equations(self):

@@ -10,7 +10,7 @@ from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInp
 from acausal.connectors import Flange
 from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates,
                               PartialElementaryOneFlangeAndSupport2, PartialElementaryTwoFlangesAndSupport2, PartialGear,
-                              PartialTwoFlanges)
+                              PartialTwoFlanges, check_option)
 
 
 class Fixed(Component):
@@ -230,12 +230,11 @@ class LossyGear(PartialGear):
     backdriven = Discrete(start=0.0, doc="1 while power flows from flange_b to flange_a")
 
     P_s = Parameter(0.5, unit="W", min=1e-12, doc="power scale of the smooth law (law='smooth' only)")
+    laws = ("events", "smooth")
 
     def __init__(self, use_support: bool = False, law: str = "events", **kw):
-        if law not in ("events", "smooth"):
-            raise ValueError(f"LossyGear: law must be 'events' or 'smooth', got {law!r}")
+        self.law = check_option(self, "law", law, self.laws)
         super().__init__(use_support=use_support, **kw)
-        self.law = law
 
     def _efficiency(self):
         if self.law == "smooth":
@@ -287,7 +286,7 @@ class Gearbox(Model):
 
     def __init__(self, law: str = "events", **kw):
         super().__init__(**kw)
-        self.law = law
+        self.law = check_option(self, "law", law, LossyGear.laws)
 
     def build(self):
         self.inertia_a = Inertia(J=self.J_a)

@@ -8,10 +8,11 @@ from sympy import Eq
 
 from acausal import Model, ModelError, Parameter, compile_model, connect, time
 from acausal.library.blocks import SignalSource
-from acausal.library.drives import DCMotor
+from acausal.library.control import CascadeServo
+from acausal.library.drives import DCMotor, PWMDriver
 from acausal.library.electrical import EMF, ConstantVoltage, Ground, Resistor
-from acausal.library.rotational import (BearingFriction, Damper, Fixed, IdealGear, Inertia, LossyGear, Position,
-                                        SelfLockingGear, Spring, TorqueSource)
+from acausal.library.rotational import (BearingFriction, Damper, Fixed, Gearbox, IdealGear, Inertia, LossyGear,
+                                        Position, SelfLockingGear, Spring, TorqueSource)
 from acausal.partials import PartialElementaryOneFlangeAndSupport2, PartialGear
 
 
@@ -155,3 +156,22 @@ def test_without_support_the_housing_is_fixed():
 def test_bad_use_support_names_component_and_option(make, request):
     with pytest.raises(ModelError, match=rf"{request.node.callspec.id}: option use_support must be True or False"):
         make()
+
+
+@pytest.mark.parametrize("make, component, option", [
+    (lambda: LossyGear(law="fast"), "LossyGear", "law"),
+    (lambda: Gearbox(law="exact"), "Gearbox", "law"),
+    (lambda: PWMDriver(command="current"), "PWMDriver", "command"),
+    (lambda: PWMDriver(saturate="no"), "PWMDriver", "saturate"),
+    (lambda: DCMotor(use_heat_port="yes"), "DCMotor", "use_heat_port"),
+    (lambda: CascadeServo(use_voltage_limit_input=None), "CascadeServo", "use_voltage_limit_input"),
+], ids=lambda x: x if isinstance(x, str) else "")
+def test_bad_option_names_component_and_option(make, component, option):
+    with pytest.raises(ModelError, match=rf"^{component}: option {option} must be .*, got "):
+        make()
+
+
+def test_option_message_lists_the_choices():
+    with pytest.raises(ModelError) as info:
+        LossyGear(law="fast")
+    assert str(info.value) == "LossyGear: option law must be 'events' or 'smooth', got 'fast'"
