@@ -2,7 +2,9 @@
 
 Sign conventions: current flows from ``p`` through the component to ``n`` (``i = p.i``, flow into ``p`` positive);
 ``v = p.v - n.v``. A flange torque acts on the component; ``phi_rel = flange_b.phi - flange_a.phi`` and the
-compliant torque ``tau = flange_b.tau`` (so a spring with positive elongation pulls ``flange_b`` back).
+compliant torque ``tau = flange_b.tau`` (so a spring with positive elongation pulls ``flange_b`` back). A component
+with a housing extends a partial with an optional support (``use_support``), which owns the support flange and the
+reaction torque on it; the component writes only its own law.
 """
 import abc
 
@@ -18,7 +20,7 @@ def check_option(component, option: str, value, allowed: tuple):
     """``value`` if it is one of ``allowed``; otherwise a :class:`ModelError` naming the component's class and the
     option. For constructor options (``law``, ``use_support``, ...), which choose equations, not parameters."""
     if value not in allowed:
-        choices = ", ".join(map(repr, allowed[:-1])) + f" or {allowed[-1]!r}" if len(allowed) > 1 else repr(allowed[0])
+        choices = " or ".join(filter(None, [", ".join(map(repr, allowed[:-1])), repr(allowed[-1])]))
         raise ModelError(f"{type(component).__name__}: option {option} must be {choices}, got {value!r}")
     return value
 

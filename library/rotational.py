@@ -9,8 +9,8 @@ from sympy import Eq
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange
 from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates,
-                              PartialElementaryOneFlangeAndSupport2, PartialElementaryTwoFlangesAndSupport2, PartialGear,
-                              PartialTwoFlanges, check_option)
+                              PartialElementaryOneFlangeAndSupport2, PartialElementaryTwoFlangesAndSupport2,
+                              PartialGear, PartialTwoFlanges, check_option)
 
 
 class Fixed(Component):
