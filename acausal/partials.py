@@ -2,13 +2,27 @@
 
 Sign conventions: current flows from ``p`` through the component to ``n`` (``i = p.i``, flow into ``p`` positive);
 ``v = p.v - n.v``. A flange torque acts on the component; ``phi_rel = flange_b.phi - flange_a.phi`` and the
-compliant torque ``tau = flange_b.tau`` (so a spring with positive elongation pulls ``flange_b`` back).
+compliant torque ``tau = flange_b.tau`` (so a spring with positive elongation pulls ``flange_b`` back). A component
+with a housing extends a partial with an optional support (``use_support``), which owns the support flange and the
+reaction torque on it; the component writes only its own law.
 """
+import abc
+
 from sympy import Eq
 
-from .components import Component, Variable
+from .components import Component, Parameter, Variable
 from .connectors import Flange, Pin
+from .errors import ModelError
 from .symbols import der
+
+
+def check_option(component, option: str, value, allowed: tuple):
+    """``value`` if it is one of ``allowed``; otherwise a :class:`ModelError` naming the component's class and the
+    option. For constructor options (``law``, ``use_support``, ...), which choose equations, not parameters."""
+    if value not in allowed:
+        choices = " or ".join(filter(None, [", ".join(map(repr, allowed[:-1])), repr(allowed[-1])]))
+        raise ModelError(f"{type(component).__name__}: option {option} must be {choices}, got {value!r}")
+    return value
 
 
 class OnePort(Component):
@@ -20,7 +34,8 @@ class OnePort(Component):
     i = Variable(unit="A", doc="current from p through the component to n")
 
     def equations(self):
-        return [Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i), Eq(self.i, self.p.i)]
+        return [*super().equations(), Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i),
+                Eq(self.i, self.p.i)]
 
 
 class TwoPin(Component):
@@ -31,7 +46,7 @@ class TwoPin(Component):
     v = Variable(unit="V", doc="voltage drop p -> n")
 
     def equations(self):
-        return [Eq(self.v, self.p.v - self.n.v)]
+        return [*super().equations(), Eq(self.v, self.p.v - self.n.v)]
 
 
 class PartialTwoFlanges(Component):
@@ -49,7 +64,7 @@ class PartialCompliant(PartialTwoFlanges):
     tau = Variable(unit="N.m", doc="torque between the flanges (= flange_b.tau)")
 
     def equations(self):
-        return [Eq(self.phi_rel, self.flange_b.phi - self.flange_a.phi),
+        return [*super().equations(), Eq(self.phi_rel, self.flange_b.phi - self.flange_a.phi),
                 Eq(self.flange_b.tau, self.tau), Eq(self.flange_a.tau, -self.tau)]
 
 
@@ -62,29 +77,83 @@ class PartialCompliantWithRelativeStates(PartialCompliant):
         return [*super().equations(), Eq(self.w_rel, der(self.phi_rel))]
 
 
-class PartialElementaryOneFlangeAndSupport(Component):
-    """One flange and a support flange (MSL ``PartialElementaryOneFlangeAndSupport2``); the support is optional:
-    left unconnected, it carries no torque, so connect it to a :class:`Fixed` (or a housing) when the reaction
-    matters. ``phi`` is the flange angle relative to the support."""
+class PartialOptionalSupport(Component, abc.ABC):
+    """A conditional support (housing) flange and the reaction torque on it (MSL ``useSupport``).
 
-    flange = Flange(doc="driven flange")
-    support = Flange(doc="support/housing flange")
-    phi = Variable(unit="rad", doc="flange angle relative to the support")
+    ``use_support=True`` gives the component a ``support`` flange with ``support.tau = support_torque()``: the
+    torque on the housing that balances those at the flanges (for a massless element minus their sum). Left
+    unconnected, the support carries no torque, so connect it to a ``Fixed`` (or a housing) when the reaction
+    matters. ``use_support=False``: the housing is fixed at angle 0 and no reaction is exposed. ``phi_support`` is
+    the support angle to write relative angles with (``support.phi``, or 0). The flag is structural (it changes
+    the equations), so it is a constructor argument, not a parameter.
+    """
 
-    def equations(self):
-        return [Eq(self.phi, self.flange.phi - self.support.phi)]
-
-
-class OptionalSupport:
-    """Mixin for a conditional support flange (MSL ``useSupport``): call ``self._init_support(use_support)`` in
-    ``__init__``. With ``use_support=True`` the component gets a ``support`` flange that takes the reaction
-    torque; otherwise its housing is fixed at angle 0 and no reaction is exposed. ``support_phi()`` is the
-    support angle to use in equations."""
-
-    def _init_support(self, use_support: bool):
-        self.use_support = use_support
-        if use_support:
+    def __init__(self, use_support: bool = False, **kw):
+        check_option(self, "use_support", use_support, (True, False))
+        super().__init__(**kw)
+        self.use_support = bool(use_support)
+        if self.use_support:
             self.support = Flange(doc="support/housing flange")
 
-    def support_phi(self):
+    @property
+    def phi_support(self):
+        """Angle of the support: ``support.phi``, or 0 when the housing is fixed (``use_support=False``)."""
         return self.support.phi if self.use_support else 0
+
+    @abc.abstractmethod
+    def support_torque(self):
+        """The torque acting on the support (the reaction), as an expression."""
+
+    def equations(self):
+        eqs = super().equations()
+        return [*eqs, Eq(self.support.tau, self.support_torque())] if self.use_support else eqs
+
+
+class PartialElementaryOneFlangeAndSupport2(PartialOptionalSupport):
+    """One flange and an optional support (MSL ``PartialElementaryOneFlangeAndSupport2``) of a massless element:
+    the support takes the reaction ``support.tau = -flange.tau``. Angles relative to the support are
+    ``flange.phi - phi_support``."""
+
+    flange = Flange(doc="driven flange")
+
+    def support_torque(self):
+        return -self.flange.tau
+
+
+class PartialElementaryTwoFlangesAndSupport2(PartialTwoFlanges, PartialOptionalSupport):
+    """Two flanges and an optional support (MSL ``PartialElementaryTwoFlangesAndSupport2``) of a massless element:
+    the support takes the reaction ``support.tau = -(flange_a.tau + flange_b.tau)``. Angles relative to the
+    support are ``flange_a.phi - phi_support`` and ``flange_b.phi - phi_support``."""
+
+    def support_torque(self):
+        return -(self.flange_a.tau + self.flange_b.tau)
+
+
+class PartialGear(PartialElementaryTwoFlangesAndSupport2):
+    """Kinematics of a massless gear stage on an optional support (MSL ``IdealGear``'s): with the flange angles
+    relative to the support, ``phi_a = ratio * phi_b``; ``ratio`` > 1 reduces speed from a to b. A subclass
+    writes the torque law, one equation between ``flange_a.tau`` and ``flange_b.tau``."""
+
+    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
+    phi_a = Variable(unit="rad", doc="flange_a (input) angle relative to the support")
+    phi_b = Variable(unit="rad", doc="flange_b (output) angle relative to the support")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.phi_a, self.flange_a.phi - self.phi_support),
+                Eq(self.phi_b, self.flange_b.phi - self.phi_support), Eq(self.phi_a, self.ratio * self.phi_b)]
+
+
+class PartialElementaryRotationalToElectrical(OnePort, PartialElementaryOneFlangeAndSupport2):
+    """An electrical one-port driving a shaft that turns against an optional support (the frame of MSL ``EMF``):
+    pins ``p``, ``n`` with ``v`` and ``i`` (:class:`OnePort`), the ``flange`` with the reaction
+    ``support.tau = -flange.tau``, and the shaft's angle and speed relative to the support,
+    ``phi = flange.phi - phi_support``, ``w = der(phi)``. A subclass writes the conversion law (``v`` and
+    ``flange.tau`` from ``w`` and ``i``); one with rotor inertia is not elementary and overrides
+    :meth:`support_torque`."""
+
+    flange = Flange(doc="shaft")
+    phi = Variable(unit="rad", doc="flange angle relative to the support")
+    w = Variable(unit="rad/s", doc="angular velocity relative to the support")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.phi, self.flange.phi - self.phi_support), Eq(self.w, der(self.phi))]

@@ -8,15 +8,15 @@ import sympy as sp
 from sympy import Eq
 
 from acausal import Component, Parameter, RealInput, Variable, der
-from acausal.connectors import Flange, HeatPort, Pin
-from acausal.partials import OptionalSupport
+from acausal.connectors import HeatPort, Pin
+from acausal.partials import PartialElementaryRotationalToElectrical, check_option
 
 
 class _OptionalHeatPort:
     """Mixin: ``use_heat_port=True`` adds ``heat_port`` through which the dissipated heat leaves."""
 
     def _init_heat_port(self, use_heat_port):
-        self.use_heat_port = use_heat_port
+        self.use_heat_port = check_option(self, "use_heat_port", use_heat_port, (True, False))
         if use_heat_port:
             self.heat_port = HeatPort(doc="dissipated heat leaves here")
 
@@ -63,10 +63,8 @@ class PWMDriver(Component, _OptionalHeatPort):
 
     def __init__(self, command: str = "duty", saturate: bool = True, use_heat_port: bool = False, **kw):
         super().__init__(**kw)
-        if command not in ("duty", "voltage"):
-            raise ValueError(f"PWMDriver: command must be 'duty' or 'voltage', got {command!r}")
-        self.command = command
-        self.saturate = saturate
+        self.command = check_option(self, "command", command, ("duty", "voltage"))
+        self.saturate = check_option(self, "saturate", saturate, (True, False))
         self._init_heat_port(use_heat_port)
 
     def equations(self):
@@ -87,7 +85,7 @@ class PWMDriver(Component, _OptionalHeatPort):
         return eqs
 
 
-class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
+class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     """Permanent-magnet DC motor (a brushless EC motor driven as a DC machine), paper Eq. (4) per component::
 
         v = R(T) i + L di/dt + k w                       R(T) = R (1 + alpha_R (T - T_ref))
@@ -98,7 +96,9 @@ class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
     ideal sign law only for ``|w| <~ 3 w_c`` (w_c = 1 rad/s, against speeds of ~10^3 rad/s here).
     ``loss_power`` = copper ``R(T) i^2`` + friction. With ``use_heat_port=True`` the winding temperature is the
     port's temperature and the copper loss leaves through it (friction heat is not routed); otherwise the
-    winding stays at ``T_ref``. ``energy`` = ``L i^2/2 + J w^2/2``.
+    winding stays at ``T_ref``. ``energy`` = ``L i^2/2 + J w^2/2``. With ``use_support=True`` the housing
+    (``support``) takes the reaction of the air-gap and friction torques, ``support.tau = tau_e - tau_f``, so
+    ``flange.tau + support.tau = J dw/dt``.
 
     Defaults: maxon EC-4pole 30, 200 W, 48 V winding (part 305015): R = 0.386 ohm and L = 6.53e-5 H (paper,
     Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, ../shared/data/parameters.md), J = 3.33e-6
@@ -116,12 +116,6 @@ class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
     w_c = Parameter(1.0, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
     alpha_R = Parameter(0.00393, unit="1/K", doc="resistance temperature coefficient (copper)")
     T_ref = Parameter(298.15, unit="K", doc="reference temperature of R")
-    p = Pin(doc="positive terminal")
-    n = Pin(doc="negative terminal")
-    flange = Flange(doc="shaft")
-    v = Variable(unit="V", doc="terminal voltage p - n")
-    i = Variable(start=0.0, unit="A", doc="current p -> n (start value used when it is a state)")
-    phi = Variable(unit="rad", doc="shaft angle relative to the housing")
     w = Variable(unit="rad/s", doc="shaft speed relative to the housing", state_select="prefer")
     tau_e = Variable(unit="N.m", doc="electromagnetic torque k i")
     tau_f = Variable(unit="N.m", doc="friction torque (viscous + Coulomb), opposing w")
@@ -133,16 +127,19 @@ class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
     energy = Variable(unit="J", doc="stored energy L i^2/2 + J w^2/2")
 
     def __init__(self, use_support: bool = False, use_heat_port: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
+        super().__init__(use_support=use_support, **kw)
         self._init_heat_port(use_heat_port)
+
+    def support_torque(self):
+        """The housing takes the reaction of the air-gap and friction torques (the rotor's inertia makes the
+        motor non-elementary: ``flange.tau + support.tau = J dw/dt``)."""
+        return self.tau_e - self.tau_f
 
     def equations(self):
         T = self.heat_port.T if self.use_heat_port else self.T_ref
-        eqs = [Eq(self.v, self.p.v - self.n.v), Eq(0, self.p.i + self.n.i), Eq(self.i, self.p.i),
+        eqs = [*super().equations(),
                Eq(self.R_T, self.R * (1 + self.alpha_R * (T - self.T_ref))),
                Eq(self.v, self.R_T * self.i + self.L * der(self.i) + self.k * self.w),
-               Eq(self.phi, self.flange.phi - self.support_phi()), Eq(self.w, der(self.phi)),
                Eq(self.tau_e, self.k * self.i),
                Eq(self.tau_f, self.b * self.w + self.tau_c * sp.tanh(self.w / self.w_c)),
                Eq(self.J * der(self.w), self.tau_e - self.tau_f + self.flange.tau),
@@ -150,8 +147,6 @@ class DCMotor(Component, OptionalSupport, _OptionalHeatPort):
                Eq(self.loss_power, self.copper_loss + self.friction_loss),
                Eq(self.shaft_power, -self.flange.tau * self.w),
                Eq(self.energy, self.L * self.i**2 / 2 + self.J * self.w**2 / 2)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -(self.tau_e - self.tau_f)))
         if self.use_heat_port:
             eqs.append(Eq(self.heat_port.Q_flow, -self.copper_loss))
         return eqs

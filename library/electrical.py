@@ -8,8 +8,8 @@ import sympy as sp
 from sympy import Eq
 
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
-from acausal.connectors import Flange, Pin
-from acausal.partials import OnePort, OptionalSupport
+from acausal.connectors import Pin
+from acausal.partials import OnePort, PartialElementaryRotationalToElectrical
 
 
 class Ground(Component):
@@ -125,7 +125,7 @@ class VoltageSensor(Component):
         return [Eq(self.p.i, 0), Eq(self.n.i, 0), Eq(self.v_out.value, self.p.v - self.n.v)]
 
 
-class EMF(OnePort, OptionalSupport):
+class EMF(PartialElementaryRotationalToElectrical):
     """Ideal electromechanical converter (MSL ``EMF``): ``v = k w``, ``flange.tau = -k i``.
 
     ``k`` [N m/A = V s/rad] is both the torque and the back-EMF constant, so the converter is lossless:
@@ -134,20 +134,9 @@ class EMF(OnePort, OptionalSupport):
     """
 
     k = Parameter(1.0, unit="N.m/A", doc="transformation coefficient (torque and back-EMF constant)")
-    phi = Variable(unit="rad", doc="flange angle relative to the support")
-    w = Variable(unit="rad/s", doc="angular velocity relative to the support")
-    flange = Flange(doc="shaft")
-
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
 
     def equations(self):
-        eqs = [*super().equations(), Eq(self.phi, self.flange.phi - self.support_phi()), Eq(self.w, der(self.phi)),
-               Eq(self.v, self.k * self.w), Eq(self.flange.tau, -self.k * self.i)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -self.flange.tau))
-        return eqs
+        return [*super().equations(), Eq(self.v, self.k * self.w), Eq(self.flange.tau, -self.k * self.i)]
 
 
 class Supply(OnePort):

@@ -18,6 +18,7 @@ source can use directly.
 """
 from __future__ import annotations
 
+import abc
 import csv
 import math
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ from sympy import Eq
 from acausal import Component, Input, Parameter, RealOutput, Variable, time
 from acausal.connectors import Flange
 from acausal.errors import DataError, ModelError
-from acausal.partials import OptionalSupport
+from acausal.partials import PartialElementaryOneFlangeAndSupport2
 from acausal.signals import FourierSeries, PeriodicSpline, Signal
 
 __all__ = ["DEFAULT_PATH", "COLUMNS", "GaitTable", "GaitWork", "GaitCycle", "GaitParameterError", "load_gait_table",
@@ -275,13 +276,21 @@ def unit_cycle() -> GaitCycle:
     return _UNIT_CYCLE["cycle"]
 
 
-class _GaitSource(Component, OptionalSupport):
+class _GaitSource(PartialElementaryOneFlangeAndSupport2):
+    """The ankle joint over the gait cycle: ``flange`` is the foot, the optional ``support`` the lower leg. The
+    ``profile`` input defaults to the packaged Winter data (``_default_profile``)."""
+
     stride_time = Parameter(DEFAULT_STRIDE_TIME, unit="s", min=1e-3, doc="stride duration (Winter: 1.1396 s)")
     flange = Flange(doc="ankle joint (foot) flange")
 
     def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)  # the lower leg
+        kw.setdefault("profile", self._default_profile())
+        super().__init__(use_support=use_support, **kw)
+
+    @staticmethod
+    @abc.abstractmethod
+    def _default_profile():
+        """The profile used when none is given (built on first use: the packaged data are read lazily)."""
 
     def _at_gait_time(self, profile):
         """The normalised profile evaluated at the gait fraction ``time / stride_time`` (a run-time parameter)."""
@@ -300,16 +309,13 @@ class AnkleAngleSource(_GaitSource):
     profile = Input(unit="rad", doc="ankle angle over the gait fraction (1-periodic)")
     theta = Variable(unit="rad", doc="prescribed ankle angle")
 
-    def __init__(self, use_support: bool = False, **kw):
-        kw.setdefault("profile", unit_cycle().angle_signal())
-        super().__init__(use_support=use_support, **kw)
+    @staticmethod
+    def _default_profile():
+        return unit_cycle().angle_signal()
 
     def equations(self):
-        rel = self.flange.phi - self.support_phi()
-        eqs = [Eq(self.theta, self._at_gait_time(self.profile)), Eq(rel, self.theta)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -self.flange.tau))
-        return eqs
+        return [*super().equations(), Eq(self.theta, self._at_gait_time(self.profile)),
+                Eq(self.flange.phi - self.phi_support, self.theta)]
 
 
 class AnkleTorqueLoad(_GaitSource):
@@ -323,15 +329,13 @@ class AnkleTorqueLoad(_GaitSource):
     profile = Input(unit="N.m/kg", doc="ankle moment per kg over the gait fraction (1-periodic)")
     M = Variable(unit="N.m", doc="biomechanical ankle moment, plantarflexor positive")
 
-    def __init__(self, use_support: bool = False, **kw):
-        kw.setdefault("profile", unit_cycle().torque_signal())
-        super().__init__(use_support=use_support, **kw)
+    @staticmethod
+    def _default_profile():
+        return unit_cycle().torque_signal()
 
     def equations(self):
-        eqs = [Eq(self.M, self.body_mass * self._at_gait_time(self.profile)), Eq(self.flange.tau, self.M)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -self.M))
-        return eqs
+        return [*super().equations(), Eq(self.M, self.body_mass * self._at_gait_time(self.profile)),
+                Eq(self.flange.tau, self.M)]
 
 
 class GaitProfile(Component):

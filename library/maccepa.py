@@ -1,6 +1,6 @@
 """Linkage math of the sliding-bar MACCEPA of the CYBERLEGs alpha ankle (paper, section 2, Eq. 1-3).
 
-Symbols (Fig. 2 of the paper, reading of ``/work/shared/data/parameters.md``), all SI:
+Symbols (Fig. 2 of the paper, reading of ``../shared/data/parameters.md``), all SI:
 
 * ``alpha`` [rad]: angle between the moment arm (a-c) and the foot (a-b), ``alpha = phi - theta``, positive in the
   plantarflexion direction (phi: moment-arm angle, theta: ankle angle, both plantarflexion-positive);

@@ -8,8 +8,9 @@ from sympy import Eq
 
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange
-from acausal.partials import (OptionalSupport, PartialCompliant, PartialCompliantWithRelativeStates,
-                              PartialTwoFlanges)
+from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates,
+                              PartialElementaryOneFlangeAndSupport2, PartialElementaryTwoFlangesAndSupport2,
+                              PartialGear, PartialTwoFlanges, check_option)
 
 
 class Fixed(Component):
@@ -102,62 +103,33 @@ class Backlash(PartialCompliant):
                 Eq(self.energy, self.b / 2 * (self.tau * sp.tanh(x) - self.tau_s * ln_cosh))]
 
 
-class IdealGear(PartialTwoFlanges, OptionalSupport):
+class IdealGear(PartialGear):
     """Ideal gear without inertia or losses: ``phi_a = ratio * phi_b``, ``0 = ratio * flange_a.tau + flange_b.tau``
     (angles relative to the support). ``ratio`` > 1 reduces speed from a to b."""
 
-    ratio = Parameter(1.0, unit="1", doc="transmission ratio flange_a.phi / flange_b.phi")
-    phi_a = Variable(unit="rad", doc="flange_a angle relative to the support")
-    phi_b = Variable(unit="rad", doc="flange_b angle relative to the support")
-
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
-
     def equations(self):
-        eqs = [Eq(self.phi_a, self.flange_a.phi - self.support_phi()),
-               Eq(self.phi_b, self.flange_b.phi - self.support_phi()),
-               Eq(self.phi_a, self.ratio * self.phi_b), Eq(0, self.ratio * self.flange_a.tau + self.flange_b.tau)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -self.flange_a.tau - self.flange_b.tau))
-        return eqs
+        return [*super().equations(), Eq(0, self.ratio * self.flange_a.tau + self.flange_b.tau)]
 
 
-class TorqueSource(Component, OptionalSupport):
+class TorqueSource(PartialElementaryOneFlangeAndSupport2):
     """Prescribed torque ``tau(t)`` accelerating ``flange`` (``flange.tau = -tau``), reaction on the support."""
 
     tau = Input(unit="N.m", doc="driving torque")
-    flange = Flange(doc="driven flange")
-
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
 
     def equations(self):
-        eqs = [Eq(self.flange.tau, -self.tau)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, self.tau))
-        return eqs
+        return [*super().equations(), Eq(self.flange.tau, -self.tau)]
 
 
-class SignalTorque(Component, OptionalSupport):
-    """Torque source driven by a causal input ``u`` [N m] (``flange.tau = -u``)."""
+class SignalTorque(PartialElementaryOneFlangeAndSupport2):
+    """Torque source driven by a causal input ``u`` [N m] (``flange.tau = -u``), reaction on the support."""
 
     u = RealInput(doc="driving torque [N m]")
-    flange = Flange(doc="driven flange")
-
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
 
     def equations(self):
-        eqs = [Eq(self.flange.tau, -self.u.value)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, self.u.value))
-        return eqs
+        return [*super().equations(), Eq(self.flange.tau, -self.u.value)]
 
 
-class Position(Component, OptionalSupport):
+class Position(PartialElementaryOneFlangeAndSupport2):
     """Prescribed angle (MSL ``Position`` with exact=true): ``flange.phi - support.phi = phi_ref(t)``.
 
     ``phi_ref`` is a number, a sympy expression of time or a :class:`acausal.Signal`; index reduction asks it for
@@ -167,15 +139,8 @@ class Position(Component, OptionalSupport):
     phi_ref = Input(unit="rad", doc="prescribed angle")
     flange = Flange(doc="flange moved along phi_ref")
 
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
-
     def equations(self):
-        eqs = [Eq(self.flange.phi - self.support_phi(), self.phi_ref)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -self.flange.tau))
-        return eqs
+        return [*super().equations(), Eq(self.flange.phi - self.phi_support, self.phi_ref)]
 
 
 class SpeedSensor(Component):
@@ -208,7 +173,7 @@ class TorqueSensor(PartialTwoFlanges):
                 Eq(self.tau.value, self.flange_a.tau)]
 
 
-class BearingFriction(PartialTwoFlanges, OptionalSupport):
+class BearingFriction(PartialElementaryTwoFlangesAndSupport2):
     """Rigid shaft with bearing friction to the support: ``tau_f = tau_c tanh(w / w_c) + d w``.
 
     ``flange_a.tau + flange_b.tau = tau_f`` (the friction torque flows to the support), ``loss_power = tau_f w >= 0``.
@@ -223,21 +188,14 @@ class BearingFriction(PartialTwoFlanges, OptionalSupport):
     tau_f = Variable(unit="N.m", doc="friction torque opposing w")
     loss_power = Variable(unit="W", doc="dissipated power tau_f w")
 
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
-
     def equations(self):
-        eqs = [Eq(self.phi, self.flange_a.phi), Eq(self.phi, self.flange_b.phi),
-               Eq(self.w, der(self.phi - self.support_phi())),
-               Eq(self.tau_f, self.tau_c * sp.tanh(self.w / self.w_c) + self.d * self.w),
-               Eq(self.flange_a.tau + self.flange_b.tau, self.tau_f), Eq(self.loss_power, self.tau_f * self.w)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -self.tau_f))
-        return eqs
+        return [*super().equations(), Eq(self.phi, self.flange_a.phi), Eq(self.phi, self.flange_b.phi),
+                Eq(self.w, der(self.phi - self.phi_support)),
+                Eq(self.tau_f, self.tau_c * sp.tanh(self.w / self.w_c) + self.d * self.w),
+                Eq(self.flange_a.tau + self.flange_b.tau, self.tau_f), Eq(self.loss_power, self.tau_f * self.w)]
 
 
-class LossyGear(PartialTwoFlanges, OptionalSupport):
+class LossyGear(PartialGear):
     """Gear mesh with a power-flow-dependent efficiency (MSL ``LossyGear`` without locking), massless.
 
     Kinematics ``phi_a = ratio * phi_b`` (relative to the support). Torques, with ``tau_a = flange_a.tau`` and the
@@ -264,10 +222,7 @@ class LossyGear(PartialTwoFlanges, OptionalSupport):
     energy of that jump (an impulse) never appears in an integrated power.
     """
 
-    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
     eta = Parameter(1.0, unit="1", min=1e-6, max=1.0, doc="mesh efficiency")
-    phi_a = Variable(unit="rad", doc="input angle relative to the support")
-    phi_b = Variable(unit="rad", doc="output angle relative to the support")
     w_a = Variable(unit="rad/s", doc="input speed")
     eff = Variable(unit="1", doc="torque efficiency factor in the present mode (eta or 1/eta)")
     input_power = Variable(unit="W", doc="power into the mesh at flange_a, tau_a w_a")
@@ -275,13 +230,11 @@ class LossyGear(PartialTwoFlanges, OptionalSupport):
     backdriven = Discrete(start=0.0, doc="1 while power flows from flange_b to flange_a")
 
     P_s = Parameter(0.5, unit="W", min=1e-12, doc="power scale of the smooth law (law='smooth' only)")
+    laws = ("events", "smooth")
 
     def __init__(self, use_support: bool = False, law: str = "events", **kw):
-        if law not in ("events", "smooth"):
-            raise ValueError(f"LossyGear: law must be 'events' or 'smooth', got {law!r}")
-        super().__init__(**kw)
-        self.law = law
-        self._init_support(use_support)
+        self.law = check_option(self, "law", law, self.laws)
+        super().__init__(use_support=use_support, **kw)
 
     def _efficiency(self):
         if self.law == "smooth":
@@ -293,15 +246,11 @@ class LossyGear(PartialTwoFlanges, OptionalSupport):
 
     def equations(self):
         tau_a = self.flange_a.tau
-        eqs = [Eq(self.phi_a, self.flange_a.phi - self.support_phi()), Eq(self.phi_b, self.flange_b.phi - self.support_phi()),
-               Eq(self.phi_a, self.ratio * self.phi_b), Eq(self.w_a, der(self.phi_a)),
-               Eq(self.eff, self._efficiency()),
-               Eq(self.flange_b.tau, -self.eff * self.ratio * tau_a),
-               Eq(self.input_power, tau_a * self.w_a),
-               Eq(self.loss_power, self.input_power * (1 - self.eff))]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -tau_a - self.flange_b.tau))
-        return eqs
+        return [*super().equations(), Eq(self.w_a, der(self.phi_a)),
+                Eq(self.eff, self._efficiency()),
+                Eq(self.flange_b.tau, -self.eff * self.ratio * tau_a),
+                Eq(self.input_power, tau_a * self.w_a),
+                Eq(self.loss_power, self.input_power * (1 - self.eff))]
 
     def events(self):
         if self.law == "smooth":
@@ -337,7 +286,7 @@ class Gearbox(Model):
 
     def __init__(self, law: str = "events", **kw):
         super().__init__(**kw)
-        self.law = law
+        self.law = check_option(self, "law", law, LossyGear.laws)
 
     def build(self):
         self.inertia_a = Inertia(J=self.J_a)
@@ -355,7 +304,7 @@ class Gearbox(Model):
                 Eq(self.energy, self.inertia_a.energy + self.inertia_b.energy)]
 
 
-class SelfLockingGear(PartialTwoFlanges, OptionalSupport):
+class SelfLockingGear(PartialGear):
     """Non-backdrivable (self-locking) gear stage, e.g. a worm gear whose friction angle is at least its lead
     angle; massless. The load cannot drive the input: when it pushes in the direction of motion the input still
     has to turn the gear, and with the input unpowered the gear holds any load at standstill.
@@ -387,37 +336,25 @@ class SelfLockingGear(PartialTwoFlanges, OptionalSupport):
     torque over ``ratio`` is admissible, and ``(1 - hold)`` lies in that band because ``eta_back <= 0``.
     """
 
-    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
     eta = Parameter(0.495, unit="1", min=1e-6, max=1.0, doc="efficiency when driving (worm: tan l / tan(l + r))")
     eta_back = Parameter(0.0, unit="1", min=-1.0, max=0.0,
                          doc="efficiency when the load overhauls (<= 0: self-locking; worm: tan(l - r) / tan l)")
     P_s = Parameter(0.5, unit="W", min=1e-12, doc="power scale of the smooth law")
     hold = RealInput(doc="share of the output torque held by the locked mesh (0..1; 1 = input unpowered)")
-    phi_a = Variable(unit="rad", doc="input angle relative to the support")
-    phi_b = Variable(unit="rad", doc="output angle relative to the support")
     w_b = Variable(unit="rad/s", doc="output speed")
     g = Variable(unit="1", doc="input torque factor (1/eta driving, eta_back overhauling)")
     output_power = Variable(unit="W", doc="power leaving at flange_b, -flange_b.tau w_b")
     input_power = Variable(unit="W", doc="power into the gear at flange_a")
     loss_power = Variable(unit="W", doc="input minus output power (>= 0)")
 
-    def __init__(self, use_support: bool = False, **kw):
-        super().__init__(**kw)
-        self._init_support(use_support)
-
     def equations(self):
         tau_a, tau_b = self.flange_a.tau, self.flange_b.tau
         x = sp.tanh(-tau_b * self.w_b / self.P_s)
         a = (1 / self.eta - self.eta_back) / 2
         b = (1 / self.eta + self.eta_back) / 2 - 1
-        eqs = [Eq(self.phi_a, self.flange_a.phi - self.support_phi()),
-               Eq(self.phi_b, self.flange_b.phi - self.support_phi()),
-               Eq(self.phi_a, self.ratio * self.phi_b), Eq(self.w_b, der(self.phi_b)),
-               Eq(self.g, 1 + x * (a + b * x)),
-               Eq(tau_a, -(1 - self.hold.value) * self.g * tau_b / self.ratio),
-               Eq(self.output_power, -tau_b * self.w_b),
-               Eq(self.input_power, tau_a * self.ratio * self.w_b),
-               Eq(self.loss_power, self.input_power - self.output_power)]
-        if self.use_support:
-            eqs.append(Eq(self.support.tau, -tau_a - tau_b))
-        return eqs
+        return [*super().equations(), Eq(self.w_b, der(self.phi_b)),
+                Eq(self.g, 1 + x * (a + b * x)),
+                Eq(tau_a, -(1 - self.hold.value) * self.g * tau_b / self.ratio),
+                Eq(self.output_power, -tau_b * self.w_b),
+                Eq(self.input_power, tau_a * self.ratio * self.w_b),
+                Eq(self.loss_power, self.input_power - self.output_power)]
