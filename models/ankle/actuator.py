@@ -49,6 +49,7 @@ Assumptions (not published, ``../shared/data/parameters.md``): lever lengths A =
 from __future__ import annotations
 
 from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable, connect
+from acausal.partials import check_option
 from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource
 from acausal.library.control import PIDVariableLimit
 from acausal.library.drives import DCMotor, PWMDriver
@@ -66,17 +67,10 @@ from .planning import planned_arm_angle
 from .presets import EQ4_LUMPED, N_TOTAL  # N_TOTAL: planetary 86:1 x helical 10:1
 
 
+#: the constructor options and their choices
 OPTIONS = {"mode": ("replay", "closed_loop"), "motion": ("gait", "recorded"),
            "supply": ("rectifier", "battery", "ideal"), "gears": ("paper", "self_locking", "ideal"),
            "driver": ("paper", "ideal")}
-
-
-def check_option(owner: str, name: str, value) -> str:
-    """``value`` if it is one of ``OPTIONS[name]``, else a :class:`ModelError` naming owner, option and choices."""
-    if value not in OPTIONS[name]:
-        raise ModelError(f"{owner}: option {name} must be one of {', '.join(map(repr, OPTIONS[name]))}, "
-                         f"got {value!r}")
-    return value
 
 
 class DriveTrain(Model):
@@ -94,9 +88,8 @@ class DriveTrain(Model):
 
     def __init__(self, supply: str = "rectifier", gears: str = "paper", driver: str = "paper",
                  driver_cls=PWMDriver, saturate: bool = False, **kw):
-        name = type(self).__name__
-        self.options = dict(supply=check_option(name, "supply", supply), gears=check_option(name, "gears", gears),
-                            driver=check_option(name, "driver", driver))
+        self.options = {k: check_option(self, k, v, OPTIONS[k])
+                        for k, v in (("supply", supply), ("gears", gears), ("driver", driver))}
         super().__init__(**kw)
         self.driver_cls, self.saturate = driver_cls, saturate
 
@@ -193,11 +186,11 @@ class SeriesLinkAnkle(DriveTrain):
     tracking_error = Variable(unit="rad", doc="moment-arm reference minus actual angle")
 
     def __init__(self, mode: str = "replay", motion: str = "gait", **kw):
-        name = type(self).__name__
-        self.mode = check_option(name, "mode", mode)
-        self.motion = check_option(name, "motion", motion)
+        self.mode = check_option(self, "mode", mode, OPTIONS["mode"])
+        self.motion = check_option(self, "motion", motion, OPTIONS["motion"])
         if motion == "recorded" and mode != "replay":
-            raise ModelError(f"{name}: motion 'recorded' needs mode 'replay' (closed loop follows the gait)")
+            raise ModelError(f"{type(self).__name__}: motion 'recorded' needs mode 'replay' (closed loop follows "
+                             "the gait)")
         super().__init__(saturate=mode == "closed_loop", **kw)
 
     def make_link(self):
