@@ -164,3 +164,29 @@ def balance(res, acc: Accounts, k0: int = 0, k1: int = -1) -> Balance:
     return Balance(float(res.t[k0]), float(res.t[k1]), {n: between(n) for n in acc.sources}, boundary,
                    {n: between(n) for n in acc.losses},
                    {n: float(np.asarray(res[n])[k1] - np.asarray(res[n])[k0]) for n in acc.stored})
+
+
+def draw_sankey(res, acc: Accounts, ax=None, k0: int = 0, k1: int = -1, title: str | None = None):
+    """The energy passed on at each power sensor (build order) between output samples ``k0`` and ``k1``, each
+    stage's loss labelled by the components that dissipate it; returns the axes. Needs two or more sensors."""
+    from .errors import ModelError
+    from .sankey import sankey
+
+    if len(acc.sensors) < 2:
+        raise ModelError(f"a Sankey diagram needs two or more power sensors; {res.model.flat.name} has "
+                         f"{len(acc.sensors)} ({', '.join(acc.sensors) or 'none'})")
+    if ax is None:
+        import matplotlib.pyplot as plt
+        _, ax = plt.subplots(figsize=(2.2 * len(acc.sensors) + 2, 5))
+    energy = {}
+    for s in acc.sensors:
+        e = res.energy(s)
+        energy[s.rsplit(".", 1)[0]] = float(e[k1] - e[k0])
+    names = []
+    for s in acc.sensors[1:]:
+        owners = [n.rsplit(".", 1)[0] for n in acc.stages.get(s, [])]
+        names.append((s.rsplit(".", 1)[0], "loss" + (f"\n({', '.join(owners)})" if owners else "")))
+    top = max(abs(v) for v in energy.values()) or 1.0
+    sankey(ax, energy, title=title or f"{res.model.flat.name}: energy at each power sensor [J]", scale=1.0 / top,
+           loss_names=names)
+    return ax

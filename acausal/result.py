@@ -181,6 +181,14 @@ class Result:
         k1 = self.t.size - 1 if t1 is None else int(np.argmin(np.abs(self.t - t1)))
         return balance(self, self.model.accounts, k0, k1)
 
+    def sankey(self, ax=None, t0: float | None = None, t1: float | None = None, title: str | None = None):
+        """Sankey diagram between output times ``t0`` and ``t1``: the energy passed on at each power sensor (in
+        the order the model built them), each stage's loss named by its components (:mod:`acausal.energy`)."""
+        from .energy import draw_sankey
+        k0 = 0 if t0 is None else int(np.argmin(np.abs(self.t - t0)))
+        k1 = self.t.size - 1 if t1 is None else int(np.argmin(np.abs(self.t - t1)))
+        return draw_sankey(self, self.model.accounts, ax, k0, k1, title)
+
     def integral(self, name: str) -> float:
         """Integral of a variable (or a port's power) over the whole result, like :meth:`energy`."""
         return float(self._cumulative(name)[-1])

@@ -16,7 +16,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
 from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
-from acausal.models.reporting.sankey import LABELS, loss_names_from_groups, sankey  # noqa: E402
+from acausal.models.reporting.sankey import LABELS, LOSSLESS_LINKAGE, loss_names_from_groups  # noqa: E402
+from acausal.sankey import sankey  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 2.0
@@ -58,10 +59,10 @@ def main(out_dir: Path, results=None) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(14, 5.2))
     scale = 1.0 / max(r.energy["source"], paper_e["source"])
     loss_names = loss_names_from_groups(r.stages, link="MACCEPA linkage")
-    sankey(axes[0], r.energy, scale=scale, loss_names=loss_names,
+    sankey(axes[0], r.energy, scale=scale, loss_names=loss_names, labels=LABELS, lossless_note=LOSSLESS_LINKAGE,
            title=f"Simulation: {r.energy['source']:.1f} J/stride from the source, "
                  f"{r.energy['output']:.1f} J to the joint ({100 * eff['output']:.1f} %)")
-    sankey(axes[1], paper_e, scale=scale, loss_names=loss_names,
+    sankey(axes[1], paper_e, scale=scale, loss_names=loss_names, labels=LABELS, lossless_note=LOSSLESS_LINKAGE,
            title=f"Paper (Table 1, measured): {paper_e['source']:.1f} J/stride from the source, "
                  f"{paper_e['output']:.1f} J to the joint ({100 * paper_eff['output']:.1f} %)")
     fig.suptitle("Table 1: where the energy of one stride goes (8 mm precompression, 2 s/stride; "

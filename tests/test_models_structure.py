@@ -97,6 +97,41 @@ def test_energy_balance_of_any_model():
     assert "relative residual" in str(b)
 
 
+class _SensedRC(Model):
+    """Source -[P_in]- R -[P_cap]- C: two power sensors in chain order."""
+
+    def build(self):
+        import sympy as sp
+        from acausal import time
+        from acausal.library.sensors import ElectricalPowerSensor
+        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * time))
+        self.P_in = ElectricalPowerSensor()
+        self.R = Resistor(R=2.0)
+        self.P_cap = ElectricalPowerSensor()
+        self.C = Capacitor(C=0.05, v=Start(0.0))
+        self.gnd = Ground()
+        connect(self.src.p, self.P_in.pc, self.P_in.pv)
+        connect(self.P_in.nc, self.R.p)
+        connect(self.R.n, self.P_cap.pc, self.P_cap.pv)
+        connect(self.P_cap.nc, self.C.p)
+        connect(self.C.n, self.src.n, self.gnd.p, self.P_in.nv, self.P_cap.nv)
+
+
+def test_sankey_and_stages_of_any_model_with_power_sensors():
+    import matplotlib
+    matplotlib.use("Agg")
+    res = compile_model(_SensedRC()).simulate(0.25, rtol=1e-9, atol=1e-12)
+    acc = res.model.accounts
+    assert acc.sensors == ("P_in.P", "P_cap.P") and acc.stages["P_cap.P"] == ["R.loss_power"]
+    ax = res.sankey()
+    texts = " ".join(t.get_text() for t in ax.texts)
+    assert "R" in texts and "P_in" in texts
+    e_in, e_cap = res.energy("P_in.P")[-1], res.energy("P_cap.P")[-1]
+    assert e_in - e_cap == pytest.approx(res.energy("R.loss_power")[-1], rel=1e-6)
+    with pytest.raises(ModelError, match="two or more power sensors"):
+        compile_model(_RC()).simulate(0.1).sankey()
+
+
 def test_options_are_checked_with_model_errors():
     with pytest.raises(ModelError, match="option supply"):
         AnkleActuator(supply="solar")

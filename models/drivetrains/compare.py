@@ -222,7 +222,9 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..reporting.sankey import LABELS, loss_names_from_groups, sankey
+    from acausal.sankey import sankey
+
+    from ..reporting.sankey import LABELS, loss_names_from_groups
 
     paths = []
     scale = 1.0 / max(max(r.energy["source"] for r in results), 1e-9)

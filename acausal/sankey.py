@@ -1,0 +1,61 @@
+"""Sankey diagram of an energy chain: the energy passed on at each measurement point (a power sensor), source
+first, each stage's loss flowing down between two points (:meth:`acausal.Result.sankey` for any model with power
+sensors; the paper's five-point chain in ``acausal paper`` and ``acausal compare``).
+
+Arrow widths are proportional to joules (``scale``: width per J, the same for diagrams drawn side by
+side). A stage whose energy grows (a negative loss: only through stored energy) is drawn with zero loss and
+named in a note, so that nothing is hidden.
+"""
+from __future__ import annotations
+
+import logging
+
+from matplotlib.sankey import Sankey
+
+
+logging.getLogger("matplotlib.axes").setLevel(logging.ERROR)  # Sankey's equal aspect overrides fixed limits
+
+def sankey(ax, energy: dict, title: str, scale: float, loss_names: list, labels: dict | None = None,
+           lossless_note: str = ""):
+    """Draw ``energy`` (J at each point, in chain order: source first, load last) on ``ax``; ``scale``: arrow
+    width per J; ``loss_names``: ``(point after the stage, label)`` per stage; ``labels``: point -> label
+    (default: the point's name); ``lossless_note``: written under a last stage that loses nothing."""
+    labels = labels or {k: k for k in energy}
+    points = list(energy)
+    s = Sankey(ax=ax, scale=scale, unit=" J", format="%.1f", gap=0.35, head_angle=120, shoulder=0.02,
+               offset=0.12)
+    prior = None
+    gained = []
+    for i, (a, b) in enumerate(zip(points, points[1:])):
+        loss = energy[a] - energy[b]
+        if loss < -1e-6 * abs(energy[points[0]]):
+            gained.append(f"{labels[b]} +{-loss:.2g} J")
+        loss = max(loss, 0.0)
+        name = loss_names[i][1]
+        flows = [energy[a], -loss, -energy[b]]
+        if loss < 1e-6 * abs(energy[points[0]]):
+            flows[1], name = 0.0, None  # nothing lost here: drawn as a note below
+        lab = [labels[a] if i == 0 else None, name, labels[b] if b == points[-1] else None]
+        kw = dict(prior=prior, connect=(2, 0)) if prior is not None else {}
+        s.add(flows=flows, orientations=[0, -1, 0], labels=lab, pathlengths=[0.25, 0.35, 0.25],
+              trunklength=1.0, facecolor=f"C{i}", alpha=0.75, **kw)
+        prior = i
+    diagrams = s.finish()
+    for d in diagrams:
+        for t in d.texts:
+            t.set_fontsize(8)
+    # annotate the energy passed on at each intermediate point along the top edge of the band
+    for i, b in enumerate(points[1:-1]):
+        x, y = diagrams[i].tips[2]
+        ax.annotate(f"{labels[b]}\n{energy[b]:.1f} J", (x, y + 0.5 * energy[b] * scale), xytext=(0, 6),
+                    textcoords="offset points", ha="center", va="bottom", fontsize=8)
+    last = energy[points[-2]] - energy[points[-1]]
+    if abs(last) < 1e-6 * abs(energy[points[0]]) and lossless_note:
+        x, y = diagrams[-1].tips[2]
+        ax.annotate(lossless_note, (x, y), xytext=(0, -14), textcoords="offset points", ha="center", va="top",
+                    fontsize=8, color="C3")
+    if gained:
+        ax.text(0.0, 0.0, "energy grows (stored energy released): " + "; ".join(gained), transform=ax.transAxes,
+                fontsize=7, color="C3")
+    ax.set_title(title, fontsize=10)
+    ax.axis("off")
