@@ -1,4 +1,4 @@
-"""Hand-vectorised numpy reference for the design map: the Eq. (4) replay equations of BenchAnkle written out by
+"""Hand-vectorised numpy reference for the design map: the Eq. (4) replay equations of AnkleActuator.eq4 written out by
 hand (ideal driver, non-regenerative rectifier, ideal gear n, MACCEPA), evaluated on the same planned trajectories
 as the compiled model (planning and spline evaluation are shared, so the ratio measures the generated code)."""
 import numpy as np
