@@ -102,8 +102,10 @@ class CompiledModel:
         self.discrete_names = list(gen.discretes)
         self.input_names = list(gen.inputs)
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
+        self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
         self._param_order = _param_eval_order(flat)
-        self._event_assign = _compile_event_assignments(flat, self)
+        self._event_assign = _event_assignment_table(flat)
+        self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
 
     # ------------------------------------------------------------------ names and values
     @property
@@ -115,10 +117,81 @@ class CompiledModel:
         """Every variable name the results answer: states, algebraic unknowns and aliases."""
         return sorted(set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases))
 
-    def _unknown_name_error(self, name, kind, candidates):
-        close = difflib.get_close_matches(name, candidates, n=3)
+    def unknown_name_error(self, name: str, kind: str, candidates) -> ModelError:
+        """The :class:`ModelError` for a name the model does not have: ``kind`` says what was looked for
+        ("parameter", "variable", ...), and up to three close ``candidates`` are suggested."""
+        close = difflib.get_close_matches(name, list(candidates), n=3)
         hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
         return ModelError(f"unknown {kind} {name!r} in model {self.flat.name}{hint}")
+
+    def has_parameter(self, name: str) -> bool:
+        """Whether ``name`` is a parameter of the model (an entry of :attr:`param_names`)."""
+        return name in self._param_index
+
+    def param_index(self, name: str) -> int:
+        """Position of parameter ``name`` in :attr:`param_names` (and so in :meth:`param_vector`); an unknown
+        name raises :class:`ModelError` with suggestions."""
+        try:
+            return self._param_index[name]
+        except KeyError:
+            raise self.unknown_name_error(name, "parameter", self.param_names) from None
+
+    def event_assignments(self, index: int, rising: bool) -> list:
+        """What event ``index`` (of :attr:`event_zeros`) assigns when its zero function crosses upwards
+        (``rising``) or downwards: a list of ``(mode name, sympy expression)``, the expression in variables,
+        parameters, modes and time (evaluate it with :meth:`eval_expr`)."""
+        return list(self._event_assign[index]["rising" if rising else "falling"])
+
+    def eval_expr(self, expr, values=None, p=None, d=None, t=None):
+        """Numeric value of ``expr``, a sympy expression of variables, parameters, discrete modes and time.
+
+        Each symbol takes its value from ``values`` (a mapping name -> number or array, e.g. the value rows of
+        a result) when it is there, else from the parameter vector ``p`` (in :attr:`param_names` order), else
+        from the modes ``d`` (in :attr:`discrete_names` order); ``time`` is ``t`` [s]. Arrays broadcast. The
+        expression is turned into a numeric function once and cached on the model, so evaluating the same
+        expression again costs only the call. A symbol with no value raises :class:`ModelError` naming it.
+        """
+        fn, names = self._expr_function(expr)
+        if fn is None:
+            return names
+        args = []
+        for n in names:
+            if n is None:
+                if t is None:
+                    raise ModelError(f"eval_expr: {expr} depends on time, but no time t was given")
+                args.append(t)
+            elif values is not None and n in values:
+                args.append(values[n])
+            elif p is not None and n in self._param_index:
+                args.append(p[self._param_index[n]])
+            elif d is not None and n in self._discrete_index:
+                args.append(d[self._discrete_index[n]])
+            else:
+                raise ModelError(f"eval_expr: no value for {n!r} in {expr} (not in values, and no parameter "
+                                 "vector p or modes d that has it)")
+        return fn(*args)
+
+    def _expr_function(self, expr):
+        """``(function, symbol names)`` for :meth:`eval_expr` (``None`` standing for time), built on first
+        use; ``(None, value)`` for a number."""
+        if not isinstance(expr, sp.Basic):
+            expr = sp.sympify(expr)
+        try:
+            return self._expr_cache[expr]
+        except KeyError:
+            pass
+        if expr.has(SignalCall):
+            raise ModelError(f"eval_expr: {expr} calls an input signal; evaluate signals through the model's "
+                             "generated functions")
+        syms = sorted(expr.free_symbols, key=lambda s: s.name)
+        if not syms:
+            entry = (None, float(expr))
+        else:
+            plain = [sp.Symbol(f"a{i}") for i in range(len(syms))]
+            fn = sp.lambdify(plain, expr.xreplace(dict(zip(syms, plain))), "numpy")
+            entry = (fn, [None if s is time else s.name for s in syms])
+        self._expr_cache[expr] = entry
+        return entry
 
     def param_vector(self, params: dict | None = None) -> np.ndarray:
         """Numeric parameter vector (in :attr:`param_names` order) with ``params`` overriding defaults.
@@ -129,7 +202,7 @@ class CompiledModel:
         params = dict(params or {})
         for k in params:
             if k not in self._param_index:
-                raise self._unknown_name_error(k, "parameter", self.param_names)
+                raise self.unknown_name_error(k, "parameter", self.param_names)
         values: dict = {}
         for name in self._param_order:
             info = self.flat.parameters[name]
@@ -166,7 +239,7 @@ class CompiledModel:
         inputs = dict(inputs or {})
         for k, v in inputs.items():
             if k not in self.flat.inputs:
-                raise self._unknown_name_error(k, "numeric input", self.input_names)
+                raise self.unknown_name_error(k, "numeric input", self.input_names)
             if not isinstance(v, Signal):
                 raise ModelError(f"input {k!r}: a replacement must be a Signal, got {type(v).__name__}")
             need = self.generator.signal_orders.get(k, 0)
@@ -204,16 +277,16 @@ class CompiledModel:
         out = {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
         if names is None:
             return out
-        from .result import eval_expr
+        rows = dict(out, **dict(zip(self.state_names, x)))
         picked = {}
         for n in names:
-            if n in out:
-                picked[n] = out[n]
+            if n in rows:
+                picked[n] = np.broadcast_to(np.asarray(rows[n], dtype=float), shape)
             elif n in self.flat.aliases:
-                v = eval_expr(self.flat.aliases[n], out, self, p, list(d), t)
+                v = self.eval_expr(self.flat.aliases[n], rows, p, d, t)
                 picked[n] = np.broadcast_to(np.asarray(v, dtype=float), shape)
             else:
-                raise self._unknown_name_error(n, "variable", self.names())
+                raise self.unknown_name_error(n, "variable", self.names())
         return picked
 
     def sensitivities(self, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
@@ -286,21 +359,19 @@ def _eval_param_expr(expr, values):
     return f(*[values[n] for n in sorted(s.name for s in expr.free_symbols)])
 
 
-def _compile_event_assignments(flat, cm):
-    """Event assignments as numeric functions of (values dict) -> new mode value."""
+def _event_assignment_table(flat) -> list:
+    """Per event: ``{"rising": [(mode name, expression)], "falling": [...]}``, aliases resolved; assigning
+    anything but a discrete mode is a :class:`ModelError` naming the event's component."""
     out = []
     for ev in flat.events:
         entry = {}
         for direction, table in (("rising", ev.on_rising), ("falling", ev.on_falling)):
-            fs = []
+            pairs = []
             for sym, expr in table.items():
                 name = sym.name if hasattr(sym, "name") else str(sym)
                 if name not in flat.discretes:
                     raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
-                e = _resolve(sp.sympify(expr), flat)
-                e = e.xreplace({s: sp.Symbol(s.name) for s in e.free_symbols})
-                syms = sorted(s.name for s in e.free_symbols)
-                fs.append((name, syms, sp.lambdify([sp.Symbol(s) for s in syms], e, "numpy")))
-            entry[direction] = fs
+                pairs.append((name, _resolve(sp.sympify(expr), flat)))
+            entry[direction] = pairs
         out.append(entry)
     return out

@@ -46,8 +46,7 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
         raise ModelError("sensitivities: t must be a 1-D array of times")
     wrt = list(wrt)
     for w in wrt:
-        if w not in cm._param_index:
-            raise cm._unknown_name_error(w, "parameter", cm.param_names)
+        cm.param_index(w)  # an unknown name raises, with suggestions
     if len(set(wrt)) != len(wrt):
         raise ModelError(f"sensitivities: wrt names a parameter twice: {wrt}")
     names = list(cm.state_names) + list(cm.unknown_names) if names is None else list(names)
@@ -89,7 +88,7 @@ def _output_expr(cm, name):
         return var_symbol(name)
     if name in cm.flat.aliases:
         return sp.sympify(cm.flat.aliases[name])
-    raise cm._unknown_name_error(name, "variable", cm.names())
+    raise cm.unknown_name_error(name, "variable", cm.names())
 
 
 def _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method):

@@ -214,17 +214,18 @@ def _crossings(cm, sol, t0, t1, z0, z1, p, d, u):
 
 
 def _apply_event(cm, i, rising, t, x, p, d, u):
-    table = cm._event_assign[i]["rising" if rising else "falling"]
+    table = cm.event_assignments(i, rising)
     if not table:
         return d
     values = _values_at(cm, t, x, p, d, u)
-    d = d.copy()
-    for name, syms, f in table:
-        d[cm.discrete_names.index(name)] = float(f(*[values[s] for s in syms]))
-    return d
+    new = d.copy()
+    for name, expr in table:
+        new[cm.discrete_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
+    return new
 
 
 def _values_at(cm, t, x, p, d, u) -> dict:
+    """Every unknown, state, parameter and mode by name at one time, as Python floats."""
     vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
     vals.update(zip(cm.state_names, x))
     vals.update(zip(cm.param_names, p))
@@ -296,7 +297,7 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
     names = set(cm.names()) | set(flat.variables)
     for k in starts:
         if k not in names:
-            raise cm._unknown_name_error(k, "variable", sorted(names))
+            raise cm.unknown_name_error(k, "variable", sorted(names))
     x = np.empty(len(cm.state_names))
     fixed_state = np.zeros(len(cm.state_names), dtype=bool)
     for i, n in enumerate(cm.state_names):
@@ -370,8 +371,7 @@ def _value_lookup(cm, t, x, p, d, u):
         if name in vals:
             return float(vals[name])
         if name in aliases:
-            from .result import eval_expr
-            return float(eval_expr(aliases[name], vals, cm, p, d))
+            return float(cm.eval_expr(aliases[name], vals, p, d, t))
         raise KeyError(name)
 
     return get

@@ -76,12 +76,13 @@ class Calibration:
     rmse_train: dict  # (experiment, signal) -> RMSE
     rmse_test: dict
     start: dict
+    counts: dict = field(default_factory=dict)  # "train"/"test" -> (experiment, signal) -> number of samples
 
     def rmse(self, signal: str, which: str = "test") -> float:
         """RMSE of one signal over all experiments (pooled samples)."""
         table = self.rmse_test if which == "test" else self.rmse_train
         vals = [v for (e, s), v in table.items() if s == signal]
-        counts = [self._counts[which][(e, s)] for (e, s) in table if s == signal]
+        counts = [self.counts[which][(e, s)] for (e, s) in table if s == signal]
         return float(np.sqrt(np.sum(np.square(vals) * counts) / np.sum(counts)))
 
     def relative_std(self) -> dict:
@@ -167,8 +168,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                     counts[which][(e.name, s)] = int(msk.sum())
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
-                      {f.name: f.start for f in free})
-    cal._counts = counts
+                      {f.name: f.start for f in free}, counts)
     return cal
 
 
