@@ -6,6 +6,7 @@ start values or input signals. ``report()`` tells what the compiler did: states,
 from __future__ import annotations
 
 import difflib
+import math
 import time as _time
 
 import numpy as np
@@ -103,7 +104,7 @@ class CompiledModel:
         self.input_names = list(gen.inputs)
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
-        self._param_order = _param_eval_order(flat)
+        self._param_plan = _param_plan(flat)
         self._event_assign = _event_assignment_table(flat)
         self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
 
@@ -196,6 +197,9 @@ class CompiledModel:
     def param_vector(self, params: dict | None = None) -> np.ndarray:
         """Numeric parameter vector (in :attr:`param_names` order) with ``params`` overriding defaults.
 
+        A parameter bound to an expression of others (``Resistor(R=2 * self.R0)``) is evaluated from their
+        values in this run, unless overridden itself; the expressions are compiled once per model. Every value
+        is checked against its parameter's bounds (:class:`ModelError` naming the parameter and its owner).
         A value may be an array (a batch of parameter sets): the vector then has dtype object entries that
         broadcast in the generated code; use :meth:`param_batch` for the usual case.
         """
@@ -204,25 +208,17 @@ class CompiledModel:
             if k not in self._param_index:
                 raise self.unknown_name_error(k, "parameter", self.param_names)
         values: dict = {}
-        for name in self._param_order:
-            info = self.flat.parameters[name]
+        batch = False
+        for name, info, binding, default in self._param_plan:
             if name in params:
                 v = params[name]
-            elif isinstance(info.value, sp.Basic) and not info.value.is_number:
-                v = _eval_param_expr(info.value, values)
+            elif binding is not None:
+                v = self.eval_expr(binding, values)
             else:
-                v = float(info.value)
-            arr = np.asarray(v, dtype=float)
-            if not np.all(np.isfinite(arr)):
-                raise ModelError(f"parameter {name!r} of {info.owner} is not finite: {v}")
-            if info.min is not None and np.any(arr < info.min):
-                raise ModelError(f"parameter {name!r} of {info.owner} = {v} is below its minimum {info.min} "
-                                 f"[{info.unit}]")
-            if info.max is not None and np.any(arr > info.max):
-                raise ModelError(f"parameter {name!r} of {info.owner} = {v} is above its maximum {info.max} "
-                                 f"[{info.unit}]")
+                v = default
+            batch = _check_param(info, v) or batch
             values[name] = v
-        if any(np.ndim(values[n]) for n in self.param_names):
+        if batch:
             out = np.empty(len(self.param_names), dtype=object)
             for i, n in enumerate(self.param_names):
                 out[i] = values[n]
@@ -332,7 +328,10 @@ class CompiledModel:
         return f"<CompiledModel {self.flat.name}: {len(self.state_names)} states, {len(self.unknown_names)} unknowns>"
 
 
-def _param_eval_order(flat) -> list:
+def _param_plan(flat) -> list:
+    """How :meth:`CompiledModel.param_vector` computes the parameters: ``(name, info, binding, default)`` in an
+    order where every bound parameter comes after those its expression uses; ``binding`` is that expression
+    (None for a number), ``default`` the number (None for a binding). A cycle of bindings is a ModelError."""
     deps = {}
     for n, info in flat.parameters.items():
         deps[n] = {s.name for s in info.value.free_symbols} if isinstance(info.value, sp.Basic) else set()
@@ -350,13 +349,38 @@ def _param_eval_order(flat) -> list:
 
     for n in sorted(deps):
         visit(n)
-    return order
+    plan = []
+    for n in order:
+        info = flat.parameters[n]
+        if isinstance(info.value, sp.Basic) and not info.value.is_number:
+            plan.append((n, info, info.value, None))
+        else:
+            plan.append((n, info, None, float(info.value)))
+    return plan
 
 
-def _eval_param_expr(expr, values):
-    f = sp.lambdify([sp.Symbol(n) for n in sorted(s.name for s in expr.free_symbols)],
-                    expr.xreplace({s: sp.Symbol(s.name) for s in expr.free_symbols}), "numpy")
-    return f(*[values[n] for n in sorted(s.name for s in expr.free_symbols)])
+def _check_param(info, v) -> bool:
+    """Check one parameter value (a number, or an array of values for a batch of runs) for finiteness and
+    against the parameter's bounds; True when it is an array of values. Numbers take the fast path."""
+    if isinstance(v, (float, int)):
+        finite, low, high, batch = math.isfinite(v), v, v, False
+    else:
+        try:
+            arr = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"parameter {info.name!r} of {info.owner}: {v!r} is not a number or an array of "
+                             "numbers") from None
+        finite, batch = bool(np.all(np.isfinite(arr))), arr.ndim > 0
+        low, high = (arr.min(), arr.max()) if finite and arr.size else (math.inf, -math.inf)
+    if not finite:
+        raise ModelError(f"parameter {info.name!r} of {info.owner} is not finite: {v}")
+    if info.min is not None and low < info.min:
+        raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is below its minimum {info.min} "
+                         f"[{info.unit}]")
+    if info.max is not None and high > info.max:
+        raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is above its maximum {info.max} "
+                         f"[{info.unit}]")
+    return batch
 
 
 def _event_assignment_table(flat) -> list:
