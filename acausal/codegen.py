@@ -47,9 +47,13 @@ class _Printer(NumPyPrinter):
 
 
 class CodeGenerator:
-    def __init__(self, states, params, discretes, input_tokens, unknowns, steps):
-        self.states, self.params, self.discretes = list(states), list(params), list(discretes)
-        self.inputs, self.unknowns, self.steps = list(input_tokens), list(unknowns), list(steps)
+    """Generates the numeric functions of a solved :class:`~acausal.structure.EquationSystem` (its states,
+    unknowns and steps) with the model's parameters, discrete modes and numeric inputs, all named in the order
+    the generated functions take them."""
+
+    def __init__(self, system, params, discretes, input_tokens):
+        self.states, self.params, self.discretes = list(system.states), list(params), list(discretes)
+        self.inputs, self.unknowns, self.steps = list(input_tokens), list(system.unknowns), list(system.steps)
         self.names: dict = {time: "t"}
         for i, n in enumerate(self.states):
             self.names[var_symbol(n)] = f"_x{i}"

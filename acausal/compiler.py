@@ -18,8 +18,8 @@ from .errors import ModelError, SignalError
 from .flatten import FlatModel, flatten
 from .signals import Signal, SignalCall
 from .solve import LinearSolve, NewtonSolve, solve_blocks
-from .structure import blt_blocks, check_balance, reduce_index
-from .symbols import ConstantSymbol, split_der, time
+from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
+from .symbols import split_der, time
 
 
 def compile_model(model) -> "CompiledModel":
@@ -27,28 +27,16 @@ def compile_model(model) -> "CompiledModel":
     t0 = _time.perf_counter()
     flat = flatten(model)
     eliminate_aliases(flat)
-    base = set(flat.variables)
-
-    def var_filter(expr):
-        return {s.name for s in expr.free_symbols
-                if not isinstance(s, ConstantSymbol) and s is not time and split_der(s.name)[0] in base}
-
-    residuals = [eq.residual for eq in flat.equations]
-    origins = [eq.origin for eq in flat.equations]
-    eq_vars = [var_filter(r) for r in residuals]
-    _check_symbols(flat, residuals, origins)
-    check_balance(eq_vars, origins, sorted(base), flat.owner_of, residuals=residuals)
-    red = reduce_index(residuals, origins, sorted(base),
-                       lambda n: flat.variables[n].state_select if n in flat.variables else 2, var_filter)
-    _check_signal_orders(flat, red.residuals, red.origins)
-    blocks = blt_blocks(red.eq_vars, red.unknowns, red.origins)
+    system = EquationSystem.from_flat(flat)
+    _check_symbols(flat, system)
+    system = reduce_index(check_balance(system))
+    _check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
-    steps = solve_blocks(blocks, red.residuals, red.origins, starts)
-    gen = CodeGenerator(red.states, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs),
-                        red.unknowns, steps)
+    system = solve_blocks(blt_blocks(system), starts)
+    gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs))
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)
-    return CompiledModel(flat, red, blocks, steps, gen, funcs, zeros, _time.perf_counter() - t0)
+    return CompiledModel(flat, system, gen, funcs, zeros, _time.perf_counter() - t0)
 
 
 def _resolve(expr, flat: FlatModel):
@@ -57,10 +45,11 @@ def _resolve(expr, flat: FlatModel):
     return expr.xreplace(rep) if rep else expr
 
 
-def _check_symbols(flat, residuals, origins):
+def _check_symbols(flat, system):
+    """Every symbol of an equation is a variable, parameter, mode, input or time (ModelError otherwise)."""
     known = set(flat.parameters) | set(flat.discretes) | set(flat.inputs)
     base = set(flat.variables)
-    for r, o in zip(residuals, origins):
+    for r, o in zip(system.residuals, system.origins):
         for s in r.free_symbols:
             if s is time or split_der(s.name)[0] in base or s.name in known:
                 continue
@@ -68,9 +57,10 @@ def _check_symbols(flat, residuals, origins):
                              "the model")
 
 
-def _check_signal_orders(flat, residuals, origins):
+def _check_signal_orders(flat, system):
+    """The derivatives of numeric inputs that the (index-reduced) equations use are ones their signals have."""
     need: dict = {}
-    for r, o in zip(residuals, origins):
+    for r, o in zip(system.residuals, system.origins):
         if r.has(SignalCall):
             for c in r.atoms(SignalCall):
                 tok, order = c.args[0].name, int(c.args[1])
@@ -86,13 +76,19 @@ def _check_signal_orders(flat, residuals, origins):
 
 
 class CompiledModel:
-    """A compiled model: numeric functions plus everything needed to name, initialise and simulate."""
+    """A compiled model: numeric functions plus everything needed to name, initialise and simulate.
 
-    def __init__(self, flat, red, blocks, steps, gen, funcs, zeros, compile_seconds):
+    ``flat`` is the flattened model (aliases eliminated), ``reduction`` the solved equation system
+    (:class:`~acausal.structure.EquationSystem`: equations after index reduction with their origins, states,
+    dummy derivatives, BLT ``blocks`` and solved ``steps``, also reachable as :attr:`blocks` and :attr:`steps`),
+    ``generator`` the code generator and ``funcs`` the generated functions.
+    """
+
+    def __init__(self, flat, system, gen, funcs, zeros, compile_seconds):
         self.flat = flat
-        self.reduction = red
-        self.blocks = blocks
-        self.steps = steps
+        self.reduction = system
+        self.blocks = system.blocks
+        self.steps = system.steps
         self.generator = gen
         self.funcs = funcs
         self.event_zeros = zeros

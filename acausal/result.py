@@ -7,7 +7,7 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import cumulative_simpson
 
-from .symbols import der_name, split_der, time
+from .symbols import der_name, split_der
 
 
 class Result:

@@ -9,10 +9,11 @@
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import sympy as sp
 
+from .structure import EquationSystem
 from .symbols import var_symbol
 
 SYMBOLIC_LINEAR_MAX = 3
@@ -41,17 +42,19 @@ class NewtonSolve:
     guesses: list
 
 
-def solve_blocks(blocks, residuals, origins, starts) -> list:
+def solve_blocks(system: EquationSystem, starts: dict) -> EquationSystem:
+    """``system`` (after BLT) with its ``steps``: every block solved, in evaluation order. ``starts`` (variable
+    name -> start value) seeds Newton's method where a block needs it."""
     steps = []
-    for eqs, unknowns in blocks:
+    for eqs, unknowns in system.blocks:
         ys = [var_symbol(u) for u in unknowns]
-        rs = [residuals[e] for e in eqs]
-        orig = [origins[e] for e in eqs]
+        rs = [system.residuals[e] for e in eqs]
+        orig = [system.origins[e] for e in eqs]
         if len(eqs) == 1:
             steps.extend(_solve_scalar(rs[0], ys[0], unknowns[0], orig, starts))
         else:
             steps.extend(_tear(rs, ys, unknowns, orig, starts))
-    return steps
+    return replace(system, steps=steps)
 
 
 def _solve_scalar(r, y, name, orig, starts):
