@@ -29,6 +29,7 @@ import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
 from . import runtime
+from .errors import ModelError
 from .signals import SignalCall
 from .solve import Assign, LinearSolve, NewtonSolve
 from .symbols import der_name, time, var_symbol
@@ -43,7 +44,7 @@ class _Printer(NumPyPrinter):
         try:
             return self._names[expr]
         except KeyError:
-            raise KeyError(f"code generation: no value for symbol {expr.name!r}") from None
+            raise ModelError(f"code generation: no value for symbol {expr.name!r}") from None
 
 
 class CodeGenerator:
@@ -363,7 +364,6 @@ class CodeGenerator:
         is ignored). Discrete modes are piecewise constant (derivative zero). A requested parameter in the
         argument of an input signal call is not supported (the signal is numeric): :class:`ModelError`.
         """
-        from .errors import ModelError
         from .symbols import par_symbol
 
         wrt = tuple(wrt)

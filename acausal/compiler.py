@@ -8,13 +8,14 @@ from __future__ import annotations
 import difflib
 import math
 import time as _time
+from collections.abc import Mapping
 
 import numpy as np
 import sympy as sp
 
 from .alias import eliminate_aliases
 from .codegen import CodeGenerator
-from .errors import ModelError, SignalError
+from .errors import ModelError, SignalError, UnknownNameError
 from .flatten import FlatModel, flatten
 from .signals import Signal, SignalCall
 from .solve import LinearSolve, NewtonSolve, solve_blocks
@@ -46,15 +47,28 @@ def _resolve(expr, flat: FlatModel):
 
 
 def _check_symbols(flat, system):
-    """Every symbol of an equation is a variable, parameter, mode, input or time (ModelError otherwise)."""
+    """Every symbol of an equation or event is a variable, parameter, mode, input or time (ModelError naming
+    the equation's or event's component otherwise)."""
     known = set(flat.parameters) | set(flat.discretes) | set(flat.inputs)
     base = set(flat.variables)
+
+    def stranger(expr):
+        for s in sp.sympify(expr).free_symbols:
+            if not (s is time or split_der(s.name)[0] in base or s.name in known or s.name in flat.aliases):
+                return s.name
+        return None
+
     for r, o in zip(system.residuals, system.origins):
-        for s in r.free_symbols:
-            if s is time or split_der(s.name)[0] in base or s.name in known:
-                continue
-            raise ModelError(f"equation from {o} uses {s.name!r}, which is no variable, parameter or input of "
+        name = stranger(r)
+        if name is not None:
+            raise ModelError(f"equation from {o} uses {name!r}, which is no variable, parameter or input of "
                              "the model")
+    for ev in flat.events:
+        for e in [ev.zero, *ev.on_rising.values(), *ev.on_falling.values()]:
+            name = stranger(e)
+            if name is not None:
+                raise ModelError(f"event of {ev.origin} uses {name!r}, which is no variable, parameter, mode or "
+                                 "input of the model")
 
 
 def _check_signal_orders(flat, system):
@@ -114,12 +128,13 @@ class CompiledModel:
         """Every variable name the results answer: states, algebraic unknowns and aliases."""
         return sorted(set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases))
 
-    def unknown_name_error(self, name: str, kind: str, candidates) -> ModelError:
-        """The :class:`ModelError` for a name the model does not have: ``kind`` says what was looked for
-        ("parameter", "variable", ...), and up to three close ``candidates`` are suggested."""
-        close = difflib.get_close_matches(name, list(candidates), n=3)
+    def unknown_name_error(self, name: str, kind: str, candidates) -> UnknownNameError:
+        """The error for a name the model does not have (a :class:`ModelError` and a ``KeyError``): ``kind``
+        says what was looked for ("parameter", "variable", ...), and up to three close ``candidates`` are
+        suggested."""
+        close = difflib.get_close_matches(str(name), list(candidates), n=3)
         hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
-        return ModelError(f"unknown {kind} {name!r} in model {self.flat.name}{hint}")
+        return UnknownNameError(f"unknown {kind} {name!r} in model {self.flat.name}{hint}")
 
     def has_parameter(self, name: str) -> bool:
         """Whether ``name`` is a parameter of the model (an entry of :attr:`param_names`)."""
@@ -199,7 +214,7 @@ class CompiledModel:
         A value may be an array (a batch of parameter sets): the vector then has dtype object entries that
         broadcast in the generated code; use :meth:`param_batch` for the usual case.
         """
-        params = dict(params or {})
+        params = _mapping(params, "params")
         for k in params:
             if k not in self._param_index:
                 raise self.unknown_name_error(k, "parameter", self.param_names)
@@ -225,10 +240,14 @@ class CompiledModel:
         """Parameter array of shape ``(n_params, B, 1)`` for ``B`` parameter sets: generated functions evaluated
         with it over ``N`` time samples return arrays of shape ``(B, N)``."""
         cols = [self.param_vector(s) for s in sets]
+        if not cols:
+            raise ModelError("param_batch: no parameter sets given")
         return np.stack(cols, axis=1)[:, :, None]
 
     def input_tuple(self, inputs: dict | None = None) -> tuple:
-        inputs = dict(inputs or {})
+        """The numeric input signals in :attr:`input_names` order, ``inputs`` (name -> :class:`Signal`)
+        replacing the model's own."""
+        inputs = _mapping(inputs, "inputs")
         for k, v in inputs.items():
             if k not in self.flat.inputs:
                 raise self.unknown_name_error(k, "numeric input", self.input_names)
@@ -264,6 +283,9 @@ class CompiledModel:
             if self.state_names:
                 raise ModelError(f"model {self.flat.name} has states {self.state_names}; pass x or simulate")
             x = np.zeros((0,) + t.shape)
+        elif np.ndim(x) < 1 or len(x) != len(self.state_names):
+            raise ModelError(f"evaluate: x must have one row per state of {self.flat.name} "
+                             f"({len(self.state_names)}: {self.state_names}), got shape {np.shape(x)}")
         vals = self.funcs["all_values"](t, x, p, d, u)
         shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
         out = {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
@@ -322,6 +344,15 @@ class CompiledModel:
 
     def __repr__(self):
         return f"<CompiledModel {self.flat.name}: {len(self.state_names)} states, {len(self.unknown_names)} unknowns>"
+
+
+def _mapping(value, what: str) -> dict:
+    """``value`` (a mapping by name, or None) as a new dict; anything else is a ModelError naming ``what``."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ModelError(f"{what} must be a dict by name, got {type(value).__name__}")
+    return dict(value)
 
 
 def _param_plan(flat) -> list:

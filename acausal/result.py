@@ -7,6 +7,7 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import cumulative_simpson
 
+from .errors import ModelError, UnknownNameError
 from .symbols import der_name, split_der
 
 
@@ -66,7 +67,7 @@ class Result:
             base, order = split_der(name)
             if order:
                 return self.der(base, order)
-            raise KeyError(self._missing(name))
+            raise UnknownNameError(self._missing(name))
         self._cache[name] = v
         return v
 
@@ -85,6 +86,8 @@ class Result:
     def der(self, name: str, order: int = 1) -> np.ndarray:
         """Exact time derivative of a numeric input or of a variable whose derivative the model computes;
         otherwise a finite-difference estimate over the output grid."""
+        if not isinstance(order, (int, np.integer)) or order < 0:
+            raise ModelError(f"der: the order must be a non-negative integer, got {order!r}")
         cm = self.model
         if name in cm.input_names:
             return self.inputs[cm.input_names.index(name)](self.t, order)
@@ -130,7 +133,7 @@ class Result:
             return self[f"{port}.tau"] * self.der(f"{port}.phi")
         if f"{port}.Q_flow" in names:
             return self[f"{port}.Q_flow"]
-        raise KeyError(f"{port!r} is not a pin, flange or heat port of {self.model.flat.name}")
+        raise UnknownNameError(f"{port!r} is not a pin, flange or heat port of {self.model.flat.name}")
 
     def _integrand(self, what):
         try:

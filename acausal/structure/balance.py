@@ -86,8 +86,8 @@ def check_balance(system: EquationSystem) -> EquationSystem:
         es, vs = _alternating_reach(unmatched_eqs, base_eq_vars, match, from_equations=True)
         comps = sorted({origins[k] for k in es})
         line = f"over-determined: {len(unmatched_eqs)} equation(s) too many among those of {_fmt(comps)}"
-        # (fix) an equation left without unknowns after alias elimination used to give an empty
-        # "(they all constrain )"; quote such equations instead, they name the parameters in conflict
+        # an equation left without unknowns after alias elimination constrains nothing: it is quoted instead,
+        # since it names the parameters in conflict
         if vs:
             line += f" (they all constrain {_fmt(sorted(vs))})"
         empty = [k for k in unmatched_eqs if not base_eq_vars[k]]
