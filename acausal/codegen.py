@@ -224,7 +224,8 @@ class CodeGenerator:
                 for c, ds in D[s].items():
                     d[c] = d.get(c, 0) + fs * ds
         out = {}
-        for c, e in d.items():
+        for c in sorted(d):  # column order, not the hash order of the symbols
+            e = d[c]
             if e != 0:
                 name = f"{self.names[sym]}_J{c}"
                 js = sp.Symbol(name, real=True)

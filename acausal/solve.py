@@ -93,17 +93,19 @@ def _tear(rs, ys, unknowns, orig, starts):
     elim = []
     while vars_:
         best = None
+        left = {ys[v] for v in vars_}
         for e in eqs:
+            width = len(cur[e].free_symbols & left)  # block unknowns still in the equation
             for v in vars_:
                 a = cur[e].diff(ys[v])
                 if a == 0 or (a.free_symbols & yset):
                     continue
-                score = _pivot_score(a)
+                score = (_pivot_score(a), width)
                 if best is None or score < best[0]:
                     best = (score, e, v, a)
-                    if score == 0:
+                    if score == (0, 1):
                         break
-            if best is not None and best[0] == 0:
+            if best is not None and best[0] == (0, 1):
                 break
         if best is None:
             break

@@ -15,18 +15,22 @@ from .system import EquationSystem
 
 
 def max_matching(eq_vars: list[set], unknowns: list[str]) -> dict:
-    """Maximum bipartite matching; returns {eq index: unknown name}."""
+    """Maximum bipartite matching (Hopcroft-Karp); returns {eq index: unknown name}.
+
+    The graph's nodes are integers (equation ``k`` is ``k``, unknown ``i`` is ``len(eq_vars) + i``): networkx
+    keeps them in sets, and integers, unlike strings, hash the same in every process, so the same system always
+    gets the same matching (and so the same blocks, tearing and generated code)."""
+    n_eq = len(eq_vars)
+    var_node = {u: n_eq + i for i, u in enumerate(unknowns)}
     g = nx.Graph()
-    eq_nodes = [("e", k) for k in range(len(eq_vars))]
-    g.add_nodes_from(eq_nodes, bipartite=0)
-    g.add_nodes_from((("v", u) for u in unknowns), bipartite=1)
-    known = set(unknowns)
+    g.add_nodes_from(range(n_eq), bipartite=0)
+    g.add_nodes_from(var_node.values(), bipartite=1)
     for k, vs in enumerate(eq_vars):
         for v in sorted(vs):
-            if v in known:
-                g.add_edge(("e", k), ("v", v))
-    m = nx.bipartite.hopcroft_karp_matching(g, top_nodes=eq_nodes)
-    return {node[1]: m[node][1] for node in eq_nodes if node in m}
+            if v in var_node:
+                g.add_edge(k, var_node[v])
+    m = nx.bipartite.hopcroft_karp_matching(g, top_nodes=range(n_eq))
+    return {k: unknowns[m[k] - n_eq] for k in range(n_eq) if k in m}
 
 
 def _alternating_reach(start_nodes, eq_vars, match_e2v, from_equations: bool):
