@@ -82,8 +82,9 @@ def _pivot_score(a):
 
 def _tear(rs, ys, unknowns, orig, starts):
     """Tearing: repeatedly eliminate the unknown that some block equation gives linearly with a coefficient free
-    of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols), substituting it into
-    the other equations. A linear block is solved this way entirely. What remains (the tear variables) is solved
+    of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols; among equal pivots the
+    equation with the fewest block unknowns left, so the order of the block's unknowns does not decide),
+    substituting it into the other equations. A linear block is solved this way entirely. What remains (the tear variables) is solved
     by sympy LU (linear, small), a numeric linear solve (linear, large) or Newton (nonlinear); the eliminated
     unknowns then follow explicitly."""
     cur = list(rs)
