@@ -118,8 +118,8 @@ def eliminate_aliases(flat: FlatModel) -> None:
             if n in root or n in const:
                 r, s = find(n)
                 subs[n] = s * const[r] if r in const else s * var_symbol(r)
-                if r in const and info[n].fixed:  # (fix) its fixed start used to be dropped silently when the
-                    flat.fixed_constants[n] = info[n].start  # constant was not a number (parameter-dependent)
+                if r in const and info[n].fixed:  # kept, and checked at initialisation, also when the
+                    flat.fixed_constants[n] = info[n].start  # constant is an expression of parameters
         flat.equations = _substitute(kept, subs, variables)
         for n, expr in subs.items():
             flat.aliases[n] = expr

@@ -29,6 +29,7 @@ import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
 from . import runtime
+from .errors import ModelError
 from .signals import SignalCall
 from .solve import Assign, LinearSolve, NewtonSolve
 from .symbols import der_name, time, var_symbol
@@ -43,13 +44,17 @@ class _Printer(NumPyPrinter):
         try:
             return self._names[expr]
         except KeyError:
-            raise KeyError(f"code generation: no value for symbol {expr.name!r}") from None
+            raise ModelError(f"code generation: no value for symbol {expr.name!r}") from None
 
 
 class CodeGenerator:
-    def __init__(self, states, params, discretes, input_tokens, unknowns, steps):
-        self.states, self.params, self.discretes = list(states), list(params), list(discretes)
-        self.inputs, self.unknowns, self.steps = list(input_tokens), list(unknowns), list(steps)
+    """Generates the numeric functions of a solved :class:`~acausal.structure.EquationSystem` (its states,
+    unknowns and steps) with the model's parameters, discrete modes and numeric inputs, all named in the order
+    the generated functions take them."""
+
+    def __init__(self, system, params, discretes, input_tokens):
+        self.states, self.params, self.discretes = list(system.states), list(params), list(discretes)
+        self.inputs, self.unknowns, self.steps = list(input_tokens), list(system.unknowns), list(system.steps)
         self.names: dict = {time: "t"}
         for i, n in enumerate(self.states):
             self.names[var_symbol(n)] = f"_x{i}"
@@ -219,7 +224,8 @@ class CodeGenerator:
                 for c, ds in D[s].items():
                     d[c] = d.get(c, 0) + fs * ds
         out = {}
-        for c, e in d.items():
+        for c in sorted(d):  # column order, not the hash order of the symbols
+            e = d[c]
             if e != 0:
                 name = f"{self.names[sym]}_J{c}"
                 js = sp.Symbol(name, real=True)
@@ -359,7 +365,6 @@ class CodeGenerator:
         is ignored). Discrete modes are piecewise constant (derivative zero). A requested parameter in the
         argument of an input signal call is not supported (the signal is numeric): :class:`ModelError`.
         """
-        from .errors import ModelError
         from .symbols import par_symbol
 
         wrt = tuple(wrt)

@@ -6,20 +6,22 @@ start values or input signals. ``report()`` tells what the compiler did: states,
 from __future__ import annotations
 
 import difflib
+import math
 import time as _time
+from collections.abc import Mapping
 
 import numpy as np
 import sympy as sp
 
 from .alias import eliminate_aliases
 from .codegen import CodeGenerator
-from .errors import ModelError, SignalError
+from .errors import ModelError, SignalError, UnknownNameError
 from .flatten import FlatModel, flatten
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import LinearSolve, NewtonSolve, solve_blocks
-from .structure import blt_blocks, check_balance, reduce_index
-from .symbols import ConstantSymbol, split_der, time
+from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
+from .symbols import split_der, time
 
 
 def compile_model(model) -> "CompiledModel":
@@ -27,30 +29,16 @@ def compile_model(model) -> "CompiledModel":
     t0 = _time.perf_counter()
     flat = flatten(model)
     eliminate_aliases(flat)
-    base = set(flat.variables)
-
-    def var_filter(expr):
-        return {s.name for s in expr.free_symbols
-                if not isinstance(s, ConstantSymbol) and s is not time and split_der(s.name)[0] in base}
-
-    residuals = [eq.residual for eq in flat.equations]
-    origins = [eq.origin for eq in flat.equations]
-    eq_vars = [var_filter(r) for r in residuals]
-    _check_symbols(flat, residuals, origins)
-    check_balance(eq_vars, origins, sorted(base), flat.owner_of, residuals=residuals)
-    red = reduce_index(residuals, origins, sorted(base),
-                       lambda n: flat.variables[n].state_select if n in flat.variables else 2, var_filter)
-    _check_signal_orders(flat, red.residuals, red.origins)
-    blocks = blt_blocks(red.eq_vars, red.unknowns, red.origins)
+    system = EquationSystem.from_flat(flat)
+    _check_symbols(flat, system)
+    system = reduce_index(check_balance(system))
+    _check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
-    steps = solve_blocks(blocks, red.residuals, red.origins, starts)
-    gen = CodeGenerator(red.states, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs),
-                        red.unknowns, steps)
+    system = solve_blocks(blt_blocks(system), starts)
+    gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs))
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)
-    cm = CompiledModel(flat, red, blocks, steps, gen, funcs, zeros, _time.perf_counter() - t0)
-    cm.accounts = energy_accounts(model)  # losses, stored energies, sources, boundary, power sensors
-    return cm
+    return CompiledModel(flat, system, gen, funcs, zeros, _time.perf_counter() - t0, energy_accounts(model))
 
 
 def _resolve(expr, flat: FlatModel):
@@ -59,20 +47,35 @@ def _resolve(expr, flat: FlatModel):
     return expr.xreplace(rep) if rep else expr
 
 
-def _check_symbols(flat, residuals, origins):
+def _check_symbols(flat, system):
+    """Every symbol of an equation or event is a variable, parameter, mode, input or time (ModelError naming
+    the equation's or event's component otherwise)."""
     known = set(flat.parameters) | set(flat.discretes) | set(flat.inputs)
     base = set(flat.variables)
-    for r, o in zip(residuals, origins):
-        for s in r.free_symbols:
-            if s is time or split_der(s.name)[0] in base or s.name in known:
-                continue
-            raise ModelError(f"equation from {o} uses {s.name!r}, which is no variable, parameter or input of "
+
+    def stranger(expr):
+        for s in sp.sympify(expr).free_symbols:
+            if not (s is time or split_der(s.name)[0] in base or s.name in known or s.name in flat.aliases):
+                return s.name
+        return None
+
+    for r, o in zip(system.residuals, system.origins):
+        name = stranger(r)
+        if name is not None:
+            raise ModelError(f"equation from {o} uses {name!r}, which is no variable, parameter or input of "
                              "the model")
+    for ev in flat.events:
+        for e in [ev.zero, *ev.on_rising.values(), *ev.on_falling.values()]:
+            name = stranger(e)
+            if name is not None:
+                raise ModelError(f"event of {ev.origin} uses {name!r}, which is no variable, parameter, mode or "
+                                 "input of the model")
 
 
-def _check_signal_orders(flat, residuals, origins):
+def _check_signal_orders(flat, system):
+    """The derivatives of numeric inputs that the (index-reduced) equations use are ones their signals have."""
     need: dict = {}
-    for r, o in zip(residuals, origins):
+    for r, o in zip(system.residuals, system.origins):
         if r.has(SignalCall):
             for c in r.atoms(SignalCall):
                 tok, order = c.args[0].name, int(c.args[1])
@@ -88,13 +91,23 @@ def _check_signal_orders(flat, residuals, origins):
 
 
 class CompiledModel:
-    """A compiled model: numeric functions plus everything needed to name, initialise and simulate."""
+    """A compiled model: numeric functions plus everything needed to name, initialise and simulate.
 
-    def __init__(self, flat, red, blocks, steps, gen, funcs, zeros, compile_seconds):
+    ``flat`` is the flattened model (aliases eliminated), ``reduction`` the solved equation system
+    (:class:`~acausal.structure.EquationSystem`: equations after index reduction with their origins, states,
+    dummy derivatives, BLT ``blocks`` and solved ``steps``, also reachable as :attr:`blocks` and :attr:`steps`),
+    ``generator`` the code generator and ``funcs`` the generated functions. ``accounts`` are the model's energy
+    accounts found by convention (:class:`~acausal.energy.Accounts`: losses, stored energies, sources, boundary,
+    power sensors), which :meth:`Result.energy_balance <acausal.result.Result.energy_balance>` and
+    :meth:`Result.sankey <acausal.result.Result.sankey>` use.
+    """
+
+    def __init__(self, flat, system, gen, funcs, zeros, compile_seconds, accounts=None):
         self.flat = flat
-        self.reduction = red
-        self.blocks = blocks
-        self.steps = steps
+        self.accounts = accounts
+        self.reduction = system
+        self.blocks = system.blocks
+        self.steps = system.steps
         self.generator = gen
         self.funcs = funcs
         self.event_zeros = zeros
@@ -105,8 +118,10 @@ class CompiledModel:
         self.discrete_names = list(gen.discretes)
         self.input_names = list(gen.inputs)
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
-        self._param_order = _param_eval_order(flat)
-        self._event_assign = _compile_event_assignments(flat, self)
+        self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
+        self._param_plan = _param_plan(flat)
+        self._event_assign = _event_assignment_table(flat)
+        self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
 
     # ------------------------------------------------------------------ names and values
     @property
@@ -118,41 +133,108 @@ class CompiledModel:
         """Every variable name the results answer: states, algebraic unknowns and aliases."""
         return sorted(set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases))
 
-    def _unknown_name_error(self, name, kind, candidates):
-        close = difflib.get_close_matches(name, candidates, n=3)
+    def unknown_name_error(self, name: str, kind: str, candidates) -> UnknownNameError:
+        """The error for a name the model does not have (a :class:`ModelError` and a ``KeyError``): ``kind``
+        says what was looked for ("parameter", "variable", ...), and up to three close ``candidates`` are
+        suggested."""
+        close = difflib.get_close_matches(str(name), list(candidates), n=3)
         hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
-        return ModelError(f"unknown {kind} {name!r} in model {self.flat.name}{hint}")
+        return UnknownNameError(f"unknown {kind} {name!r} in model {self.flat.name}{hint}")
+
+    def has_parameter(self, name: str) -> bool:
+        """Whether ``name`` is a parameter of the model (an entry of :attr:`param_names`)."""
+        return name in self._param_index
+
+    def param_index(self, name: str) -> int:
+        """Position of parameter ``name`` in :attr:`param_names` (and so in :meth:`param_vector`); an unknown
+        name raises :class:`ModelError` with suggestions."""
+        try:
+            return self._param_index[name]
+        except KeyError:
+            raise self.unknown_name_error(name, "parameter", self.param_names) from None
+
+    def event_assignments(self, index: int, rising: bool) -> list:
+        """What event ``index`` (of :attr:`event_zeros`) assigns when its zero function crosses upwards
+        (``rising``) or downwards: a list of ``(mode name, sympy expression)``, the expression in variables,
+        parameters, modes and time (evaluate it with :meth:`eval_expr`)."""
+        return list(self._event_assign[index]["rising" if rising else "falling"])
+
+    def eval_expr(self, expr, values=None, p=None, d=None, t=None):
+        """Numeric value of ``expr``, a sympy expression of variables, parameters, discrete modes and time.
+
+        Each symbol takes its value from ``values`` (a mapping name -> number or array, e.g. the value rows of
+        a result) when it is there, else from the parameter vector ``p`` (in :attr:`param_names` order), else
+        from the modes ``d`` (in :attr:`discrete_names` order); ``time`` is ``t`` [s]. Arrays broadcast. The
+        expression is turned into a numeric function once and cached on the model, so evaluating the same
+        expression again costs only the call. A symbol with no value raises :class:`ModelError` naming it.
+        """
+        fn, names = self._expr_function(expr)
+        if fn is None:
+            return names
+        args = []
+        for n in names:
+            if n is None:
+                if t is None:
+                    raise ModelError(f"eval_expr: {expr} depends on time, but no time t was given")
+                args.append(t)
+            elif values is not None and n in values:
+                args.append(values[n])
+            elif p is not None and n in self._param_index:
+                args.append(p[self._param_index[n]])
+            elif d is not None and n in self._discrete_index:
+                args.append(d[self._discrete_index[n]])
+            else:
+                raise ModelError(f"eval_expr: no value for {n!r} in {expr} (not in values, and no parameter "
+                                 "vector p or modes d that has it)")
+        return fn(*args)
+
+    def _expr_function(self, expr):
+        """``(function, symbol names)`` for :meth:`eval_expr` (``None`` standing for time), built on first
+        use; ``(None, value)`` for a number."""
+        if not isinstance(expr, sp.Basic):
+            expr = sp.sympify(expr)
+        try:
+            return self._expr_cache[expr]
+        except KeyError:
+            pass
+        if expr.has(SignalCall):
+            raise ModelError(f"eval_expr: {expr} calls an input signal; evaluate signals through the model's "
+                             "generated functions")
+        syms = sorted(expr.free_symbols, key=lambda s: s.name)
+        if not syms:
+            entry = (None, float(expr))
+        else:
+            plain = [sp.Symbol(f"a{i}") for i in range(len(syms))]
+            fn = sp.lambdify(plain, expr.xreplace(dict(zip(syms, plain))), "numpy")
+            entry = (fn, [None if s is time else s.name for s in syms])
+        self._expr_cache[expr] = entry
+        return entry
 
     def param_vector(self, params: dict | None = None) -> np.ndarray:
         """Numeric parameter vector (in :attr:`param_names` order) with ``params`` overriding defaults.
 
+        A parameter bound to an expression of others (``Resistor(R=2 * self.R0)``) is evaluated from their
+        values in this run, unless overridden itself; the expressions are compiled once per model. Every value
+        is checked against its parameter's bounds (:class:`ModelError` naming the parameter and its owner).
         A value may be an array (a batch of parameter sets): the vector then has dtype object entries that
         broadcast in the generated code; use :meth:`param_batch` for the usual case.
         """
-        params = dict(params or {})
+        params = _mapping(params, "params")
         for k in params:
             if k not in self._param_index:
-                raise self._unknown_name_error(k, "parameter", self.param_names)
+                raise self.unknown_name_error(k, "parameter", self.param_names)
         values: dict = {}
-        for name in self._param_order:
-            info = self.flat.parameters[name]
+        batch = False
+        for name, info, binding, default in self._param_plan:
             if name in params:
                 v = params[name]
-            elif isinstance(info.value, sp.Basic) and not info.value.is_number:
-                v = _eval_param_expr(info.value, values)
+            elif binding is not None:
+                v = self.eval_expr(binding, values)
             else:
-                v = float(info.value)
-            arr = np.asarray(v, dtype=float)
-            if not np.all(np.isfinite(arr)):
-                raise ModelError(f"parameter {name!r} of {info.owner} is not finite: {v}")
-            if info.min is not None and np.any(arr < info.min):
-                raise ModelError(f"parameter {name!r} of {info.owner} = {v} is below its minimum {info.min} "
-                                 f"[{info.unit}]")
-            if info.max is not None and np.any(arr > info.max):
-                raise ModelError(f"parameter {name!r} of {info.owner} = {v} is above its maximum {info.max} "
-                                 f"[{info.unit}]")
+                v = default
+            batch = _check_param(info, v) or batch
             values[name] = v
-        if any(np.ndim(values[n]) for n in self.param_names):
+        if batch:
             out = np.empty(len(self.param_names), dtype=object)
             for i, n in enumerate(self.param_names):
                 out[i] = values[n]
@@ -163,16 +245,18 @@ class CompiledModel:
         """Parameter array of shape ``(n_params, B, 1)`` for ``B`` parameter sets: generated functions evaluated
         with it over ``N`` time samples return arrays of shape ``(B, N)``."""
         cols = [self.param_vector(s) for s in sets]
+        if not cols:
+            raise ModelError("param_batch: no parameter sets given")
         return np.stack(cols, axis=1)[:, :, None]
 
     def input_tuple(self, inputs: dict | None = None, p=None) -> tuple:
-        """The numeric inputs of a run, in :attr:`input_names` order: ``inputs`` replace the model's own by
-        name; a :class:`~acausal.signals.ParametricSignal` is bound to the run's parameter vector ``p`` (default
-        values when None)."""
-        inputs = dict(inputs or {})
+        """The numeric inputs of a run, in :attr:`input_names` order: ``inputs`` (name -> :class:`Signal`) replace
+        the model's own; a :class:`~acausal.signals.ParametricSignal` is bound to the run's parameter vector
+        ``p`` (default values when None)."""
+        inputs = _mapping(inputs, "inputs")
         for k, v in inputs.items():
             if k not in self.flat.inputs:
-                raise self._unknown_name_error(k, "numeric input", self.input_names)
+                raise self.unknown_name_error(k, "numeric input", self.input_names)
             if not isinstance(v, Signal):
                 raise ModelError(f"input {k!r}: a replacement must be a Signal, got {type(v).__name__}")
             need = self.generator.signal_orders.get(k, 0)
@@ -214,21 +298,24 @@ class CompiledModel:
             if self.state_names:
                 raise ModelError(f"model {self.flat.name} has states {self.state_names}; pass x or simulate")
             x = np.zeros((0,) + t.shape)
+        elif np.ndim(x) < 1 or len(x) != len(self.state_names):
+            raise ModelError(f"evaluate: x must have one row per state of {self.flat.name} "
+                             f"({len(self.state_names)}: {self.state_names}), got shape {np.shape(x)}")
         vals = self.funcs["all_values"](t, x, p, d, u)
         shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
         out = {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
         if names is None:
             return out
-        from .result import eval_expr
+        rows = dict(out, **dict(zip(self.state_names, x)))
         picked = {}
         for n in names:
-            if n in out:
-                picked[n] = out[n]
+            if n in rows:
+                picked[n] = np.broadcast_to(np.asarray(rows[n], dtype=float), shape)
             elif n in self.flat.aliases:
-                v = eval_expr(self.flat.aliases[n], out, self, p, list(d), t)
+                v = self.eval_expr(self.flat.aliases[n], rows, p, d, t)
                 picked[n] = np.broadcast_to(np.asarray(v, dtype=float), shape)
             else:
-                raise self._unknown_name_error(n, "variable", self.names())
+                raise self.unknown_name_error(n, "variable", self.names())
         return picked
 
     def sensitivities(self, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
@@ -274,7 +361,19 @@ class CompiledModel:
         return f"<CompiledModel {self.flat.name}: {len(self.state_names)} states, {len(self.unknown_names)} unknowns>"
 
 
-def _param_eval_order(flat) -> list:
+def _mapping(value, what: str) -> dict:
+    """``value`` (a mapping by name, or None) as a new dict; anything else is a ModelError naming ``what``."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ModelError(f"{what} must be a dict by name, got {type(value).__name__}")
+    return dict(value)
+
+
+def _param_plan(flat) -> list:
+    """How :meth:`CompiledModel.param_vector` computes the parameters: ``(name, info, binding, default)`` in an
+    order where every bound parameter comes after those its expression uses; ``binding`` is that expression
+    (None for a number), ``default`` the number (None for a binding). A cycle of bindings is a ModelError."""
     deps = {}
     for n, info in flat.parameters.items():
         deps[n] = {s.name for s in info.value.free_symbols} if isinstance(info.value, sp.Basic) else set()
@@ -292,30 +391,53 @@ def _param_eval_order(flat) -> list:
 
     for n in sorted(deps):
         visit(n)
-    return order
+    plan = []
+    for n in order:
+        info = flat.parameters[n]
+        if isinstance(info.value, sp.Basic) and not info.value.is_number:
+            plan.append((n, info, info.value, None))
+        else:
+            plan.append((n, info, None, float(info.value)))
+    return plan
 
 
-def _eval_param_expr(expr, values):
-    f = sp.lambdify([sp.Symbol(n) for n in sorted(s.name for s in expr.free_symbols)],
-                    expr.xreplace({s: sp.Symbol(s.name) for s in expr.free_symbols}), "numpy")
-    return f(*[values[n] for n in sorted(s.name for s in expr.free_symbols)])
+def _check_param(info, v) -> bool:
+    """Check one parameter value (a number, or an array of values for a batch of runs) for finiteness and
+    against the parameter's bounds; True when it is an array of values. Numbers take the fast path."""
+    if isinstance(v, (float, int)):
+        finite, low, high, batch = math.isfinite(v), v, v, False
+    else:
+        try:
+            arr = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"parameter {info.name!r} of {info.owner}: {v!r} is not a number or an array of "
+                             "numbers") from None
+        finite, batch = bool(np.all(np.isfinite(arr))), arr.ndim > 0
+        low, high = (arr.min(), arr.max()) if finite and arr.size else (math.inf, -math.inf)
+    if not finite:
+        raise ModelError(f"parameter {info.name!r} of {info.owner} is not finite: {v}")
+    if info.min is not None and low < info.min:
+        raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is below its minimum {info.min} "
+                         f"[{info.unit}]")
+    if info.max is not None and high > info.max:
+        raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is above its maximum {info.max} "
+                         f"[{info.unit}]")
+    return batch
 
 
-def _compile_event_assignments(flat, cm):
-    """Event assignments as numeric functions of (values dict) -> new mode value."""
+def _event_assignment_table(flat) -> list:
+    """Per event: ``{"rising": [(mode name, expression)], "falling": [...]}``, aliases resolved; assigning
+    anything but a discrete mode is a :class:`ModelError` naming the event's component."""
     out = []
     for ev in flat.events:
         entry = {}
         for direction, table in (("rising", ev.on_rising), ("falling", ev.on_falling)):
-            fs = []
+            pairs = []
             for sym, expr in table.items():
                 name = sym.name if hasattr(sym, "name") else str(sym)
                 if name not in flat.discretes:
                     raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
-                e = _resolve(sp.sympify(expr), flat)
-                e = e.xreplace({s: sp.Symbol(s.name) for s in e.free_symbols})
-                syms = sorted(s.name for s in e.free_symbols)
-                fs.append((name, syms, sp.lambdify([sp.Symbol(s) for s in syms], e, "numpy")))
-            entry[direction] = fs
+                pairs.append((name, _resolve(sp.sympify(expr), flat)))
+            entry[direction] = pairs
         out.append(entry)
     return out

@@ -10,7 +10,16 @@ class AcausalError(Exception):
 
 
 class ModelError(AcausalError):
-    """The model as written is wrong: bad connection, bad parameter, missing port, unknown name."""
+    """The model as written, or a request to it, is wrong: bad connection, bad parameter, missing port, unknown
+    name, an option or argument out of range."""
+
+
+class UnknownNameError(ModelError, KeyError):
+    """A name the model or a result does not have; the message suggests close ones. Also a ``KeyError``, so
+    lookups by name behave like a mapping's (``name in result``)."""
+
+    def __str__(self):
+        return Exception.__str__(self)  # the message itself, not KeyError's quoted form
 
 
 class ConnectError(ModelError):

@@ -7,30 +7,8 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import cumulative_simpson
 
-from .signals import SignalCall
-from .symbols import der_name, split_der, time
-
-
-def eval_expr(expr, values: dict, cm, p, d, t=None, u=None):
-    """Evaluate an expression of variables, parameters and modes given numeric ``values`` by name."""
-    syms = sorted(expr.free_symbols, key=lambda s: s.name)
-    if not syms and not expr.has(SignalCall):
-        return float(expr)
-    args = []
-    for s in syms:
-        if s is time:
-            args.append(t)
-        elif s.name in values:
-            args.append(values[s.name])
-        elif s.name in cm._param_index:
-            args.append(p[cm._param_index[s.name]])
-        elif s.name in cm.discrete_names:
-            args.append(d[cm.discrete_names.index(s.name)])
-        else:
-            raise KeyError(s.name)
-    plain = [sp.Symbol(f"a{i}") for i in range(len(syms))]
-    f = sp.lambdify(plain, expr.xreplace(dict(zip(syms, plain))), "numpy")
-    return f(*args)
+from .errors import ModelError, UnknownNameError
+from .symbols import der_name, split_der
 
 
 class Result:
@@ -76,10 +54,10 @@ class Result:
             return self._cache[name]
         cm = self.model
         if name in cm.flat.aliases:
-            v = eval_expr(cm.flat.aliases[name], self._unknowns, cm, self.params, self._mode_rows(), self.t)
+            v = cm.eval_expr(cm.flat.aliases[name], self._unknowns, self.params, self._mode_rows(), self.t)
             v = np.broadcast_to(np.asarray(v, dtype=float), self.t.shape)
-        elif name in cm._param_index:
-            v = np.broadcast_to(np.asarray(self.params[cm._param_index[name]], dtype=float), self.t.shape)
+        elif cm.has_parameter(name):
+            v = np.broadcast_to(np.asarray(self.params[cm.param_index(name)], dtype=float), self.t.shape)
         elif name in cm.discrete_names:
             v = self.modes[cm.discrete_names.index(name)] if np.ndim(self.modes) == 2 else \
                 np.full(self.t.shape, self.modes[cm.discrete_names.index(name)])
@@ -89,7 +67,7 @@ class Result:
             base, order = split_der(name)
             if order:
                 return self.der(base, order)
-            raise KeyError(self._missing(name))
+            raise UnknownNameError(self._missing(name))
         self._cache[name] = v
         return v
 
@@ -108,6 +86,8 @@ class Result:
     def der(self, name: str, order: int = 1) -> np.ndarray:
         """Exact time derivative of a numeric input or of a variable whose derivative the model computes;
         otherwise a finite-difference estimate over the output grid."""
+        if not isinstance(order, (int, np.integer)) or order < 0:
+            raise ModelError(f"der: the order must be a non-negative integer, got {order!r}")
         cm = self.model
         if name in cm.input_names:
             return self.inputs[cm.input_names.index(name)](self.t, order)
@@ -117,16 +97,16 @@ class Result:
         if name in cm.flat.aliases:
             expr = cm.flat.aliases[name]
             c, rest = expr.as_coeff_Mul()
-            if isinstance(rest, sp.Symbol) and rest.name not in cm._param_index:
+            if isinstance(rest, sp.Symbol) and not cm.has_parameter(rest.name):
                 return float(c) * self.der(rest.name, order)
-            if all(s.name in cm._param_index for s in expr.free_symbols):
+            if all(cm.has_parameter(s.name) for s in expr.free_symbols):
                 return np.zeros(self.t.shape)
             syms = [s for s in expr.free_symbols if s.name in self._unknowns]
             if all(der_name(s.name, order) in self._unknowns for s in syms):
                 from .symbols import der
                 d_expr = der(expr, order)
                 return np.broadcast_to(np.asarray(
-                    eval_expr(d_expr, self._unknowns, cm, self.params, self._mode_rows(), self.t), dtype=float),
+                    cm.eval_expr(d_expr, self._unknowns, self.params, self._mode_rows(), self.t), dtype=float),
                     self.t.shape)
         if self._exact_time_function and order == 1 and name in self._unknowns:
             # no states: the variable is an explicit function of time; differentiate it off the grid
@@ -153,7 +133,7 @@ class Result:
             return self[f"{port}.tau"] * self.der(f"{port}.phi")
         if f"{port}.Q_flow" in names:
             return self[f"{port}.Q_flow"]
-        raise KeyError(f"{port!r} is not a pin, flange or heat port of {self.model.flat.name}")
+        raise UnknownNameError(f"{port!r} is not a pin, flange or heat port of {self.model.flat.name}")
 
     def _integrand(self, what):
         try:

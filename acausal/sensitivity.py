@@ -24,6 +24,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .errors import ModelError, SimulationError
+from .simulate import algebraic_modes, check_tolerances, initialize
 from .symbols import der_name, var_symbol
 
 
@@ -44,10 +45,12 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     t = np.atleast_1d(np.asarray(t, dtype=float))
     if t.ndim != 1:
         raise ModelError("sensitivities: t must be a 1-D array of times")
+    check_tolerances(rtol, atol, "sensitivities")
+    if isinstance(wrt, str):
+        raise ModelError(f"sensitivities: wrt must be a list of parameter names, got the string {wrt!r}")
     wrt = list(wrt)
     for w in wrt:
-        if w not in cm._param_index:
-            raise cm._unknown_name_error(w, "parameter", cm.param_names)
+        cm.param_index(w)  # an unknown name raises, with suggestions
     if len(set(wrt)) != len(wrt):
         raise ModelError(f"sensitivities: wrt names a parameter twice: {wrt}")
     names = list(cm.state_names) + list(cm.unknown_names) if names is None else list(names)
@@ -64,8 +67,7 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     out_fn = gen.sensitivity_function(wrt, bindings, outputs)
     n, q, N = len(cm.state_names), len(wrt), t.size
     if n == 0:
-        from .simulate import _algebraic_modes
-        modes = _algebraic_modes(cm, t, p, d, u) if cm.event_zeros else d
+        modes = algebraic_modes(cm, t, p, d, u) if cm.event_zeros else d
         vals, _, dy = out_fn(t, np.zeros((0, N)), p, modes, u)
     else:
         if cm.event_zeros:
@@ -89,13 +91,11 @@ def _output_expr(cm, name):
         return var_symbol(name)
     if name in cm.flat.aliases:
         return sp.sympify(cm.flat.aliases[name])
-    raise cm._unknown_name_error(name, "variable", cm.names())
+    raise cm.unknown_name_error(name, "variable", cm.names())
 
 
 def _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method):
     """States ``X`` (n, N) and sensitivities ``S`` (n, q, N) at ``t``, integrated together from ``t_start``."""
-    from .simulate import initialize
-
     if method not in ("BDF", "LSODA", "Radau"):
         raise ModelError(f"sensitivities: method must be 'BDF', 'LSODA' or 'Radau', got {method!r}")
     x0 = initialize(cm, t_start, p, d, u, starts)

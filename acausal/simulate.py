@@ -7,6 +7,8 @@ evaluated algebraically at the output times.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from scipy import integrate, optimize
 
@@ -33,19 +35,36 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
 
     if method not in METHODS:
         raise ModelError(f"unknown integration method {method!r}; choose one of {sorted(METHODS)}")
+    t_start, t_end = _number(t_start, "t_start"), _number(t_end, "t_end")
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
+    check_tolerances(rtol, atol, "simulate")
+    for what, step in (("max_step", max_step), ("first_step", first_step)):
+        if step is not None and not _number(step, what) > 0:
+            raise ModelError(f"simulate: {what} must be positive, got {step}")
+    if not isinstance(max_events, (int, np.integer)) or max_events < 0:
+        raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
     p = cm.param_vector(params)
     u = cm.input_tuple(inputs, p)
     d = cm.discrete_start()
-    t_out = np.linspace(t_start, t_end, n_points) if t_eval is None else np.asarray(t_eval, dtype=float)
+    if t_eval is None:
+        if not isinstance(n_points, (int, np.integer)) or n_points < 1:
+            raise ModelError(f"simulate: n_points must be a positive integer, got {n_points!r}")
+        t_out = np.linspace(t_start, t_end, n_points)
+    else:
+        try:
+            t_out = np.asarray(t_eval, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError("simulate: t_eval must be an array of times") from None
+        if t_out.ndim != 1:
+            raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
     if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
         raise ModelError("t_eval must be increasing and within [t_start, t_end]")
     n = len(cm.state_names)
     if n == 0:
-        d_arr = _algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else None
+        d_arr = algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else None
         X = np.zeros((0, t_out.size))
-        initialize(cm, t_start, p, d, u, starts)  # (fix) no states, but fixed starts must still hold
+        initialize(cm, t_start, p, d, u, starts)  # no states, but fixed starts must still hold
         return Result(cm, t_out, X, p, u, d if d_arr is None else d_arr, events=[], exact_time_function=True)
     x0 = initialize(cm, t_start, p, d, u, starts)
     d = _settle_modes(cm, t_start, x0, p, d, u)
@@ -73,7 +92,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             t_prev = solver.t
             try:
                 msg = solver.step()
-            except _NonFinite as exc:  # (fix) see _make_functions
+            except _NonFinite as exc:  # see _make_functions
                 raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
             y_sum = float(solver.y.sum())
             if solver.status == "failed" or y_sum - y_sum != 0.0:  # failed, or NaN/inf in the states
@@ -124,6 +143,25 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     return Result(cm, t_out, X, p, u, D, events=events, segments=segments)
 
 
+def check_tolerances(rtol, atol, who: str) -> None:
+    """The integrator's relative and absolute tolerances: ``rtol`` positive, ``atol`` not negative (numbers,
+    or one per state); a ModelError naming ``who`` otherwise."""
+    try:
+        ok = bool(np.all(np.asarray(rtol, dtype=float) > 0) and np.all(np.asarray(atol, dtype=float) >= 0))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ModelError(f"{who}: rtol must be positive and atol not negative, got rtol = {rtol!r}, atol = {atol!r}")
+
+
+def _number(value, what: str) -> float:
+    """``value`` as a float; a ModelError naming ``what`` when it is not a number."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what} must be a number, got {value!r}") from None
+
+
 # ---------------------------------------------------------------------------------------------- functions
 def _make_functions(cm, p, d, u):
     """Right-hand side and Jacobian for the integrator. Scalar runs pass plain Python floats to the generated
@@ -132,11 +170,10 @@ def _make_functions(cm, p, d, u):
     pl = p.tolist()
     dl = d.tolist()
 
-    # (fix) On Python floats, 1/(1 - t) at t == 1 raises ZeroDivisionError (a huge power OverflowError) instead
-    # of giving inf: report it as a non-finite value with its time and variable instead of letting it escape.
-    # A non-finite Jacobian (e.g. of sqrt(x) at x <= 0) used to escape as a bare ValueError from scipy's LU
-    # factorisation; it is checked here (Jacobians are evaluated rarely, the check is cheap). The try blocks
-    # cost nothing when no exception is raised.
+    # On Python floats, 1/(1 - t) at t == 1 raises ZeroDivisionError (a huge power OverflowError) instead of
+    # giving inf: it is reported as a non-finite value with its time and variable. A non-finite Jacobian (e.g.
+    # of sqrt(x) at x <= 0) would make scipy's LU factorisation fail with a bare ValueError; it is checked here
+    # (Jacobians are evaluated rarely, the check is cheap). The try blocks cost nothing when nothing is raised.
     def fun(t, x):
         try:
             return rhs(t, x.tolist(), pl, dl, u)
@@ -214,17 +251,18 @@ def _crossings(cm, sol, t0, t1, z0, z1, p, d, u):
 
 
 def _apply_event(cm, i, rising, t, x, p, d, u):
-    table = cm._event_assign[i]["rising" if rising else "falling"]
+    table = cm.event_assignments(i, rising)
     if not table:
         return d
     values = _values_at(cm, t, x, p, d, u)
-    d = d.copy()
-    for name, syms, f in table:
-        d[cm.discrete_names.index(name)] = float(f(*[values[s] for s in syms]))
-    return d
+    new = d.copy()
+    for name, expr in table:
+        new[cm.discrete_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
+    return new
 
 
 def _values_at(cm, t, x, p, d, u) -> dict:
+    """Every unknown, state, parameter and mode by name at one time, as Python floats."""
     vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
     vals.update(zip(cm.state_names, x))
     vals.update(zip(cm.param_names, p))
@@ -272,8 +310,10 @@ def _cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20):
                           + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
 
 
-def _algebraic_modes(cm, t, p, d, u):
-    """Mode of each output sample of a stateless model: the settled modes, sample by sample."""
+def algebraic_modes(cm, t, p, d, u):
+    """Modes of a model without states at each time of ``t`` [s] (shape ``(n_modes, len(t))``): from the modes
+    ``d``, every event's assignment applied by the sign of its zero function until nothing changes, sample by
+    sample (each sample starting from the previous one's modes)."""
     out = np.empty((len(d), t.size))
     x = np.zeros(0)
     cur = d
@@ -292,11 +332,14 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
     start values. Inconsistent or over-specified initial conditions raise an error naming the variables.
     """
     flat = cm.flat
+    if starts is not None and not isinstance(starts, Mapping):
+        raise ModelError(f"starts must be a dict by variable name, got {type(starts).__name__}")
     starts = dict(starts or {})
     names = set(cm.names()) | set(flat.variables)
-    for k in starts:
+    for k, v in starts.items():
         if k not in names:
-            raise cm._unknown_name_error(k, "variable", sorted(names))
+            raise cm.unknown_name_error(k, "variable", sorted(names))
+        starts[k] = _number(v, f"start value of {k!r}")
     x = np.empty(len(cm.state_names))
     fixed_state = np.zeros(len(cm.state_names), dtype=bool)
     for i, n in enumerate(cm.state_names):
@@ -313,7 +356,7 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
             targets[n] = info.start
     for n, v in starts.items():
         targets[n] = float(v)
-    # (fix) fixed starts of variables that alias elimination found to be constant (parameter expressions)
+    # fixed starts of variables that alias elimination found to be constant (parameter expressions)
     for n, v in getattr(flat, "fixed_constants", {}).items():
         targets.setdefault(n, v)
     if not targets:
@@ -370,16 +413,15 @@ def _value_lookup(cm, t, x, p, d, u):
         if name in vals:
             return float(vals[name])
         if name in aliases:
-            from .result import eval_expr
-            return float(eval_expr(aliases[name], vals, cm, p, d))
-        raise KeyError(name)
+            return float(cm.eval_expr(aliases[name], vals, p, d, t))
+        raise cm.unknown_name_error(name, "variable", cm.names())
 
     return get
 
 
 # ---------------------------------------------------------------------------------------------- failures
 def _non_finite_error(cm, t, x, p, d, u, where="rhs"):
-    # (fix) Evaluate at a numpy time so that a division by zero gives inf instead of raising, and name the
+    # Evaluate at a numpy time so that a division by zero gives inf instead of raising, and name the
     # non-finite unknown computed *first* (the cause, e.g. y = sqrt(x)) rather than the first in name order
     # (often a derivative that merely depends on it, 'der(z)' for z' = y); the others follow as consequences.
     t_np = np.float64(t)

@@ -9,10 +9,11 @@
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import sympy as sp
 
+from .structure import EquationSystem
 from .symbols import var_symbol
 
 SYMBOLIC_LINEAR_MAX = 3
@@ -41,17 +42,19 @@ class NewtonSolve:
     guesses: list
 
 
-def solve_blocks(blocks, residuals, origins, starts) -> list:
+def solve_blocks(system: EquationSystem, starts: dict) -> EquationSystem:
+    """``system`` (after BLT) with its ``steps``: every block solved, in evaluation order. ``starts`` (variable
+    name -> start value) seeds Newton's method where a block needs it."""
     steps = []
-    for eqs, unknowns in blocks:
+    for eqs, unknowns in system.blocks:
         ys = [var_symbol(u) for u in unknowns]
-        rs = [residuals[e] for e in eqs]
-        orig = [origins[e] for e in eqs]
+        rs = [system.residuals[e] for e in eqs]
+        orig = [system.origins[e] for e in eqs]
         if len(eqs) == 1:
             steps.extend(_solve_scalar(rs[0], ys[0], unknowns[0], orig, starts))
         else:
             steps.extend(_tear(rs, ys, unknowns, orig, starts))
-    return steps
+    return replace(system, steps=steps)
 
 
 def _solve_scalar(r, y, name, orig, starts):
@@ -79,8 +82,9 @@ def _pivot_score(a):
 
 def _tear(rs, ys, unknowns, orig, starts):
     """Tearing: repeatedly eliminate the unknown that some block equation gives linearly with a coefficient free
-    of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols), substituting it into
-    the other equations. A linear block is solved this way entirely. What remains (the tear variables) is solved
+    of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols; among equal pivots the
+    equation with the fewest block unknowns left, so the order of the block's unknowns does not decide),
+    substituting it into the other equations. A linear block is solved this way entirely. What remains (the tear variables) is solved
     by sympy LU (linear, small), a numeric linear solve (linear, large) or Newton (nonlinear); the eliminated
     unknowns then follow explicitly."""
     cur = list(rs)
@@ -90,17 +94,19 @@ def _tear(rs, ys, unknowns, orig, starts):
     elim = []
     while vars_:
         best = None
+        left = {ys[v] for v in vars_}
         for e in eqs:
+            width = len(cur[e].free_symbols & left)  # block unknowns still in the equation
             for v in vars_:
                 a = cur[e].diff(ys[v])
                 if a == 0 or (a.free_symbols & yset):
                     continue
-                score = _pivot_score(a)
+                score = (_pivot_score(a), width)
                 if best is None or score < best[0]:
                     best = (score, e, v, a)
-                    if score == 0:
+                    if score == (0, 1):
                         break
-            if best is not None and best[0] == 0:
+            if best is not None and best[0] == (0, 1):
                 break
         if best is None:
             break

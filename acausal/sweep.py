@@ -12,11 +12,16 @@ import os
 import sys
 from concurrent.futures import Executor, ProcessPoolExecutor
 
+from .errors import ModelError
+
 
 def sweep(fn, args, executor: Executor | None = None, progress: bool = False, label: str = "tasks") -> list:
     """``[fn(a) for a in args]``, run through ``executor`` (default: a process pool on all cores; ``"serial"``
     runs in this process)."""
     args = list(args)
+    if not (executor is None or executor == "serial" or callable(getattr(executor, "submit", None))):
+        raise ModelError(f"sweep: executor must be None, 'serial' or an Executor (something with submit), got "
+                         f"{executor!r}")
     if executor == "serial" or (executor is None and (len(args) <= 1 or (os.cpu_count() or 1) == 1)):
         out = []
         for i, a in enumerate(args, 1):

@@ -39,7 +39,7 @@ def test_stateless_replay_matches_finite_differences(lossy_replay, at):
         np.testing.assert_allclose(values[n], ref[n], rtol=1e-12, atol=1e-12)
     p0 = cm.param_vector(at)
     for j, w in enumerate(wrt):
-        base = p0[cm._param_index[w]]
+        base = p0[cm.param_index(w)]
         h = 1e-5 * abs(base)
         if w == "gear.eta" and base >= 1.0:  # at its maximum: one-sided, second order
             f = [cm.evaluate(t, params={**at, w: base - k * h}, names=names) for k in (0, 1, 2)]
@@ -75,7 +75,7 @@ def test_stateless_with_modes_settled_per_sample():
     res = cm.simulate(0.99, t_start=0.01, t_eval=t)
     assert 0 < res.modes.mean() < 1  # both modes occur
     for j, w in enumerate(wrt):
-        base, h = cm.param_vector()[cm._param_index[w]], 1e-6
+        base, h = cm.param_vector()[cm.param_index(w)], 1e-6
         rp = cm.simulate(0.99, t_start=0.01, t_eval=t, params={w: base + h})
         rm = cm.simulate(0.99, t_start=0.01, t_eval=t, params={w: base - h})
         for n in names:
@@ -110,7 +110,7 @@ def test_stateful_replay_matches_finite_differences(thermal_replay, heating):
         np.testing.assert_allclose(values[n], res[n], rtol=1e-7, atol=1e-9)
         assert np.all(np.isfinite(sens[n]))
     for j, w in enumerate(wrt):
-        base = cm.param_vector(at)[cm._param_index[w]]
+        base = cm.param_vector(at)[cm.param_index(w)]
         if w == "winding_heating" and heating < 1e-6:  # at the minimum: forward, second order
             h = 1e-3
             f = [_simulate(cm, {**at, w: base + k * h}, t) for k in (0, 1, 2)]

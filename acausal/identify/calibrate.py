@@ -30,6 +30,9 @@ from scipy.optimize import least_squares
 
 from ..errors import DataError
 
+#: the robust losses of :func:`scipy.optimize.least_squares` (``"linear"``: plain least squares)
+LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
+
 
 @dataclass
 class Experiment:
@@ -76,16 +79,24 @@ class Calibration:
     rmse_train: dict  # (experiment, signal) -> RMSE
     rmse_test: dict
     start: dict
+    counts: dict = field(default_factory=dict)  # "train"/"test" -> (experiment, signal) -> number of samples
 
     def rmse(self, signal: str, which: str = "test") -> float:
         """RMSE of one signal over all experiments (pooled samples)."""
-        table = self.rmse_test if which == "test" else self.rmse_train
+        table = self.rmse_test if _check_mask(which) == "test" else self.rmse_train
         vals = [v for (e, s), v in table.items() if s == signal]
-        counts = [self._counts[which][(e, s)] for (e, s) in table if s == signal]
+        counts = [self.counts[which][(e, s)] for (e, s) in table if s == signal]
         return float(np.sqrt(np.sum(np.square(vals) * counts) / np.sum(counts)))
 
     def relative_std(self) -> dict:
         return {k: self.std[k] / abs(self.values[k]) if self.values[k] else np.inf for k in self.names}
+
+
+def _check_mask(mask: str) -> str:
+    """``mask`` if it names the training or the held-out samples ("train", "test"); a DataError otherwise."""
+    if mask not in ("train", "test"):
+        raise DataError(f"the samples must be 'train' or 'test', got {mask!r}")
+    return mask
 
 
 def noise_scales(experiments, signals) -> dict:
@@ -104,7 +115,7 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
     parts = []
     for e in experiments:
         pred = e.predict(values)
-        m = getattr(e, mask)
+        m = getattr(e, _check_mask(mask))
         for s in signals:
             parts.append(np.sqrt(weights.get(s, 1.0)) * (pred[s][m] - e.measured[s][m]) / scales[s])
     return np.concatenate(parts)
@@ -120,6 +131,15 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     experiments = list(experiments)
     if not experiments:
         raise DataError("calibrate: no experiments")
+    free = list(free)
+    names = [f.name for f in free]
+    if not free or len(set(names)) != len(names):
+        raise DataError(f"calibrate: free must name at least one parameter, each once; got {names}")
+    if loss not in LOSSES:
+        raise DataError(f"calibrate: loss must be one of {', '.join(map(repr, LOSSES))}, got {loss!r}")
+    if not (isinstance(max_nfev, (int, np.integer)) and max_nfev >= 1 and f_scale > 0):
+        raise DataError(f"calibrate: max_nfev must be a positive integer and f_scale positive, got {max_nfev!r} "
+                        f"and {f_scale!r}")
     for e in experiments:
         for s in signals:
             if s not in e.measured:
@@ -127,7 +147,6 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     weights = dict(weights or {})
     scales = dict(scales or noise_scales(experiments, signals))
     fixed = dict(fixed or {})
-    names = [f.name for f in free]
     xs = np.array([f.scale or (abs(f.start) or 1.0) for f in free])
 
     def values_of(z):
@@ -167,8 +186,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                     counts[which][(e.name, s)] = int(msk.sum())
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
-                      {f.name: f.start for f in free})
-    cal._counts = counts
+                      {f.name: f.start for f in free}, counts)
     return cal
 
 
@@ -180,7 +198,7 @@ def jacobian_matrix(experiments, values, names, signals, weights=None, scales=No
     parts = []
     for e in experiments:
         _, sens = e.sensitivity(values, list(names))
-        m = getattr(e, mask)
+        m = getattr(e, _check_mask(mask))
         for s in signals:
             parts.append(np.sqrt(weights.get(s, 1.0)) * sens[s][:, m].T / scales[s])
     return np.concatenate(parts)
@@ -191,7 +209,7 @@ def rmse_table(experiments, values: dict, signals, mask: str = "test") -> dict:
     out = {}
     for e in experiments:
         pred = e.predict(values)
-        msk = getattr(e, mask)
+        msk = getattr(e, _check_mask(mask))
         for s in signals:
             out[(e.name, s)] = float(np.sqrt(np.mean((pred[s][msk] - e.measured[s][msk]) ** 2)))
     return out

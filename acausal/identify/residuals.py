@@ -39,6 +39,7 @@ def phase_profile(t, residual, period: float, t0: float | None = None, bins: int
         raise DataError(f"phase_profile: time has {t.size} samples, the residual {r.size}")
     if not period > 0:
         raise DataError(f"phase_profile: the period must be positive, got {period}")
+    _check_count(bins, "phase_profile: bins", 1)
     t0 = t[0] if t0 is None else t0
     phase = np.mod((t - t0) / period, 1.0)
     k = np.minimum((phase * bins).astype(int), bins - 1)
@@ -53,6 +54,7 @@ def phase_profile(t, residual, period: float, t0: float | None = None, bins: int
 
 def autocorrelation(residual, max_lag: int) -> np.ndarray:
     """Normalised autocorrelation ``rho[0..max_lag]`` (``rho[0] = 1``) of the mean-removed residual."""
+    _check_count(max_lag, "autocorrelation: max_lag", 0)
     r = np.asarray(residual, dtype=float)
     r = r - r.mean()
     n = r.size
@@ -124,6 +126,12 @@ def cross_correlations(residual, regressors: dict, max_lag: int = 50) -> list:
             raise DataError(f"cross_correlations: regressor {name!r} has {x.size} samples, the residual {r.size}")
         out.append(Correlation(name, correlation(r, x), band))
     return sorted(out, key=lambda c: -abs(c.r))
+
+
+def _check_count(value, what: str, least: int) -> None:
+    """An integer option of at least ``least``; a DataError naming it (``what``) otherwise."""
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < least:
+        raise DataError(f"{what} must be an integer of at least {least}, got {value!r}")
 
 
 def leave_one_group_out(jac, residual, groups) -> np.ndarray:

@@ -38,10 +38,18 @@ class SmoothingSpline(Signal):
         self.name = name
         if t.shape != y.shape or t.ndim != 1:
             raise DataError(f"{name}: time and values must be 1-d arrays of the same length")
+        try:
+            spacing = float(knot_spacing)
+        except (TypeError, ValueError):
+            spacing = np.nan
+        if not 0 < spacing < np.inf:
+            raise DataError(f"{name}: knot_spacing must be a positive number of seconds, got {knot_spacing!r}")
+        if not isinstance(degree, (int, np.integer)) or not 1 <= degree <= 5:
+            raise DataError(f"{name}: degree must be an integer from 1 to 5, got {degree!r}")
         span = t[-1] - t[0]
-        n_int = max(1, int(round(span / knot_spacing)))
+        n_int = max(1, int(round(span / spacing)))
         if len(t) < 2 * (n_int + degree):
-            raise DataError(f"{name}: {len(t)} samples are too few for a knot spacing of {knot_spacing} s "
+            raise DataError(f"{name}: {len(t)} samples are too few for a knot spacing of {spacing} s "
                             f"over {span:.3g} s")
         inner = np.linspace(t[0], t[-1], n_int + 1)
         knots = np.r_[[t[0]] * degree, inner, [t[-1]] * degree]

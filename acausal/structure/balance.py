@@ -11,21 +11,26 @@ import networkx as nx
 
 from ..errors import StructureError
 from ..symbols import split_der
+from .system import EquationSystem
 
 
 def max_matching(eq_vars: list[set], unknowns: list[str]) -> dict:
-    """Maximum bipartite matching; returns {eq index: unknown name}."""
+    """Maximum bipartite matching (Hopcroft-Karp); returns {eq index: unknown name}.
+
+    The graph's nodes are integers (equation ``k`` is ``k``, unknown ``i`` is ``len(eq_vars) + i``): networkx
+    keeps them in sets, and integers, unlike strings, hash the same in every process, so the same system always
+    gets the same matching (and so the same blocks, tearing and generated code)."""
+    n_eq = len(eq_vars)
+    var_node = {u: n_eq + i for i, u in enumerate(unknowns)}
     g = nx.Graph()
-    eq_nodes = [("e", k) for k in range(len(eq_vars))]
-    g.add_nodes_from(eq_nodes, bipartite=0)
-    g.add_nodes_from((("v", u) for u in unknowns), bipartite=1)
-    known = set(unknowns)
+    g.add_nodes_from(range(n_eq), bipartite=0)
+    g.add_nodes_from(var_node.values(), bipartite=1)
     for k, vs in enumerate(eq_vars):
         for v in sorted(vs):
-            if v in known:
-                g.add_edge(("e", k), ("v", v))
-    m = nx.bipartite.hopcroft_karp_matching(g, top_nodes=eq_nodes)
-    return {node[1]: m[node][1] for node in eq_nodes if node in m}
+            if v in var_node:
+                g.add_edge(k, var_node[v])
+    m = nx.bipartite.hopcroft_karp_matching(g, top_nodes=range(n_eq))
+    return {k: unknowns[m[k] - n_eq] for k in range(n_eq) if k in m}
 
 
 def _alternating_reach(start_nodes, eq_vars, match_e2v, from_equations: bool):
@@ -60,19 +65,17 @@ def _alternating_reach(start_nodes, eq_vars, match_e2v, from_equations: bool):
     return eqs, vars_
 
 
-def check_balance(eq_vars: list[set], origins: list[str], variables: list[str], owner_of,
-                  residuals: list | None = None) -> None:
-    """Raise :class:`StructureError` naming the culprits if the system is not balanced and matchable.
-
-    ``eq_vars[k]`` are the variable names (derivatives included) in equation ``k``; ``variables`` the base
-    unknowns; ``owner_of(name)`` the component a variable belongs to; ``residuals`` (optional) the equations
-    themselves, quoted when one has no unknown left (e.g. two sources fixing the same voltage).
-    """
+def check_balance(system: EquationSystem) -> EquationSystem:
+    """Return ``system`` if it is balanced and matchable; otherwise raise :class:`StructureError` naming the
+    culprits: the components of the over-determined equations, or the unknowns (and their components) no
+    equation determines, quoting an equation left without any unknown (e.g. two sources fixing one voltage).
+    Every variable counts together with its derivatives."""
+    eq_vars, origins, variables, residuals = system.eq_vars, system.origins, system.base, system.residuals
     base_eq_vars = [{split_der(v)[0] for v in vs} for vs in eq_vars]
     n_eq, n_var = len(eq_vars), len(variables)
     match = max_matching(base_eq_vars, variables)
     if len(match) == n_eq == n_var:
-        return
+        return system
     unmatched_eqs = [k for k in range(n_eq) if k not in match]
     matched_vars = set(match.values())
     unmatched_vars = [v for v in variables if v not in matched_vars]
@@ -80,22 +83,21 @@ def check_balance(eq_vars: list[set], origins: list[str], variables: list[str], 
     if unmatched_vars:
         _, vs = _alternating_reach(unmatched_vars, base_eq_vars, match, from_equations=False)
         vs = sorted(vs)
-        comps = sorted({owner_of(v) for v in vs})
+        comps = sorted({system.owner(v) for v in vs})
         lines.append(f"under-determined: no equation is left for {_fmt(unmatched_vars)}; the unknowns "
                      f"{_fmt(vs)} of {_fmt(comps)} lack {len(unmatched_vars)} equation(s)")
     if unmatched_eqs:
         es, vs = _alternating_reach(unmatched_eqs, base_eq_vars, match, from_equations=True)
         comps = sorted({origins[k] for k in es})
         line = f"over-determined: {len(unmatched_eqs)} equation(s) too many among those of {_fmt(comps)}"
-        # (fix) an equation left without unknowns after alias elimination used to give an empty
-        # "(they all constrain )"; quote such equations instead, they name the parameters in conflict
+        # an equation left without unknowns after alias elimination constrains nothing: it is quoted instead,
+        # since it names the parameters in conflict
         if vs:
             line += f" (they all constrain {_fmt(sorted(vs))})"
         empty = [k for k in unmatched_eqs if not base_eq_vars[k]]
         if empty:
             line += "; " + "; ".join(
-                f"the equation from {origins[k]} has no unknown left"
-                + (f" (it reads 0 = {residuals[k]})" if residuals is not None else "") for k in empty)
+                f"the equation from {origins[k]} has no unknown left (it reads 0 = {residuals[k]})" for k in empty)
         lines.append(line)
     if n_eq == n_var:
         lines[0] += ", but they are structurally singular"

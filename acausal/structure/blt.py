@@ -2,14 +2,19 @@
 connected components of the dependency graph (Tarjan, via networkx) so each block needs only earlier blocks."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import networkx as nx
 
 from ..errors import StructureError
 from .balance import _alternating_reach, _fmt, max_matching
+from .system import EquationSystem
 
 
-def blt_blocks(eq_vars: list[set], unknowns: list[str], origins: list[str]) -> list[tuple[list[int], list[str]]]:
-    """Return blocks ``(equation indices, unknown names)`` in evaluation order."""
+def blt_blocks(system: EquationSystem) -> EquationSystem:
+    """``system`` (after index reduction) with its ``blocks``: ``(equation indices, unknown names)`` in
+    evaluation order, each block needing only the states and earlier blocks."""
+    eq_vars, unknowns, origins = system.eq_vars, system.unknowns, system.origins
     unk = set(unknowns)
     evars = [{v for v in vs if v in unk} for vs in eq_vars]
     match = max_matching(evars, sorted(unknowns))
@@ -44,4 +49,4 @@ def blt_blocks(eq_vars: list[set], unknowns: list[str], origins: list[str]) -> l
     for c in order:
         eqs = sorted(comp_eqs[c])
         blocks.append((eqs, [match[e] for e in eqs]))
-    return blocks
+    return replace(system, blocks=blocks)

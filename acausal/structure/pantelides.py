@@ -12,57 +12,24 @@ and then their names, so the same model always gives the same states.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import replace
 
 from ..errors import StructureError
 from ..symbols import der, der_name, split_der
+from .system import EquationSystem
 
 
-@dataclass
-class IndexReduction:
-    residuals: list  # augmented equations (originals first, then differentiated ones)
-    origins: list
-    eq_pred: list  # eq k is d/dt of eq_pred[k] (None for originals)
-    eq_vars: list  # variable names in each equation
-    variables: list  # all variable names (base and derivatives) that occur
-    var_diff: dict  # name -> name of its derivative, when it occurs
-    states: list  # variables integrated in time
-    dummies: set = field(default_factory=set)
-    differentiations: int = 0  # most times any equation was differentiated
-
-    @property
-    def index(self) -> int:
-        """Differential index estimate: 0 for an ODE, otherwise 1 + the most differentiations needed."""
-        has_algebraic = any(split_der(v)[1] == 0 and v not in self.var_diff for v in self.variables)
-        if self.differentiations == 0 and not has_algebraic:
-            return 0
-        return self.differentiations + 1
-
-    @property
-    def unknowns(self) -> list:
-        """Everything the equations determine at each instant: all variables except the states."""
-        s = set(self.states)
-        return [v for v in self.variables if v not in s]
-
-
-def reduce_index(residuals, origins, varnames, state_select, var_filter) -> IndexReduction:
-    """Run Pantelides and the dummy-derivative selection.
-
-    ``varnames`` are the base variable names; ``state_select(name)`` their preference (0 never .. 4 always);
-    ``var_filter(expr)`` returns the variable names (base or derivative) occurring in ``expr``.
-    """
-    residuals = list(residuals)
-    origins = list(origins)
-    eq_vars = [var_filter(r) for r in residuals]
-    variables = set(varnames)
-    for vs in eq_vars:
-        variables |= vs
-    var_diff = {}
-    for v in variables:
-        d = der_name(v)
-        if d in variables:
-            var_diff[v] = d
-    eq_pred: list = [None] * len(residuals)
+def reduce_index(system: EquationSystem) -> EquationSystem:
+    """Run Pantelides and the dummy-derivative selection on ``system`` (the equations of the model, see
+    :meth:`EquationSystem.from_flat`); returns a new system with the differentiated equations appended and
+    ``eq_pred``, ``variables``, ``var_diff``, ``states``, ``dummies`` and ``differentiations`` filled in.
+    Preferences for states come from ``system.state_select``."""
+    residuals = list(system.residuals)
+    origins = list(system.origins)
+    eq_vars = list(system.eq_vars)
+    variables = set(system.variables)
+    var_diff = dict(system.var_diff)
+    eq_pred: list = list(system.eq_pred)
     eq_diff: list = [None] * len(residuals)
     assign: dict = {}  # variable -> equation
 
@@ -91,7 +58,7 @@ def reduce_index(residuals, origins, varnames, state_select, var_filter) -> Inde
                 eq_pred.append(e)
                 eq_diff.append(None)
                 eq_diff[e] = len(residuals) - 1
-                vs = var_filter(dr)
+                vs = system.incidence(dr)
                 eq_vars.append(vs)
                 variables |= vs
                 for v in vs:
@@ -110,7 +77,8 @@ def reduce_index(residuals, origins, varnames, state_select, var_filter) -> Inde
         if der_name(v) in variables:
             var_diff[v] = der_name(v)
     var_pred = {d: v for v, d in var_diff.items()}
-    dummies = _dummy_derivatives(eq_pred, eq_diff, eq_vars, variables, var_diff, var_pred, state_select, origins)
+    dummies = _dummy_derivatives(eq_pred, eq_diff, eq_vars, variables, var_diff, var_pred, system.preference,
+                                 origins)
     states = sorted(v for v, d in var_diff.items() if d not in dummies)
     depth = 0
     for k in range(len(residuals)):
@@ -118,7 +86,9 @@ def reduce_index(residuals, origins, varnames, state_select, var_filter) -> Inde
         while eq_pred[e] is not None:
             n, e = n + 1, eq_pred[e]
         depth = max(depth, n)
-    return IndexReduction(residuals, origins, eq_pred, eq_vars, sorted(variables), var_diff, states, dummies, depth)
+    return replace(system, residuals=residuals, origins=origins, eq_pred=eq_pred, eq_vars=eq_vars,
+                   variables=sorted(variables), var_diff=var_diff, states=states, dummies=dummies,
+                   differentiations=depth)
 
 
 def _augment(i, eq_vars, assign, highest, colored_e, colored_v) -> bool:
