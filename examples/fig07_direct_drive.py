@@ -15,7 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
+from acausal.models.ankle.paper import comparison, pick  # noqa: E402
+from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 

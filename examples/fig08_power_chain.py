@@ -14,7 +14,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
-from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
+from acausal.models.ankle.paper import comparison, pick  # noqa: E402
+from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 

@@ -18,7 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.ankle.paper import D_MAX, PAPER, comparison, grid_rows, heatmap, replay_grid  # noqa: E402
+from acausal.models.ankle.paper import D_MAX, comparison, grid_rows, heatmap, replay_grid  # noqa: E402
+from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 

@@ -14,7 +14,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
-from acausal.models.ankle.paper import PAPER, comparison, pick  # noqa: E402
+from acausal.models.ankle.paper import comparison, pick  # noqa: E402
+from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.sankey import LABELS, LOSSLESS_LINKAGE, loss_names_from_groups  # noqa: E402
 from acausal.sankey import sankey  # noqa: E402

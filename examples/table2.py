@@ -22,7 +22,8 @@ import numpy as np  # noqa: E402
 from acausal.library.drives import DCMotor  # noqa: E402
 from acausal.models.ankle.presets import DESCRIPTIONS, preset  # noqa: E402
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
-from acausal.models.ankle.paper import PAPER, TABLE2_PRESETS, pick, rms  # noqa: E402
+from acausal.models.ankle.paper import TABLE2_PRESETS, pick, rms  # noqa: E402
+from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 

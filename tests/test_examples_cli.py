@@ -51,7 +51,7 @@ def test_csvs_parse(out):
         assert rows, path.name
         assert all(len(r) == len(rows[0]) and None not in r for r in rows), path.name
         numeric = [k for k, v in rows[0].items() if re.fullmatch(r"-?[\d.]+(e[-+]?\d+)?", v or "")]
-        assert numeric, path.name
+        assert numeric or path.name == "claims.csv", path.name  # the claims table is verdicts in words
         for r in rows:
             for k in numeric:
                 float(r[k])
@@ -88,3 +88,16 @@ def test_diagnose_on_a_missing_folder_fails_clearly(tmp_path, capsys):
 
 def test_no_verb_is_an_error(capsys):
     assert main([]) == 2
+
+
+def test_claims_table_is_written_and_in_the_report(out):
+    with (out / "claims.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [r["id"] for r in rows] == [f"C{i}" for i in range(1, 14)]
+    assert set(rows[0]) >= {"id", "statement", "paper", "simulated", "holds", "used_in_fit", "note", "preset"}
+    assert {r["holds"] for r in rows} <= {"yes", "no", "not checked"}
+    held = {r["id"]: r["holds"] for r in rows}
+    assert held["C2"] == "not checked"  # the quick grid has 9 of the 36 conditions
+    assert held["C1"] in ("yes", "no") and held["C10"] in ("yes", "no")
+    text = (out / "report.md").read_text()
+    assert "## Claims" in text and f"**{sum(h == 'yes' for h in held.values())} of 13 hold**" in text

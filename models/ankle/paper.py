@@ -14,17 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-from acausal.library.drives import PWMDriver
-
 from ..reporting.tables import md_table, pct, write_csv
-from .protocol import (PAPER_TABLE1, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
+from .claims import evaluate as evaluate_claims
+from .protocol import (D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
 
 #: every time series the examples plot (names a model lacks are skipped by ``run_condition``)
 TRACES = ("arm_ref.y.value", "arm_angle.phi.value", "motor.i")
 
-#: the driver's largest duty cycle: a replay needing more means the motor cannot follow at the bus voltage
-D_MAX = PWMDriver.d_max.default
 
 #: the reduced grid of ``acausal paper --quick`` (for tests)
 QUICK_PRECOMPRESSIONS = [0.005, 0.008, 0.018]
@@ -33,23 +30,6 @@ QUICK_STRIDE_TIMES = [1.2, 2.0, 3.0]
 #: Table 2's Eq. 4 presets (models/ankle/presets.py), in the paper's column order
 TABLE2_PRESETS = ["paper_datasheet", "paper_estimated_total", "paper_optimized_total_as_printed",
                   "paper_optimized_total_arm_side"]
-
-#: the paper's numbers (section 4, Table 1, Figs. 7-13, 15)
-PAPER = {
-    "table1_energy": dict(PAPER_TABLE1),  # J, 8 mm, 2 s/stride
-    "table1_efficiency": {"source": 1.0, "driver": 0.651, "motor": 0.512, "link": 0.239, "output": 0.186},
-    "table1_loss": {"source": 0.0, "driver": 0.349, "motor": 0.214, "link": 0.533, "output": 0.221},
-    "fig7_energy_actuator": 122.0,  # J/stride, 8 mm, 3 s/stride, "one of the first experiments"
-    "fig7_energy_direct": 126.0,
-    "fig7_peak_ratio": 1.40,  # direct-drive (output motor) peak / actuator peak at the driver input
-    "fig8_driver_min_power": -50.0,  # W, driver power's negative peak (source stays about 0 W)
-    "fig9_driver_loss_range": (0.286, 0.493),
-    "fig11_gearing_loss_min": 0.50,  # "never below 50 %", "over 65 %" at high P and short strides
-    "fig11_gearing_loss_worst": 0.65,
-    "fig12_output_loss_typical": 0.20,  # "around 20 %", "over 50 % in the worst case"
-    "fig12_output_loss_worst": 0.50,
-    "fig15_efficiency_8mm_2s": 0.186,  # Table 1's overall efficiency
-}
 
 #: the assumptions that drive a difference from the paper (named in the report where sim and paper differ > 25 %)
 ASSUMPTIONS = {
@@ -262,8 +242,21 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     L += ["## Summary of the comparison", "",
           f"{len(comps)} numbers compared with the paper; {n_diff} differ by more than 25 % (each with the "
           f"assumption that drives it, above).", ""]
+    claims = evaluate_claims(out_dir)
+    write_csv(out_dir / "claims.csv", claims)
+    held = sum(c["holds"] == "yes" for c in claims)
+    unchecked = sum(c["holds"] == "not checked" for c in claims)
+    L += ["## Claims", "",
+          f"The paper's claims, each checked on the CSV files of this run (`library` preset; "
+          f"`acausal.models.ankle.claims`): **{held} of {len(claims)} hold**"
+          + (f", {unchecked} not checked on this run" if unchecked else "") + ". A claim that does not hold says "
+          "by how much; nothing is fitted to make one hold.", "",
+          md_table(["id", "claim", "paper", "simulation", "holds", "how it is read"],
+                   [[c["id"], c["statement"], c["paper"], c["simulated"], f"**{c['holds']}**", c["note"]]
+                    for c in claims]), ""]
     L += ["## Files", "", "- [`protocol.csv`](protocol.csv): one row per simulated condition (energies at the "
-          "five points, stage losses, peak powers, efficiency, balance residual, tracking error, required duty)."]
+          "five points, stage losses, peak powers, efficiency, balance residual, tracking error, required duty).",
+          "- [`claims.csv`](claims.csv): the paper's claims, the simulated value and whether each holds."]
     for o in outputs:
         for f in [*o.get("figures", []), *o.get("csv", [])]:
             L += [f"- [`{Path(f).name}`]({Path(f).name})"]

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from acausal import compile_model
+from acausal.library.drives import PWMDriver
 from acausal.energy import balance
 from acausal.sweep import sweep as run_sweep
 
@@ -28,11 +29,13 @@ from .presets import preset
 
 PRECOMPRESSIONS = [0.002, 0.005, 0.008, 0.011, 0.015, 0.018]  # m (paper section 4)
 STRIDE_TIMES = [1.2, 1.3, 1.5, 2.0, 2.5, 3.0]  # s per stride (paper section 4)
+#: the driver's largest duty cycle: a replay needing more means the motor cannot follow at the bus voltage
+D_MAX = PWMDriver.d_max.default
+
 #: the paper's measurement points in chain order: a drive train's power sensors, in the order it builds them
 POINTS = ("source", "driver", "motor", "link", "output")
 STAGES = [("driver", "source", "driver"), ("motor", "driver", "motor"), ("gearing", "motor", "link"),
           ("output", "link", "output")]  # (stage, from point, to point)
-PAPER_TABLE1 = {"source": 64.5, "driver": 42.0, "motor": 33.0, "link": 15.4, "output": 12.0}  # J, 8 mm, 2 s
 
 _COMPILED: dict = {}  # per-process cache: build key -> Compiled (compiled once per worker)
 
@@ -119,6 +122,7 @@ class StrideResult:
         r.update({f"E_{k}_J": v for k, v in self.energy.items()})
         r.update({f"loss_{k}_J": v for k, v in self.stage_loss.items()})
         r.update({f"peak_{k}_W": v for k, v in self.peak_power.items()})
+        r.update({f"min_{k}_W": float(np.min(p)) for k, p in self.power.items()})
         r.update(efficiency=self.efficiency["output"], balance_residual=self.balance_residual,
                  tracking_rms_rad=self.tracking_rms, tracking_max_rad=self.tracking_max, max_duty=self.max_duty,
                  peak_motor_speed=self.peak_motor_speed, peak_motor_current=self.peak_motor_current)

@@ -1,0 +1,282 @@
+"""The paper's claims, each checked against what ``acausal paper`` computed (``claims.csv``, the report's "Claims").
+
+Every check reads the CSV files the run wrote into its output folder (``protocol.csv``, ``design_optima.csv``,
+``design_maps.csv``, ``fig07_summary.csv``, ``diagnosis_gear_losses.csv``): nothing here is typed in but the
+paper's own statements and numbers (:data:`acausal.models.ankle.published.PAPER` and the paper's sections named in
+each claim), and the tolerance each statement is read with (in the claim's ``reading``). A claim that a file does
+not support (a reduced ``--quick`` grid) is reported as not checked, never as holding.
+
+Loss fractions are per stage, relative to the energy entering the stage (the paper's Table 1 last column and
+Figs. 9-12): driver ``1 - E_driver / E_source``, motor ``1 - E_motor / E_driver``, gearing ``1 - E_link / E_motor``,
+output ``1 - E_output / E_link``.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from .protocol import D_MAX, POINTS
+from .published import PAPER
+STAGE_OF = {"driver": ("source", "driver"), "motor": ("driver", "motor"), "gearing": ("motor", "link"),
+            "output": ("link", "output")}
+
+
+def read_csv(path: Path) -> list[dict]:
+    """Rows of a CSV written by the run; numbers as floats, the rest as text."""
+    def value(v):
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    with Path(path).open(newline="") as f:
+        return [{k: value(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+class Tables:
+    """The run's CSV files, read on first use (``preset``: the parameter set the claims are checked on)."""
+
+    def __init__(self, out_dir, preset: str = "library"):
+        self.dir, self.preset, self._cache = Path(out_dir), preset, {}
+
+    def __getitem__(self, name: str) -> list[dict]:
+        if name not in self._cache:
+            path = self.dir / f"{name}.csv"
+            self._cache[name] = read_csv(path) if path.exists() else []
+        return self._cache[name]
+
+    def grid(self) -> dict:
+        """The replay conditions of the preset: {(P_mm, stride_time_s): row}."""
+        return {(r["P_mm"], r["stride_time_s"]): r for r in self["protocol"]
+                if r["model"] == "replay" and r["preset"] == self.preset}
+
+    def run(self, model: str, P_mm: float | None, T: float) -> dict | None:
+        for r in self["protocol"]:
+            if r["model"] == model and r["preset"] == self.preset and math.isclose(r["stride_time_s"], T) and (
+                    P_mm is None or math.isclose(r["P_mm"], P_mm)):
+                return r
+        return None
+
+
+def loss(row: dict, stage: str) -> float:
+    a, b = STAGE_OF[stage]
+    return 1.0 - row[f"E_{b}_J"] / row[f"E_{a}_J"]
+
+
+def _axes(grid: dict):
+    return sorted({p for p, _ in grid}), sorted({t for _, t in grid})
+
+
+def _monotone(values: list, slack: float = 1e-3) -> bool:
+    return all(b >= a - slack for a, b in zip(values, values[1:]))
+
+
+@dataclass(frozen=True)
+class Claim:
+    id: str
+    section: str
+    statement: str  # the paper's claim, in its words (shortened)
+    paper: str  # the paper's numbers
+    reading: str  # how it is checked: quantity and tolerance
+    check: Callable  # Tables -> (simulated: str, holds: bool | None, note: str)
+    used_in_fit: bool = False
+
+
+NOT_CHECKED = ("-", None)
+
+
+def _c1(t: Tables):
+    r = t.run("replay", 8, 2.0)
+    if r is None:
+        return (*NOT_CHECKED, "the 8 mm, 2 s/stride condition was not run")
+    ratios = {k: r[f"E_{k}_J"] / PAPER["table1_energy"][k] for k in POINTS}
+    worst = max(ratios, key=lambda k: abs(ratios[k] - 1))
+    return (" / ".join(f"{r[f'E_{k}_J']:.1f}" for k in POINTS) + " J", all(abs(v - 1) <= 0.15 for v in ratios.values()),
+            f"largest deviation at {worst}: {100 * (ratios[worst] - 1):+.0f} %")
+
+
+def _c2(t: Tables):
+    g = t.grid()
+    if len(g) < 36:
+        return (*NOT_CHECKED, f"{len(g)} of 36 grid conditions")
+    vals = [loss(r, "driver") for r in g.values()]
+    lo, hi = PAPER["fig9_driver_loss_range"]
+    return (f"{100 * min(vals):.1f}-{100 * max(vals):.1f} %", abs(min(vals) - lo) <= 0.06 and abs(max(vals) - hi) <= 0.06,
+            f"paper {100 * lo:.1f}-{100 * hi:.1f} %")
+
+
+def _c3(t: Tables):
+    g = t.grid()
+    Ps, Ts = _axes(g)
+    if len(Ts) < 2:
+        return (*NOT_CHECKED, "one stride time only")
+    bad = [P for P in Ps if not _monotone([loss(g[(P, T)], "driver") for T in Ts if (P, T) in g])]
+    return (f"grows with stride time at {len(Ps) - len(bad)} of {len(Ps)} precompressions", not bad,
+            f"not at {', '.join(f'{P:g} mm' for P in bad)}" if bad else "")
+
+
+def _c4(t: Tables):
+    g = t.grid()
+    if len(g) < 36:
+        return (*NOT_CHECKED, f"{len(g)} of 36 grid conditions")
+    (P, T), _ = min(g.items(), key=lambda kv: loss(kv[1], "driver"))
+    return (f"minimum at {P:g} mm, {T:g} s/stride", abs(P - 11) <= 3.0 and abs(T - 1.5) <= 0.5,
+            "near: within 3 mm and 0.5 s of 11 mm, 1.5 s")
+
+
+def _c5(t: Tables):
+    g = t.grid()
+    Ps, Ts = _axes(g)
+    if len(Ps) < 2 or len(Ts) < 2:
+        return (*NOT_CHECKED, "grid too small")
+    by_T = [P for P in Ps if not _monotone([loss(g[(P, T)], "motor") for T in Ts if (P, T) in g])]
+    by_P = [T for T in Ts if not _monotone([loss(g[(P, T)], "motor") for P in Ps if (P, T) in g])]
+    note = "; ".join(filter(None, [f"not with stride time at {', '.join(f'{P:g} mm' for P in by_T)}" if by_T else "",
+                                   f"not with precompression at {', '.join(f'{T:g} s' for T in by_P)}" if by_P else ""]))
+    return (f"{len(Ps) - len(by_T)}/{len(Ps)} rows, {len(Ts) - len(by_P)}/{len(Ts)} columns grow", not by_T and not by_P,
+            note)
+
+
+def _c6(t: Tables):
+    g = t.grid()
+    if not g:
+        return (*NOT_CHECKED, "no grid")
+    vals = {k: loss(r, "gearing") for k, r in g.items()}
+    corner = [v for (P, T), v in vals.items() if P >= 15 and T <= 1.3]
+    worst = max(corner) if corner else float("nan")
+    return (f"{100 * min(vals.values()):.1f}-{100 * max(vals.values()):.1f} %, high P / short strides up to "
+            f"{100 * worst:.1f} %", min(vals.values()) >= PAPER["fig11_gearing_loss_min"]
+            and worst > PAPER["fig11_gearing_loss_worst"], "")
+
+
+def _c7(t: Tables):
+    g = t.grid()
+    if not g:
+        return (*NOT_CHECKED, "no grid")
+    vals = [loss(r, "output") for r in g.values()]
+    mean = sum(vals) / len(vals)
+    holds = abs(mean - PAPER["fig12_output_loss_typical"]) <= 0.05 and max(vals) > PAPER["fig12_output_loss_worst"]
+    return (f"mean {100 * mean:.1f} %, worst {100 * max(vals):.1f} %", holds, "around 20 %: within 5 points")
+
+
+def _c8(t: Tables):
+    g = t.grid()
+    fast, slow = g.get((18, 1.2)), g.get((18, 3.0))
+    if fast is None or slow is None or len(g) < 36:
+        return (*NOT_CHECKED, "needs the 36-condition grid")
+    follows = sum(r["max_duty"] <= D_MAX for r in g.values())
+    holds = fast["max_duty"] > D_MAX and slow["max_duty"] <= D_MAX and follows >= 30
+    return (f"duty at 18 mm: {fast['max_duty']:.2f} (1.2 s), {slow['max_duty']:.2f} (3 s); follows in {follows}/36",
+            holds, f"follows: required duty <= {D_MAX:g}")
+
+
+def _c9(t: Tables):
+    rows = {r["drive"]: r for r in t["fig07_summary"]}
+    if len(rows) < 2:
+        return (*NOT_CHECKED, "fig07_summary.csv missing")
+    act, dd = rows["MACCEPA actuator"], rows["direct drive"]
+    peak = dd["peak_source_power_W"] / act["peak_source_power_W"]
+    energy = dd["energy_per_stride_J"] / act["energy_per_stride_J"]
+    return (f"peak ratio {peak:.2f}, energy ratio {energy:.2f}", 1.3 <= peak <= 1.6 and abs(energy - 1) <= 0.10,
+            "")
+
+
+def _c10(t: Tables):
+    r = t.run("replay", 8, 2.0)
+    if r is None or "min_driver_W" not in r:
+        return (*NOT_CHECKED, "the 8 mm, 2 s/stride condition was not run")
+    return (f"driver output down to {r['min_driver_W']:.1f} W, source down to {r['min_source_W']:.2f} W",
+            -65 <= r["min_driver_W"] <= -35 and r["min_source_W"] > -1.0, "source near 0 W: above -1 W")
+
+
+def _optimum(t: Tables, T: float):
+    return next((r for r in t["design_optima"] if math.isclose(r["stride_time_s"], T)), None)
+
+
+def _c11(t: Tables):
+    o = _optimum(t, 1.2)
+    if o is None:
+        return (*NOT_CHECKED, "design_optima.csv missing")
+    gain = o["refined_efficiency"] - o["efficiency_at_paper_design"]
+    holds = (o["refined_kNpm"] < o["paper_design_kNpm"] and 0.10 <= o["efficiency_at_paper_design"] <= 0.20
+             and gain >= 0.08)
+    return (f"optimum {o['refined_kNpm']:.0f} N/mm, {o['refined_P_mm']:.1f} mm ({100 * o['refined_efficiency']:.1f} %);"
+            f" design point {100 * o['efficiency_at_paper_design']:.1f} %", holds, "")
+
+
+def _c12(t: Tables):
+    maps = t["design_maps"]
+    if not maps:
+        return (*NOT_CHECKED, "design_maps.csv missing")
+    cells = {}
+    for r in maps:
+        if r["feasible"] and not math.isnan(r["efficiency"]):
+            cells.setdefault((r["k_Npm"], r["P_m"]), {})[r["stride_time_s"]] = r["efficiency"]
+    both = [v for v in cells.values() if 1.2 in v and 2.0 in v]
+    higher = sum(v[2.0] > v[1.2] for v in both)
+    best = {}
+    for (k, P), v in cells.items():
+        for T, e in v.items():
+            if e > best.get((k, T), (-1, None))[0]:
+                best[(k, T)] = (e, P)
+    ks = sorted({k for k, _ in best})
+    later = [k for k in ks if (k, 1.2) in best and (k, 2.0) in best and best[(k, 2.0)][1] > best[(k, 1.2)][1]]
+    return (f"higher at 2 s in {higher}/{len(both)} designs; best P higher at 2 s for {len(later)}/{len(ks)} "
+            "stiffnesses", bool(both) and higher == len(both) and bool(later), "")
+
+
+def _c13(t: Tables):
+    rows = {r["parameter"]: r for r in t["diagnosis_gear_losses"]}
+    if "motor.R" not in rows:
+        return (*NOT_CHECKED, "diagnosis_gear_losses.csv missing")
+    ratio = rows["motor.R"]["baseline"] / rows["motor.R"]["truth"]
+    R0, R1 = PAPER["table2_R"]
+    paper = R1 / R0
+    return (f"R {rows['motor.R']['truth']:.2g} -> {rows['motor.R']['baseline']:.2g} ohm ({ratio:.2f}x)",
+            abs(ratio / paper - 1) <= 0.25, f"about: within 25 % of the paper's {paper:.2f}x")
+
+
+CLAIMS = [
+    Claim("C1", "Table 1", "8 mm, 2 s/stride: energy per stride at source, driver, motor, link, output",
+          " / ".join(f"{v:g}" for v in PAPER["table1_energy"].values()) + " J", "each energy within 15 %", _c1),
+    Claim("C2", "4.2.1, Fig. 9", "the driver loss spans 28.6-49.3 % over the conditions", "28.6-49.3 %",
+          "minimum and maximum each within 6 points", _c2),
+    Claim("C3", "4.2.1", "the driver loss grows with stride time (its constant 10-15 W draw)", "grows",
+          "at every precompression, non-decreasing over stride time", _c3),
+    Claim("C4", "4.2.1", "the driver loss is lowest near 11 mm and 1.5 s/stride", "11 mm, 1.5 s",
+          "grid minimum near there", _c4),
+    Claim("C5", "4.2.2, Fig. 10", "the motor loss grows with stride time and with precompression", "grows",
+          "non-decreasing along every row and column of the grid", _c5),
+    Claim("C6", "4.2.3, Fig. 11", "the gearing loss is never below 50 %, above 65 % at high precompression and "
+          "short strides", ">= 50 %, > 65 %", "grid minimum >= 50 %, worst of P >= 15 mm and T <= 1.3 s above 65 %", _c6),
+    Claim("C7", "4.2.3, Fig. 12", "the output (linkage) loss is around 20 %, above 50 % in the worst case", "~20 %, > 50 %",
+          "grid mean within 5 points of 20 %, maximum above 50 %", _c7),
+    Claim("C8", "4.2.3, Fig. 13", "at 18 mm the motor cannot follow at 1.2 s/stride but follows at 3 s", "fails only there",
+          "required duty > 0.9 at 1.2 s, <= 0.9 at 3 s; follows in >= 30 of 36 conditions", _c8),
+    Claim("C9", "4.1, Fig. 7", "8 mm, 3 s/stride: the direct drive's peak source power is about 40 % higher "
+          "for about the same energy", "1.4x, 126 vs 122 J", "peak ratio 1.3-1.6, energy within 10 %", _c9),
+    Claim("C10", "4.2.1, Fig. 8", "the driver output power dips to about -50 W while the source stays near 0 W", "-50 W, 0 W",
+          "minimum driver power -35 to -65 W, source above -1 W", _c10),
+    Claim("C11", "4.4, Fig. 16", "at 1.2 s/stride lower stiffness is more efficient than the design (130 N/mm, "
+          "7 mm), 15 % -> 25 % reachable", "lower k, 15 -> 25 %", "optimum below 130 N/mm, design point 10-20 %, optimum >= 8 points higher",
+          _c11),
+    Claim("C12", "4.4, Fig. 17", "at 2 s/stride efficiencies are higher, and for some stiffnesses the best "
+          "precompression is higher", "higher", "every design more efficient at 2 s; some stiffness's best P higher", _c12),
+    Claim("C13", "4.3, Table 2", "calibrating Eq. 4 (ideal gears) inflates the resistance (0.7 -> 2 ohm)", "0.7 -> 2 ohm",
+          "baseline R over truth within 25 % of 2.86", _c13),
+]
+
+
+def evaluate(out_dir, preset: str = "library") -> list[dict]:
+    """The claims checked on the CSV files in ``out_dir``: one row per claim (``claims.csv``'s columns)."""
+    t = Tables(out_dir, preset)
+    rows = []
+    for c in CLAIMS:
+        simulated, holds, note = c.check(t)
+        rows.append(dict(id=c.id, statement=f"[{c.section}] {c.statement}", paper=c.paper, simulated=simulated,
+                         holds="not checked" if holds is None else ("yes" if holds else "no"),
+                         used_in_fit="yes" if c.used_in_fit else "no", preset=preset,
+                         note="; ".join(filter(None, [f"read as: {c.reading}", note]))))
+    return rows
