@@ -197,3 +197,15 @@ def test_models_is_a_shallow_house():
         return depth[m]
     deepest = max(mods, key=floor)
     assert floor(deepest) <= 5, (deepest, depth)
+
+
+def test_every_package_ships():
+    """Each folder with an __init__.py is a package of the distribution (a wheel would miss it otherwise)."""
+    import tomllib
+    root = MODELS_DIR.parent
+    conf = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    dirs = {str(Path(d)) for d in conf["package-dir"].values()}
+    assert set(conf["packages"]) == set(conf["package-dir"])
+    for top in ("acausal", "library", "models"):
+        for init in (root / top).rglob("__init__.py"):
+            assert str(init.parent.relative_to(root)) in dirs, init.parent
