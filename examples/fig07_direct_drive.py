@@ -63,7 +63,8 @@ def main(out_dir: Path, results=None) -> dict:
     tab.auto_set_font_size(False)
     tab.set_fontsize(9)
     tab.scale(1, 1.4)
-    png = save_figure(fig, out_dir / "fig07_direct_drive.png")
+    png = save_figure(fig, out_dir / "fig07_direct_drive.png",
+                      shows="simulation: AnkleActuator and DirectDrive (replay), preset library")
 
     md = md_table(["drive", "peak source power [W]", "energy per stride sim [J]", "energy per stride paper [J]",
                    "joint work [J]"],

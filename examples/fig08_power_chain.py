@@ -51,7 +51,8 @@ def main(out_dir: Path, results=None) -> dict:
                  "(simulation)", fontsize=10)
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3)
-    png = save_figure(fig, out_dir / "fig08_power_chain.png")
+    png = save_figure(fig, out_dir / "fig08_power_chain.png",
+                      shows="simulation: AnkleActuator (replay), preset library")
 
     md = md_table(["measurement point", "energy per stride [J]", "mean power [W]", "peak magnitude of power [W]",
                    "time of the peak [ms]"],

@@ -64,7 +64,8 @@ def main(out_dir: Path, results=None) -> dict:
                       f"{rms(p_cl - p_rp):.1f}"])
     fig.suptitle("Fig. 13: tracking of the moment-arm angle (upper) and its effect on the power to the joint (lower),"
                  " closed loop at 48 V", fontsize=10.5)
-    png = save_figure(fig, out_dir / "fig13_tracking.png")
+    png = save_figure(fig, out_dir / "fig13_tracking.png",
+                      shows="simulation: AnkleActuator, closed loop and replay, preset library")
     csv_path = write_csv(out_dir / "fig13_tracking.csv", rows)
     md = md_table(["stride time [s]", "rms tracking error [deg]", "max tracking error [deg]", "largest duty",
                    "source energy [J/stride]", "joint work, closed loop [J/stride]", "joint work, planned [J/stride]",

@@ -20,6 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from acausal.models.ankle.protocol import D_MAX  # noqa: E402
 from acausal.models.bench import design  # noqa: E402
 from acausal.models.bench.virtual import TRUTH  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
@@ -31,16 +32,16 @@ PAPER_DESIGN = (130e3, 0.007)  # N/m, m (paper section 4.4)
 def calibrated_params(out_dir: Path):
     path = Path(out_dir) / "calibration.csv"
     if not path.exists():
-        return dict(TRUTH), "the virtual bench's truth values (no calibration.csv in the output folder)"
+        return dict(TRUTH), "the virtual bench's truth values (no calibration.csv in the output folder)", "eq4_truth"
     with path.open() as f:
         vals = {r["parameter"]: float(r["value"]) for r in csv.DictReader(f)}
-    return {**TRUTH, **vals}, "the calibrated values of `calibration.csv`"
+    return {**TRUTH, **vals}, "the calibrated values of `calibration.csv`", "eq4_calibrated"
 
 
 def main(out_dir: Path, results=None, executor=None) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    params, source = calibrated_params(out_dir)
+    params, source, preset = calibrated_params(out_dir)
     maps = {T: design.efficiency_map(T, params, executor=executor) for T in (1.2, 2.0)}
     peak = maps[1.2].optimum("peak_link_W", maximise=False)
     rows, opt_rows, figures = [], [], []
@@ -49,17 +50,19 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
         k_r, P_r, eff_r = design.refine(m, params)
         at_paper = m.at(*PAPER_DESIGN)
         at_peak = m.at(peak[0], peak[1])
-        opt_rows.append(dict(stride_time_s=T, paper_design_kNpm=PAPER_DESIGN[0] / 1e3, paper_design_P_mm=7.0,
-                             efficiency_at_paper_design=at_paper, peak_power_optimum_kNpm=peak[0] / 1e3,
+        opt_rows.append(dict(preset=preset, stride_time_s=T, paper_design_kNpm=PAPER_DESIGN[0] / 1e3,
+                             paper_design_P_mm=PAPER_DESIGN[1] * 1e3, efficiency_at_paper_design=at_paper,
+                             peak_power_optimum_kNpm=peak[0] / 1e3,
                              peak_power_optimum_P_mm=peak[1] * 1e3, efficiency_at_peak_power_optimum=at_peak,
                              grid_optimum_kNpm=k_e / 1e3, grid_optimum_P_mm=P_e * 1e3, grid_optimum_efficiency=eff,
                              refined_kNpm=k_r / 1e3, refined_P_mm=P_r * 1e3, refined_efficiency=eff_r,
                              designs=m.values["efficiency"].size,
-                             designs_over_duty_limit=int(np.nansum(m.values["max_duty"] > 0.9))))
+                             designs_over_duty_limit=int(np.nansum(m.values["max_duty"] > D_MAX))))
         for a, k in enumerate(m.k):
             for b, P in enumerate(m.P):
-                rows.append(dict(stride_time_s=T, k_Npm=k, P_m=P, **{key: float(v[a, b]) for key, v in m.values.items()}))
-        figures.append(_plot(out_dir, m, PAPER_DESIGN, peak, (k_r, P_r), T))
+                rows.append(dict(preset=preset, stride_time_s=T, k_Npm=k, P_m=P,
+                                 **{key: float(v[a, b]) for key, v in m.values.items()}))
+        figures.append(_plot(out_dir, m, PAPER_DESIGN, peak, (k_r, P_r), T, preset))
     maps_csv = write_csv(out_dir / "design_maps.csv", rows)
     opt_csv = write_csv(out_dir / "design_optima.csv", opt_rows)
     md = [f"Model: calibrated Eq. (4) ({source}). Grid: k {design.K_GRID[0] / 1e3:g}-{design.K_GRID[-1] / 1e3:g} "
@@ -86,22 +89,26 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
                 csv=[maps_csv, opt_csv], markdown="\n".join(md), comparisons=[], optima=opt_rows)
 
 
-def _plot(out_dir, m, paper, peak, refined, T):
+def _plot(out_dir, m, paper, peak, refined, T, preset):
     fig, ax = plt.subplots(figsize=(7.5, 5.2))
     K, P = np.meshgrid(m.k / 1e3, m.P * 1e3, indexing="ij")
     eff = 100 * m.values["efficiency"]
     cs = ax.contourf(K, P, eff, levels=16, cmap="viridis")
     fig.colorbar(cs, ax=ax, label="overall efficiency per stride [%]")
-    over = m.values["max_duty"] > 0.9
+    over = m.values["max_duty"] > D_MAX
     if over.any():
         ax.contourf(K, P, over.astype(float), levels=[0.5, 1.5], colors="none", hatches=["///"])
-    ax.plot(paper[0] / 1e3, paper[1] * 1e3, "rs", label="paper's design (130 N/mm, 7 mm)")
-    ax.plot(peak[0] / 1e3, peak[1] * 1e3, "w^", label="min. peak moment-arm power (1.2 s)")
-    ax.plot(refined[0] / 1e3, refined[1] * 1e3, "y*", ms=14, label="efficiency optimum (refined)")
+    marks = dict(mec="k", mew=1.0, clip_on=False, zorder=5, ls="none")  # visible on any colour, also on an edge
+    ax.plot(paper[0] / 1e3, paper[1] * 1e3, "s", mfc="red", ms=9, label="paper's design (130 N/mm, 7 mm)", **marks)
+    ax.plot(peak[0] / 1e3, peak[1] * 1e3, "^", mfc="white", ms=10, label="min. peak moment-arm power (1.2 s)",
+            **marks)
+    ax.plot(refined[0] / 1e3, refined[1] * 1e3, "*", mfc="magenta", ms=16, label="efficiency optimum (refined)",
+            **marks)
     ax.set_xlabel("spring stiffness k [N/mm]")
     ax.set_ylabel("precompression P [mm]")
     fig_no = 16 if T < 1.5 else 17
-    ax.set_title(f"Fig. {fig_no}: efficiency at {T} s per stride (hatched: duty > 0.9)", fontsize=10)
+    ax.set_title(f"Fig. {fig_no}: efficiency at {T} s per stride (hatched: duty > {D_MAX:g})\n"
+                 f"model: Eq. (4) replay (AnkleActuator.eq4), parameters: {preset}", fontsize=10)
     ax.legend(fontsize=7.5, loc="lower right")
     png = save_figure(fig, Path(out_dir) / f"fig{fig_no}_efficiency_{T}s.png")
     return png

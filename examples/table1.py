@@ -68,7 +68,7 @@ def main(out_dir: Path, results=None) -> dict:
                  f"{paper_e['output']:.1f} J to the joint ({100 * paper_eff['output']:.1f} %)")
     fig.suptitle("Table 1: where the energy of one stride goes (8 mm precompression, 2 s/stride; "
                  "arrow widths proportional to J per stride)", fontsize=11)
-    png = save_figure(fig, out_dir / "table1_sankey.png")
+    png = save_figure(fig, out_dir / "table1_sankey.png", shows="simulation: AnkleActuator (replay), preset library")
     flows = []
     for name, e in (("simulation", r.energy), ("paper", paper_e)):
         for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), loss_names):

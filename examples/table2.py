@@ -101,7 +101,8 @@ def main(out_dir: Path, results=None) -> dict:
     ax.legend(fontsize=7.5, ncol=3, loc="upper right")
     ax.grid(axis="y", alpha=0.3)
     ax.set_ylim(0, top)
-    png = save_figure(fig, out_dir / "table2_presets.png")
+    png = save_figure(fig, out_dir / "table2_presets.png",
+                      shows="simulation: AnkleActuator (replay), presets library and Table 2's Eq. 4 readings")
     bars_csv = write_csv(out_dir / "table2_presets.csv", bars)
     return dict(title="Table 2: the paper's Eq. 4 parameter sets (both readings)", figures=[png],
                 csv=[csv_path, bars_csv], markdown=md, comparisons=[])

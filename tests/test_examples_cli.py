@@ -101,3 +101,11 @@ def test_claims_table_is_written_and_in_the_report(out):
     assert held["C1"] in ("yes", "no") and held["C10"] in ("yes", "no")
     text = (out / "report.md").read_text()
     assert "## Claims" in text and f"**{sum(h == 'yes' for h in held.values())} of 13 hold**" in text
+
+
+def test_every_link_in_the_report_resolves(out):
+    text = (out / "report.md").read_text()
+    links = set(re.findall(r"\]\(([^)#]+\.(?:png|csv|md|json))\)", text))
+    assert links
+    missing = [link for link in links if not (out / link).exists()]
+    assert not missing, missing

@@ -202,8 +202,7 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
         if o.get("markdown"):
             L += [o["markdown"], ""]
         for fig in o.get("figures", []):
-            p = Path(fig)
-            L += [f"![{p.stem}]({p.name})", ""]
+            L += [f"![{Path(fig).stem}]({_rel(out_dir, fig)})", ""]
         if o.get("comparisons"):
             L += ["Simulation next to the paper:", "", comparison_table(o["comparisons"]), ""]
             why = explanations(o["comparisons"])
@@ -211,7 +210,7 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
                 L += ["Where they differ by more than 25 %, the assumption that drives it:", "", why, ""]
             comps += o["comparisons"]
         if o.get("csv"):
-            L += ["Data behind it: " + ", ".join(f"[`{Path(c).name}`]({Path(c).name})" for c in o["csv"]), ""]
+            L += ["Data behind it: " + ", ".join(f"[`{_rel(out_dir, c)}`]({_rel(out_dir, c)})" for c in o["csv"]), ""]
 
     L += ["## Energy balance and feasibility", ""]
     lib = [r for r in results if r.condition.preset == "library"]
@@ -259,10 +258,18 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           "- [`claims.csv`](claims.csv): the paper's claims, the simulated value and whether each holds."]
     for o in outputs:
         for f in [*o.get("figures", []), *o.get("csv", [])]:
-            L += [f"- [`{Path(f).name}`]({Path(f).name})"]
+            L += [f"- [`{_rel(out_dir, f)}`]({_rel(out_dir, f)})"]
     path = out_dir / "report.md"
     path.write_text("\n".join(L) + "\n")
     return path
+
+
+def _rel(out_dir: Path, path) -> str:
+    """``path`` as a link relative to the report (files in subfolders keep their folder)."""
+    try:
+        return Path(path).resolve().relative_to(Path(out_dir).resolve()).as_posix()
+    except ValueError:
+        return Path(path).name
 
 
 def _label(c: Condition) -> str:

@@ -15,12 +15,12 @@ Values (datasheet columns, ``../shared/data/parameters.md``)::
     36 V     0.21     3.7e-5    0.0206     0.0952
     48 V     0.386    6.53e-5   0.0274     about 0.095 (paper's motor, the library default)
 
-The matching supply (assumptions): no-load voltage = the winding's nominal voltage; internal resistance scaled
-with the voltage squared from the lab supply's 0.05 ohm at 48 V (the same relative drop at the same power);
-the rectifier's brake-chopper threshold scaled with the voltage (50 V at 48 V). Rotor inertia, friction and
-temperature coefficient do not depend on the winding and keep the library's values. Everything else is the
-paper's actuator (MACCEPA, replayed). These are parameter sets of :class:`~acausal.models.ankle.actuator.AnkleActuator` (``mode="replay"``):
-they share its compiled model.
+The matching supply (assumptions): no-load voltage = the winding's nominal voltage; internal resistance scaled with
+the voltage squared from the lab supply's 0.05 ohm at 48 V (the same relative drop at the same power); the
+rectifier's brake-chopper threshold scaled with the voltage (50 V at 48 V). Rotor inertia, friction and temperature
+coefficient do not depend on the winding and keep the library's values. Everything else is the paper's actuator
+(MACCEPA, replayed). These are parameter sets of :class:`~acausal.models.ankle.actuator.AnkleActuator`
+(``mode="replay"``): they share its compiled model.
 """
 from __future__ import annotations
 

@@ -1,12 +1,13 @@
 """Calibration of the ankle actuator's Eq. (4) model against bench recordings (paper section 4.3, Table 2, Fig. 14).
 
 Each recording is replayed: its measured ankle angle theta(t) and moment-arm angle phi(t) are smoothed
-(:class:`~acausal.identify.smoothing.SmoothingSpline`, quintic least-squares spline, 80 knots per stride) and prescribed
-to the Eq. (4) model (:meth:`~acausal.models.ankle.actuator.AnkleActuator.eq4`) in replay mode; index reduction derives speeds, accelerations,
-the motor current, voltages and the supply current, and the replay is purely algebraic (no integrator) unless an
-effect adds a state. The chosen parameters are fitted by bounded least squares on motor current (and, by
-default, supply current, which is what makes R identifiable: the motor current does not depend on R when the
-motion is prescribed) over all recordings at once, on the training strides; every third stride is held out.
+(:class:`~acausal.identify.smoothing.SmoothingSpline`, quintic least-squares spline, 80 knots per stride) and
+prescribed to the Eq. (4) model (:meth:`~acausal.models.ankle.actuator.AnkleActuator.eq4`) in replay mode; index
+reduction derives speeds, accelerations, the motor current, voltages and the supply current, and the replay is purely
+algebraic (no integrator) unless an effect adds a state. The chosen parameters are fitted by bounded least squares on
+motor current (and, by default, supply current, which is what makes R identifiable: the motor current does not depend
+on R when the motion is prescribed) over all recordings at once, on the training strides; every third stride is held
+out.
 """
 from __future__ import annotations
 

@@ -1,10 +1,10 @@
 """Efficiency-optimal spring design (paper section 4.4, Figs. 16-17).
 
 For a spring stiffness k and precompression P the moment-arm trajectory is planned so that the MACCEPA delivers the
-gait torque (paper section 3, :func:`~acausal.models.ankle.planning.plan_moment_arm`), and the calibrated Eq. (4) model
-(:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`, replay mode: algebraic) is evaluated over one stride. The overall
-efficiency per stride is the joint energy over the source energy (the rectifier returns nothing, so the source
-energy is the integral of the positive bus power).
+gait torque (paper section 3, :func:`~acausal.models.ankle.planning.plan_moment_arm`), and the calibrated Eq. (4)
+model (:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`, replay mode: algebraic) is
+evaluated over one stride. The overall efficiency per stride is the joint energy over the source energy (the
+rectifier returns nothing, so the source energy is the integral of the positive bus power).
 
 All designs of a map are evaluated in one vectorised call: their planned trajectories are stacked into one
 :class:`PeriodicSplineBatch` (a signal whose value is an array over designs) and their parameters into a

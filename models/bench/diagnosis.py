@@ -1,11 +1,12 @@
 """Diagnosis of the ankle actuator's Eq. (4) model against bench recordings (``acausal diagnose``).
 
-The baseline is the paper's Eq. (4) model (:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>` without effects:
-DC motor R, L, k, J, b, ideal gear n = 860, MACCEPA at the nominal precompression, ideal PWM driver behind the
-non-regenerative rectifier, ideal sensors), calibrated on R, J and b. The candidates are the effects of
-:mod:`acausal.models.ankle.effects`, each a change of the model made with library components. The engine
-(:mod:`acausal.identify.diagnose`) fits, scores and chooses; this module says what the experiments, the baseline
-parameters and the regressors of the residual analysis are for this actuator:
+The baseline is the paper's Eq. (4) model (:meth:`AnkleActuator.eq4
+<acausal.models.ankle.actuator.AnkleActuator.eq4>` without effects: DC motor R, L, k, J, b, ideal gear n = 860,
+MACCEPA at the nominal precompression, ideal PWM driver behind the non-regenerative rectifier, ideal sensors),
+calibrated on R, J and b. The candidates are the effects of :mod:`acausal.models.ankle.effects`, each a change of the
+model made with library components. The engine (:mod:`acausal.identify.diagnose`) fits, scores and chooses; this
+module says what the experiments, the baseline parameters and the regressors of the residual analysis are for this
+actuator:
 
 * signals: motor current, supply current and joint torque (each in units of its sensor noise);
 * regressors: sign of the motor speed, motor speed, |transmitted torque| (gear output), motor current squared,

@@ -71,7 +71,8 @@ def _fig14(out: Path, cal, exps, name):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="upper right")
     axes[1].set_xlabel(f"time [s] (recording {e.name}, first two strides)")
-    png = save_figure(fig, out / "fig14_calibration.png")
+    png = save_figure(fig, out / "fig14_calibration.png",
+                      shows="model: AnkleActuator.eq4 (replay of the recordings), datasheet start vs calibrated")
     csv = write_csv(out / "fig14_calibration.csv", [dict(time_s=a, measured_A=b, before_A=c, after_A=d)
                                                     for a, b, c, d in zip(e.t[show], meas[show], before[show],
                                                                           after[show])])

@@ -44,6 +44,7 @@ def model_params(meta: dict) -> dict:
     (:meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`)."""
     p = {"P_nominal": meta["precompression_m"], "stride_time": meta["stride_time_s"],
          "link.k": meta["spring_stiffness_N_per_m"]}
-    optional = {"supply_voltage_V": "supply.V", "lever_A_m": "link.A", "lever_B_m": "link.B", "gear_ratio": "gear.ratio"}
+    optional = {"supply_voltage_V": "supply.V", "lever_A_m": "link.A", "lever_B_m": "link.B",
+                "gear_ratio": "gear.ratio"}
     p.update({name: meta[key] for key, name in optional.items() if key in meta})
     return p

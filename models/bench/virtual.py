@@ -1,11 +1,11 @@
 """Virtual test bench: the paper's protocol run on a chosen truth model, written as bench recordings.
 
-The bench does what the real one did (paper section 4): the output motor moves the ankle along the gait angle
-at the condition's stride time, and the actuator's controller tracks the planned moment-arm angle for the
-condition's precompression (closed loop, :meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`). The truth model is the
-paper's Eq. (4) structure with ``truth`` parameter values, plus hidden ``effects`` (:mod:`acausal.models.ankle.effects`)
-at chosen sizes. Each condition is simulated for ``settle`` strides (discarded: the controller settles) and then
-``strides`` recorded strides.
+The bench does what the real one did (paper section 4): the output motor moves the ankle along the gait angle at the
+condition's stride time, and the actuator's controller tracks the planned moment-arm angle for the condition's
+precompression (closed loop, :meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`). The truth
+model is the paper's Eq. (4) structure with ``truth`` parameter values, plus hidden ``effects``
+(:mod:`acausal.models.ankle.effects`) at chosen sizes. Each condition is simulated for ``settle`` strides (discarded:
+the controller settles) and then ``strides`` recorded strides.
 
 Sensors (:class:`Sensors`), sampled at 1 kHz: 14-bit absolute encoders (AS5048A: 2 pi / 16384 steps) on the ankle
 and moment-arm angles, motor current as the driver reports it (Gaussian noise, optional offset), supply current

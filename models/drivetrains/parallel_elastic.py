@@ -41,7 +41,8 @@ def _gait(body_mass: float, n: int = _N_DESIGN):
     return body_mass * cyc.torque(s), cyc.angle(s), cyc.angle(s, 1)
 
 
-def peak_drive_power(c: float, theta0: float, body_mass: float = DEFAULT_BODY_MASS, stride_time: float = DESIGN_STRIDE_TIME,
+def peak_drive_power(c: float, theta0: float, body_mass: float = DEFAULT_BODY_MASS,
+                     stride_time: float = DESIGN_STRIDE_TIME,
                      n: int = _N_DESIGN) -> float:
     """Peak |(M - c (theta0 - theta)) dtheta/dt| [W] the drive delivers with a parallel spring (c [N m/rad],
     theta0 [rad])."""

@@ -162,9 +162,9 @@ def switch_plan(P: float, k: float | None = None, A: float | None = None, B: flo
                 body_mass: float | None = None, M_off: float = M_OFF, blend: float = BLEND,
                 ramp: float = RAMP) -> SwitchPlan | None:
     """Apply the switching rule (module docstring) to the planned trajectory of precompression ``P`` [m] (``k``
-    [N/m], ``A``, ``B`` [m], ``body_mass`` [kg]; None: the model's defaults); ``M_off`` [N m], ``blend`` and ``ramp`` [stride fractions].
-    Candidate hold starts are the samples with little torque; the longest window wins (the earliest on a tie).
-    ``None`` if the driver would be fully off for no more than 2 % of the stride."""
+    [N/m], ``A``, ``B`` [m], ``body_mass`` [kg]; None: the model's defaults); ``M_off`` [N m], ``blend`` and
+    ``ramp`` [stride fractions]. Candidate hold starts are the samples with little torque; the longest window wins
+    (the earliest on a tie). ``None`` if the driver would be fully off for no more than 2 % of the stride."""
     if not M_off > 0:
         raise ModelError(f"switch_off: threshold M_off must be > 0 N m, got {M_off!r}")
     k, A, B = (Maccepa.k.default if k is None else k, Maccepa.A.default if A is None else A,
