@@ -27,7 +27,7 @@ import sympy as sp
 
 from sympy import Eq
 
-from acausal import Parameter, Variable
+from acausal import Parameter, Variable, der
 from acausal.errors import ModelError
 from acausal.partials import PartialCompliant
 
@@ -311,7 +311,8 @@ class Maccepa(PartialCompliant):
     plantarflexion sense, and ``-T`` on the moment arm: ``flange_b.tau = T`` acts on the linkage at the arm,
     ``flange_a.tau = -T`` at the foot. It is conservative: ``T = dE/dalpha`` with the spring energy
     ``E = k (P + A + B - C(alpha))^2 / 2``, so the power into it equals ``dE/dt``. Both ends turn about the same
-    joint axis, so no torque reaches the lower leg through the linkage itself (no support flange).
+    joint axis, so no torque reaches the lower leg through the linkage itself (no support flange). The linkage
+    with the friction of its bar and pivots is :class:`FrictionalMaccepa`.
 
     Defaults: k = 132 N/mm die spring (paper, section 2); A = 0.100 m, B = 0.060 m (not published: a proposal
     of ../shared/data/parameters.md, low-medium confidence); P = 8 mm (the paper's Table 1 condition).
@@ -330,5 +331,63 @@ class Maccepa(PartialCompliant):
     def equations(self):
         k, A, B, P, a = self.k, self.A, self.B, self.P, self.alpha
         return [*super().equations(), Eq(a, self.phi_rel), Eq(self.T, torque_expr(a, P, k, A, B)),
-                Eq(self.tau, self.T), Eq(self.energy, energy_expr(a, P, k, A, B)),
+                Eq(self.tau, self.T + self.friction_torque()), Eq(self.energy, energy_expr(a, P, k, A, B)),
                 Eq(self.compression, _sym_parts(a, P, A, B)[3])]
+
+    def friction_torque(self):
+        """Friction torque on the relative motion, in parallel with the spring [N m]: none (lossless linkage)."""
+        return 0
+
+
+class FrictionalMaccepa(Maccepa):
+    """The MACCEPA linkage with the friction of its sliding bar and pivots, a swap-in for :class:`Maccepa`.
+
+    The spring force ``F = k (P + A + B - C(alpha))`` (>= 0: the spring is always compressed) loads the sliding
+    bar in its guide and the pivots at a, b and c, so their Coulomb friction is proportional to it; a constant
+    part ``tau_0`` (seals, bearing preload) adds to it. Lumped on the relative motion ``w_rel = der(alpha)``,
+    with the library's smooth direction law (as :class:`~acausal.library.rotational.BearingFriction`)::
+
+        tau_f = (tau_0 + r_f F) tanh(w_rel / w_c)
+        tau   = T(alpha) + tau_f            (flange_b.tau = tau, flange_a.tau = -tau, as in Maccepa)
+        loss_power = tau_f w_rel >= 0
+
+    The friction acts like a damper in parallel with the conservative linkage: the power into the two flanges,
+    ``tau w_rel``, is ``der(energy) + loss_power`` with ``energy`` the spring energy of :class:`Maccepa`. The
+    law is smooth, so replays may differentiate it (a replay differentiates the moment-arm angle 3 times; the
+    friction torque needs ``der(w_rel)``, i.e. also the second derivative of the joint angle); below a few ``w_c``
+    it is a steep viscous law and creeps instead of sticking (docs/friction-and-gears.md).
+
+    Why a subclass and not friction parameters on :class:`Maccepa`: the paper's Eq. 1-3 linkage stays
+    conservative and exactly as before (no zero ``loss_power`` account in every model's balance, no extra
+    derivative of the joint angle in its replays), and the swap-in keeps the parameter names ``k``, ``A``,
+    ``B``, ``P`` on which presets and the planned trajectory rely. ``r_f = tau_0 = 0`` gives the lossless
+    linkage's torque and energy.
+
+    The paper (section 4.2.3, Fig. 12) measured an average loss of about 20 % between moment arm and joint, over
+    50 % at high precompression and short strides; the defaults below are a priori (handbook friction
+    coefficients, assumed levers), not fitted to it. The loss grows with precompression through ``F``; being
+    Coulomb friction it does not depend on speed, so on the same motion it is the same at every stride time.
+    """
+
+    r_f = Parameter(1e-3, unit="m", min=0.0, doc="effective friction radius of bar and pivots, friction coefficient "
+                    "times lever about the joint (assumption: mu 0.1, lubricated plain bearing / steel slide, times "
+                    "a 10 mm pin or bar lever; plausible range mu 0.05-0.3 times 5-20 mm: 0.25-6 mm)")
+    tau_0 = Parameter(0.0, unit="N.m", min=0.0, doc="friction torque independent of the spring force (seals, "
+                      "bearing preload; not measured, 0 by default)")
+    w_c = Parameter(0.05, unit="rad/s", min=1e-12, doc="speed scale of the smooth direction law (assumption: "
+                    "1-2.5 % of the linkage's peak relative speed in the ankle's gait replay, 2-5 rad/s at 3-1.2 "
+                    "s/stride; smaller is closer to Coulomb friction and makes the replayed motor current steeper "
+                    "at reversals)")
+    w_rel = Variable(unit="rad/s", doc="relative angular velocity der(alpha)")
+    spring_force = Variable(unit="N", doc="spring force k (P + A + B - C(alpha)), the friction's normal load")
+    tau_f = Variable(unit="N.m", doc="friction torque on the relative motion, in the direction of w_rel")
+    loss_power = Variable(unit="W", doc="dissipated power tau_f w_rel (>= 0)")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.w_rel, der(self.phi_rel)),
+                Eq(self.spring_force, self.k * self.compression),
+                Eq(self.tau_f, (self.tau_0 + self.r_f * self.spring_force) * sp.tanh(self.w_rel / self.w_c)),
+                Eq(self.loss_power, self.tau_f * self.w_rel)]
+
+    def friction_torque(self):
+        return self.tau_f
