@@ -39,8 +39,8 @@ completes it with the MACCEPA, the joint and the way the moment arm is moved. Op
 R, J, b), the truth of the virtual bench and the baseline of calibration and diagnosis.
 
 Parameters travel through the model: the planned moment-arm angle is a :class:`~acausal.ParametricSignal` of the
-run's ``P_nominal``, ``link.k``, ``link.A``, ``link.B`` and ``body_mass``, so setting any of them (e.g.
-``simulate(params={"body_mass": 90})``) replans the trajectory. The spring's actual precompression is
+run's ``P_nominal``, ``link.k``, ``link.A``, ``link.B``, ``body_mass``, ``torque_tolerance`` and ``arm_limit``, so
+setting any of them (e.g. ``simulate(params={"body_mass": 90})``) replans the trajectory. The spring's actual precompression is
 ``link.P = P_nominal + precompression_error``.
 
 Assumptions (not published, ``../shared/data/parameters.md``): lever lengths A = 0.1 m and B = 0.06 m, body mass
@@ -63,7 +63,7 @@ from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 from acausal.library.thermal import FixedTemperature, HeatCapacitor, ThermalConductor
 
 from .effects import EFFECTS, effect
-from .planning import planned_arm_angle
+from .planning import ARM_LIMIT, planned_arm_angle
 from .presets import EQ4_LUMPED, N_TOTAL  # N_TOTAL: planetary 86:1 x helical 10:1
 
 
@@ -172,8 +172,8 @@ class DriveTrain(Model):
         connect(self.available.y, self.controller.limit)
 
 
-def _plan(P, k, A, B, body_mass):
-    return planned_arm_angle(P, k, A, B, body_mass)
+def _plan(P, k, A, B, body_mass, tolerance, arm_limit):
+    return planned_arm_angle(P, k, A, B, body_mass, tolerance, arm_limit)
 
 
 class SeriesLinkAnkle(DriveTrain):
@@ -250,6 +250,11 @@ class AnkleActuator(SeriesLinkAnkle):
     P_nominal = Parameter(Maccepa.P.default, unit="m", min=0.0, max=0.018,
                           doc="nominal spring precompression (the paper's 0-18 mm; the trajectory is planned for it)")
     precompression_error = Parameter(0.0, unit="m", doc="actual minus nominal precompression")
+    torque_tolerance = Parameter(0.0, unit="N.m", min=0.0,
+                                 doc="torque error the planned trajectory may leave for a slower arm (the paper's "
+                                     "fminbnd tolerance; 0: the exact inverse; see planning)")
+    arm_limit = Parameter(ARM_LIMIT, unit="rad", min=1e-3,
+                          doc="mechanical range of the moment arm, |phi| <= arm_limit (default: no bound)")
     winding_heating = Parameter(EFFECTS["winding_temperature"].typical, unit="K/J", min=1e-9,
                                 doc="1 / the motor's lumped heat capacity (effect winding_temperature)")
 
@@ -308,7 +313,8 @@ class AnkleActuator(SeriesLinkAnkle):
     def planned_arm(self) -> ParametricSignal:
         """The planned moment-arm angle over the gait fraction, from this run's parameters."""
         return ParametricSignal(_plan, {"P": self.P_nominal, "k": self.link.k, "A": self.link.A, "B": self.link.B,
-                                        "body_mass": self.body_mass}, name="planned moment-arm angle", max_order=5)
+                                        "body_mass": self.body_mass, "tolerance": self.torque_tolerance,
+                                        "arm_limit": self.arm_limit}, name="planned moment-arm angle", max_order=5)
 
     def reading(self, tau):
         if self.has("torque_sensor_offset"):

@@ -1,11 +1,21 @@
 """Trajectory planning for the MACCEPA ankle (paper section 3): the moment-arm angle that makes the linkage
-torque equal the biomechanical ankle torque.
+torque equal (or close to) the biomechanical ankle torque.
 
 For a precompression ``P`` and stiffness ``k`` the linkage must deliver ``T(alpha, P) = M(t)`` (Eq. 3 = the gait
-moment times body mass), so ``alpha(t) = T^-1(M(t), P)`` and ``phi(t) = theta(t) + alpha(t)``. The paper solved
-this per sample with MATLAB's fminbnd; here the library's vectorised inverse solves all samples at once. The
-result is a periodic quintic spline over the gait fraction, so the replay's index reduction can take up to
-five derivatives of it.
+moment times body mass), so ``alpha(t) = T^-1(M(t), P)`` and ``phi(t) = theta(t) + alpha(t)``. The library's
+vectorised inverse solves all samples at once. The result is a periodic quintic spline over the gait fraction,
+so the replay's index reduction can take up to five derivatives of it.
+
+The exact inverse has a weak spot: near zero precompression the linkage is soft at alpha = 0 (``T ~ alpha^3``),
+so ``alpha ~ M^(1/3)`` has an infinite slope wherever the gait moment crosses zero, and the planned arm speed
+explodes (at 2 mm the arm would need 10 rad per stride, about 7000 rad/s at the motor at 1.2 s/stride, while
+its range stays within 25 deg). The paper solved the inverse per sample with MATLAB's fminbnd, a bounded
+minimisation of the torque error with a finite tolerance. Here that is ``tolerance`` [N m]: the arm may leave a
+torque error up to ``tolerance`` and takes the path of least squared speed inside that band (the obstacle
+problem of a taut periodic string, solved by projected successive over-relaxation from the exact plan); ``arm_limit`` [rad] bounds the arm's
+mechanical range (the band is clipped to ``|phi| <= arm_limit``; where that leaves no torque within tolerance,
+the arm saturates and the shortfall grows). ``tolerance = 0`` and an arm that stays inside its range give the
+exact plan. :attr:`Plan.shortfall` is the largest torque error the plan leaves [N m].
 """
 from __future__ import annotations
 
@@ -13,11 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acausal import PeriodicSpline
+from acausal import ModelError, PeriodicSpline
 from acausal.library.gait import unit_cycle
-from acausal.library.maccepa import inverse_torque
+from acausal.library.maccepa import inverse_torque, torque
 
 N_PLAN = 400  # samples of the gait fraction for the planned trajectory
+ARM_LIMIT = np.pi  # rad: default mechanical range of the moment arm (no bound: the planned arm stays within 25 deg)
+_ITER_MAX, _CONVERGED = 100_000, 1e-12  # iteration cap, largest change [rad] that stops the relaxation
 
 
 @dataclass
@@ -28,22 +40,56 @@ class Plan:
     alpha: np.ndarray  # linkage deflection [rad]
     phi: np.ndarray  # moment-arm angle [rad]
     phi_profile: PeriodicSpline  # phi over the gait fraction (period 1)
+    shortfall: float = 0.0  # N m: largest |T(alpha) - M| the plan leaves
 
 
-def plan_moment_arm(P: float, k: float, A: float, B: float, body_mass: float, n: int = N_PLAN) -> Plan:
-    """The moment-arm trajectory for one stride (independent of the stride time: the profile is stretched)."""
+def _least_speed_in_band(phi, lo, hi):
+    """The periodic path within ``[lo, hi]`` of least sum of squared differences (projected red-black SOR with the
+    optimal factor for a ring of ``len(phi)`` points, started from ``phi``); stops when no sample moves more than
+    ``_CONVERGED`` in a sweep."""
+    phi = np.array(phi, dtype=float)
+    n = phi.size
+    w = 2.0 / (1.0 + np.sin(np.pi / n))
+    halves = (np.arange(0, n, 2), np.arange(1, n, 2))
+    for _ in range(_ITER_MAX):
+        before = phi.copy()
+        for idx in halves:
+            mean = 0.5 * (phi[idx - 1] + phi[(idx + 1) % n])
+            phi[idx] = np.clip((1.0 - w) * phi[idx] + w * mean, lo[idx], hi[idx])
+        if np.max(np.abs(phi - before)) < _CONVERGED:
+            return phi
+    raise ModelError(f"planning: the path within the torque band did not settle in {_ITER_MAX} sweeps")
+
+
+def plan_moment_arm(P: float, k: float, A: float, B: float, body_mass: float, tolerance: float = 0.0,
+                    arm_limit: float = ARM_LIMIT, n: int = N_PLAN) -> Plan:
+    """The moment-arm trajectory for one stride (independent of the stride time: the profile is stretched);
+    ``tolerance`` [N m] and ``arm_limit`` [rad] as in the module docstring."""
+    if not tolerance >= 0:
+        raise ModelError(f"planning: torque tolerance must be >= 0 N m, got {tolerance!r}")
+    if not arm_limit > 0:
+        raise ModelError(f"planning: arm_limit must be > 0 rad, got {arm_limit!r}")
     cyc = unit_cycle()
     s = np.arange(n) / n
     theta = cyc.angle(s)
     M = body_mass * cyc.torque(s)
-    alpha = inverse_torque(M, P, k, A, B)
-    phi = theta + alpha
-    prof = PeriodicSpline(s, phi, period=1.0, degree=5, name=f"planned moment-arm angle (P = {P * 1e3:g} mm)")
-    return Plan(s, theta, M, alpha, phi, prof)
+    phi = theta + inverse_torque(M, P, k, A, B)
+    if tolerance > 0 or np.max(np.abs(phi)) > arm_limit:
+        reach = np.max(np.abs(M))  # the band's ends stay within the linkage's reach
+        lo = theta + inverse_torque(np.clip(M - tolerance, -reach, reach), P, k, A, B)
+        hi = theta + inverse_torque(np.clip(M + tolerance, -reach, reach), P, k, A, B)
+        lo, hi = np.clip(lo, -arm_limit, arm_limit), np.clip(hi, -arm_limit, arm_limit)
+        phi = _least_speed_in_band(np.clip(phi, lo, hi), lo, hi)
+    alpha = phi - theta
+    shortfall = float(np.max(np.abs(torque(alpha, P, k, A, B) - M)))
+    name = f"planned moment-arm angle (P = {P * 1e3:g} mm" + (f", within {tolerance:g} N m)" if tolerance else ")")
+    prof = PeriodicSpline(s, phi, period=1.0, degree=5, name=name)
+    return Plan(s, theta, M, alpha, phi, prof, shortfall)
 
 
-def planned_arm_angle(P: float, k: float, A: float, B: float, body_mass: float) -> PeriodicSpline:
+def planned_arm_angle(P: float, k: float, A: float, B: float, body_mass: float, tolerance: float = 0.0,
+                      arm_limit: float = ARM_LIMIT) -> PeriodicSpline:
     """The planned moment-arm angle over the gait fraction (period 1) for precompression ``P`` [m], stiffness
-    ``k`` [N/m], lever lengths ``A``, ``B`` [m] and ``body_mass`` [kg]: what the actuator's
-    :class:`~acausal.ParametricSignal` builds from a run's parameters."""
-    return plan_moment_arm(P, k, A, B, body_mass).phi_profile
+    ``k`` [N/m], lever lengths ``A``, ``B`` [m], ``body_mass`` [kg], torque ``tolerance`` [N m] and ``arm_limit``
+    [rad]: what the actuator's :class:`~acausal.ParametricSignal` builds from a run's parameters."""
+    return plan_moment_arm(P, k, A, B, body_mass, tolerance, arm_limit).phi_profile

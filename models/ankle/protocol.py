@@ -21,6 +21,7 @@ import numpy as np
 
 from acausal import compile_model
 from acausal.library.drives import PWMDriver
+from acausal.library.gait import unit_cycle
 from acausal.energy import balance
 from acausal.sweep import sweep as run_sweep
 
@@ -90,6 +91,8 @@ class StrideResult:
     balance_residual: float  # (source - losses - output - stored change) / source
     tracking_rms: float = 0.0  # rad, moment-arm reference minus actual (closed loop)
     tracking_max: float = 0.0
+    torque_error_max: float = 0.0  # N m, largest |joint torque - gait moment| (models with a joint torque sensor)
+    torque_shortfall: float = 0.0  # 1 - peak |joint torque| / peak |gait moment| (the paper: about 10 %)
     max_duty: float = 0.0  # largest |d| the driver needed (replay: > d_max means the motor could not follow)
     peak_motor_speed: float = 0.0  # rad/s
     peak_motor_current: float = 0.0  # A
@@ -124,7 +127,9 @@ class StrideResult:
         r.update({f"peak_{k}_W": v for k, v in self.peak_power.items()})
         r.update({f"min_{k}_W": float(np.min(p)) for k, p in self.power.items()})
         r.update(efficiency=self.efficiency["output"], balance_residual=self.balance_residual,
-                 tracking_rms_rad=self.tracking_rms, tracking_max_rad=self.tracking_max, max_duty=self.max_duty,
+                 tracking_rms_rad=self.tracking_rms, tracking_max_rad=self.tracking_max,
+                 torque_error_max_Nm=self.torque_error_max, torque_shortfall=self.torque_shortfall,
+                 max_duty=self.max_duty,
                  peak_motor_speed=self.peak_motor_speed, peak_motor_current=self.peak_motor_current)
         return r
 
@@ -170,6 +175,11 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
     if "tracking_error" in res:
         e = res["tracking_error"][window]
         r.tracking_rms, r.tracking_max = float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))
+    if "joint_torque" in res:
+        moment = values["body_mass"] * unit_cycle().torque(np.mod(res.t[window] / T, 1.0))
+        tau = np.asarray(res["joint_torque"][window])
+        r.torque_error_max = float(np.max(np.abs(tau - moment)))
+        r.torque_shortfall = 1.0 - float(np.max(np.abs(tau)) / np.max(np.abs(moment)))
     if traces:
         r.traces = {"time": t, **{name: np.asarray(res[name][window]) for name in traces if name in res}}
     return r

@@ -44,7 +44,7 @@ from acausal.library.maccepa import Maccepa
 from acausal.library.maccepa import torque as maccepa_torque
 
 from ..ankle.actuator import AnkleActuator
-from ..ankle.planning import plan_moment_arm
+from ..ankle.planning import ARM_LIMIT, plan_moment_arm
 
 M_OFF = 3.0  # N m: "little torque" threshold of the switching rule
 BLEND = 0.05  # stride fractions: arm brought to rest / back onto the plan
@@ -160,11 +160,13 @@ class SwitchPlan:
 
 def switch_plan(P: float, k: float | None = None, A: float | None = None, B: float | None = None,
                 body_mass: float | None = None, M_off: float = M_OFF, blend: float = BLEND,
-                ramp: float = RAMP) -> SwitchPlan | None:
+                ramp: float = RAMP, tolerance: float = 0.0, arm_limit: float = ARM_LIMIT) -> SwitchPlan | None:
     """Apply the switching rule (module docstring) to the planned trajectory of precompression ``P`` [m] (``k``
     [N/m], ``A``, ``B`` [m], ``body_mass`` [kg]; None: the model's defaults); ``M_off`` [N m], ``blend`` and
-    ``ramp`` [stride fractions]. Candidate hold starts are the samples with little torque; the longest window wins
-    (the earliest on a tie). ``None`` if the driver would be fully off for no more than 2 % of the stride."""
+    ``ramp`` [stride fractions]; ``tolerance`` [N m] and ``arm_limit`` [rad] of the planning
+    (:mod:`acausal.models.ankle.planning`). Candidate hold starts are the samples with little torque; the longest
+    window wins (the earliest on a tie). ``None`` if the driver would be fully off for no more than 2 % of the
+    stride."""
     if not M_off > 0:
         raise ModelError(f"switch_off: threshold M_off must be > 0 N m, got {M_off!r}")
     k, A, B = (Maccepa.k.default if k is None else k, Maccepa.A.default if A is None else A,
@@ -172,7 +174,7 @@ def switch_plan(P: float, k: float | None = None, A: float | None = None, B: flo
     body_mass = AnkleActuator.body_mass.default if body_mass is None else body_mass
     if not (0 < blend < 0.2 and 0 < ramp < 0.1):
         raise ModelError(f"switch_off: blend {blend!r} and ramp {ramp!r} must be small positive stride fractions")
-    plan = plan_moment_arm(P, k, A, B, body_mass)
+    plan = plan_moment_arm(P, k, A, B, body_mass, tolerance, arm_limit)
     cyc = unit_cycle()
     n = _N_RULE
     s = np.arange(n) / n
@@ -225,9 +227,10 @@ def condition_inputs(spec, values: dict) -> dict:
     parameter by name): ``switch_off`` applies the switching rule to the run's planned trajectory (the driver
     stays on where the rule finds no stretch); ``self_locking`` keeps the driver on."""
     args = (values["P_nominal"], values["link.k"], values["link.A"], values["link.B"], values["body_mass"])
-    sp_ = switch_plan(*args) if spec.name == "switch_off" else None
+    band = dict(tolerance=values["torque_tolerance"], arm_limit=values["arm_limit"])
+    sp_ = switch_plan(*args, **band) if spec.name == "switch_off" else None
     if sp_ is None:
-        return {"arm_ref.profile": plan_moment_arm(*args).phi_profile,
+        return {"arm_ref.profile": plan_moment_arm(*args, **band).phi_profile,
                 "enable_ref.profile": Constant(1.0, name="driver enable"),
                 "hold_ref.profile": Constant(0.0, name="gear holds")}
     return {"arm_ref.profile": sp_.reference, "enable_ref.profile": sp_.enable, "hold_ref.profile": sp_.hold}

@@ -1,0 +1,58 @@
+"""Moment-arm planning (models/ankle/planning.py): the exact inverse, the torque-tolerant path (the paper's
+fminbnd tolerance) that removes the arm-speed singularity of a soft linkage, the arm's mechanical range, and the
+torque shortfall the protocol reports."""
+import numpy as np
+import pytest
+
+from acausal import ModelError
+from acausal.library.maccepa import torque
+from acausal.models.ankle.planning import plan_moment_arm
+from acausal.models.ankle.protocol import Condition, run_condition
+
+GEOMETRY = dict(k=132e3, A=0.1, B=0.06, body_mass=60.0)
+
+
+def _peak_speed(plan):
+    return float(np.max(np.abs(plan.phi_profile(plan.fraction, 1))))  # rad per stride
+
+
+def test_zero_tolerance_is_the_exact_inverse():
+    p = plan_moment_arm(0.008, **GEOMETRY)
+    assert p.shortfall < 1e-9
+    np.testing.assert_allclose(torque(p.alpha, 0.008, 132e3, 0.1, 0.06), p.M, atol=1e-9)
+
+
+def test_a_torque_band_slows_the_arm_of_a_soft_linkage():
+    """At 2 mm the exact arm speed peaks where the gait moment crosses zero (alpha ~ M^(1/3)); a 5 N m band
+    (5 % of the 98 N m peak) takes most of it away and leaves exactly the allowed error."""
+    exact, banded = plan_moment_arm(0.002, **GEOMETRY), plan_moment_arm(0.002, **GEOMETRY, tolerance=5.0)
+    assert _peak_speed(banded) < 0.2 * _peak_speed(exact)
+    assert 4.9 < banded.shortfall <= 5.0 + 1e-9
+    err = torque(banded.alpha, 0.002, 132e3, 0.1, 0.06) - banded.M
+    assert np.max(np.abs(err)) <= 5.0 + 1e-9
+    wider = plan_moment_arm(0.002, **GEOMETRY, tolerance=10.0)
+    assert _peak_speed(wider) < _peak_speed(banded)  # a wider band, a slower arm
+
+
+def test_the_arm_range_saturates_and_the_shortfall_says_so():
+    limit = np.radians(15.0)
+    p = plan_moment_arm(0.008, **GEOMETRY, arm_limit=limit)
+    assert np.max(np.abs(p.phi)) <= limit + 1e-12
+    assert p.shortfall > 10.0  # the exact plan needs 20 deg: the torque falls short where the arm is held
+
+
+def test_bad_band_is_named():
+    with pytest.raises(ModelError, match="tolerance"):
+        plan_moment_arm(0.008, **GEOMETRY, tolerance=-1.0)
+    with pytest.raises(ModelError, match="arm_limit"):
+        plan_moment_arm(0.008, **GEOMETRY, arm_limit=0.0)
+
+
+def test_protocol_reports_the_shortfall_and_the_band_makes_the_soft_corner_feasible():
+    exact = run_condition(Condition(0.002, 1.2))
+    banded = run_condition(Condition(0.002, 1.2, overrides={"torque_tolerance": 5.0}))
+    assert exact.max_duty > 4.0 and exact.torque_error_max < 1e-3
+    assert banded.max_duty < 0.9  # the motor can follow at 48 V
+    assert 4.9 < banded.torque_error_max < 5.05 and banded.row()["torque_error_max_Nm"] == banded.torque_error_max
+    assert banded.energy["output"] < exact.energy["output"]  # less joint work: the torque falls short
+    assert abs(banded.balance_residual) < 1e-6
