@@ -40,8 +40,8 @@ R, J, b), the truth of the virtual bench and the baseline of calibration and dia
 
 Parameters travel through the model: the planned moment-arm angle is a :class:`~acausal.ParametricSignal` of the
 run's ``P_nominal``, ``link.k``, ``link.A``, ``link.B``, ``body_mass``, ``torque_tolerance`` and ``arm_limit``, so
-setting any of them (e.g. ``simulate(params={"body_mass": 90})``) replans the trajectory. The spring's actual precompression is
-``link.P = P_nominal + precompression_error``.
+setting any of them (e.g. ``simulate(params={"body_mass": 90})``) replans the trajectory. The spring's actual
+precompression is ``link.P = P_nominal + precompression_error``.
 
 Assumptions (not published, ``../shared/data/parameters.md``): lever lengths A = 0.1 m and B = 0.06 m, body mass
 60 kg, supply 48 V, helical-stage efficiency 0.9.

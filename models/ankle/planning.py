@@ -12,9 +12,9 @@ explodes (at 2 mm the arm would need 10 rad per stride, about 7000 rad/s at the 
 its range stays within 25 deg). The paper solved the inverse per sample with MATLAB's fminbnd, a bounded
 minimisation of the torque error with a finite tolerance. Here that is ``tolerance`` [N m]: the arm may leave a
 torque error up to ``tolerance`` and takes the path of least squared speed inside that band (the obstacle
-problem of a taut periodic string, solved by projected successive over-relaxation from the exact plan); ``arm_limit`` [rad] bounds the arm's
-mechanical range (the band is clipped to ``|phi| <= arm_limit``; where that leaves no torque within tolerance,
-the arm saturates and the shortfall grows). ``tolerance = 0`` and an arm that stays inside its range give the
+problem of a taut periodic string, solved by projected successive over-relaxation from the exact plan);
+``arm_limit`` [rad] bounds the arm's mechanical range (the band is clipped to ``|phi| <= arm_limit``; where that
+leaves no torque within tolerance, the arm saturates and the shortfall grows). ``tolerance = 0`` and an arm that stays inside its range give the
 exact plan. :attr:`Plan.shortfall` is the largest torque error the plan leaves [N m].
 """
 from __future__ import annotations
