@@ -43,6 +43,14 @@ class Plan:
     shortfall: float = 0.0  # N m: largest |T(alpha) - M| the plan leaves
 
 
+def gait_samples(body_mass: float, n: int = N_PLAN):
+    """``(s, theta, M)``: ``n`` gait fractions over one stride, the ankle angle [rad] and the biomechanical moment
+    [N m] for ``body_mass`` [kg] there (the packaged Winter data)."""
+    cyc = unit_cycle()
+    s = np.arange(n) / n
+    return s, cyc.angle(s), body_mass * cyc.torque(s)
+
+
 def _least_speed_in_band(phi, lo, hi):
     """The periodic path within ``[lo, hi]`` of least sum of squared differences (projected red-black SOR with the
     optimal factor for a ring of ``len(phi)`` points, started from ``phi``); stops when no sample moves more than
@@ -69,10 +77,7 @@ def plan_moment_arm(P: float, k: float, A: float, B: float, body_mass: float, to
         raise ModelError(f"planning: torque tolerance must be >= 0 N m, got {tolerance!r}")
     if not arm_limit > 0:
         raise ModelError(f"planning: arm_limit must be > 0 rad, got {arm_limit!r}")
-    cyc = unit_cycle()
-    s = np.arange(n) / n
-    theta = cyc.angle(s)
-    M = body_mass * cyc.torque(s)
+    s, theta, M = gait_samples(body_mass, n)
     phi = theta + inverse_torque(M, P, k, A, B)
     if tolerance > 0 or np.max(np.abs(phi)) > arm_limit:
         reach = np.max(np.abs(M))  # the band's ends stay within the linkage's reach

@@ -51,7 +51,7 @@ class ModelSpec:
     inputs: str = ""  # "module:function" (spec, run-time parameter values) -> {input: Signal}; "" = the model's own
     params: dict = field(default_factory=dict)  # fixed run-time parameter overrides
     uses_precompression: bool = True  # the condition's P sets P_nominal
-    tol: dict = field(default_factory=lambda: dict(rtol=1e-8, atol=1e-10))
+    tol: dict = field(default_factory=lambda: dict(rtol=1e-9, atol=1e-11))  # energy balances to 1e-8
     build_key: str = ""  # models with the same key share a compiled model (default: the name)
     limits: Limits = Limits()
     min_points_per_stride: int = 0  # output resolution needed (a model without states is integrated on it)

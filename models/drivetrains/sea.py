@@ -31,7 +31,7 @@ from acausal.library.gait import DEFAULT_BODY_MASS, unit_cycle
 from acausal.library.rotational import Spring
 
 from ..ankle.actuator import SeriesLinkAnkle
-from ..ankle.planning import N_PLAN, Plan
+from ..ankle.planning import N_PLAN, Plan, gait_samples
 
 DESIGN_STRIDE_TIME = 1.2  # s: the paper's design condition ("1.2 s per stride")
 _N_DESIGN = 4000  # gait-fraction samples for the peak-power criterion
@@ -74,10 +74,7 @@ def plan_sea(c: float, body_mass: float = DEFAULT_BODY_MASS, n: int = N_PLAN) ->
     """The moment-arm trajectory of the linear SEA: ``alpha = M / c``, ``phi = theta + alpha`` (one stride)."""
     if not c > 0:
         raise ModelError(f"SEA: stiffness link.c must be > 0 N m/rad, got {c!r}")
-    cyc = unit_cycle()
-    s = np.arange(n) / n
-    theta = cyc.angle(s)
-    M = body_mass * cyc.torque(s)
+    s, theta, M = gait_samples(body_mass, n)
     alpha = M / c
     phi = theta + alpha
     prof = PeriodicSpline(s, phi, period=1.0, degree=5, name=f"SEA moment-arm angle (c = {c:g} N m/rad)")
