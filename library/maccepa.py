@@ -344,10 +344,11 @@ class FrictionalMaccepa(Maccepa):
 
     The spring force ``F = k (P + A + B - C(alpha))`` (>= 0: the spring is always compressed) loads the sliding
     bar in its guide and the pivots at a, b and c, so their Coulomb friction is proportional to it; a constant
-    part ``tau_0`` (seals, bearing preload) adds to it. Lumped on the relative motion ``w_rel = der(alpha)``,
-    with the library's smooth direction law (as :class:`~acausal.library.rotational.BearingFriction`)::
+    part ``tau_0`` (seals, bearing preload) adds to it, and a viscous part ``d w_rel`` (lubricant shear in the
+    bar's guide) grows with speed. Lumped on the relative motion ``w_rel = der(alpha)``, with the library's smooth
+    direction law (as :class:`~acausal.library.rotational.BearingFriction`)::
 
-        tau_f = (tau_0 + r_f F) tanh(w_rel / w_c)
+        tau_f = (tau_0 + r_f F) tanh(w_rel / w_c) + d w_rel
         tau   = T(alpha) + tau_f            (flange_b.tau = tau, flange_a.tau = -tau, as in Maccepa)
         loss_power = tau_f w_rel >= 0
 
@@ -365,8 +366,9 @@ class FrictionalMaccepa(Maccepa):
 
     The paper (section 4.2.3, Fig. 12) measured an average loss of about 20 % between moment arm and joint, over
     50 % at high precompression and short strides; the defaults below are a priori (handbook friction
-    coefficients, assumed levers), not fitted to it. The loss grows with precompression through ``F``; being
-    Coulomb friction it does not depend on speed, so on the same motion it is the same at every stride time.
+    coefficients, assumed levers), not fitted to it. The loss grows with precompression through ``F``; its Coulomb
+    part does not depend on speed, so on the same motion it is the same at every stride time, while the viscous
+    part ``d`` grows as the stride gets shorter (per stride, in inverse proportion to the stride time).
     """
 
     r_f = Parameter(1e-3, unit="m", min=0.0, doc="effective friction radius of bar and pivots, friction coefficient "
@@ -378,6 +380,8 @@ class FrictionalMaccepa(Maccepa):
                     "1-2.5 % of the linkage's peak relative speed in the ankle's gait replay, 2-5 rad/s at 3-1.2 "
                     "s/stride; smaller is closer to Coulomb friction and makes the replayed motor current steeper "
                     "at reversals)")
+    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="viscous friction on the relative motion (lubricant shear; "
+                  "not measured, 0 by default: a speed-dependent loss for the paper's short-stride worst case)")
     w_rel = Variable(unit="rad/s", doc="relative angular velocity der(alpha)")
     spring_force = Variable(unit="N", doc="spring force k (P + A + B - C(alpha)), the friction's normal load")
     tau_f = Variable(unit="N.m", doc="friction torque on the relative motion, in the direction of w_rel")
@@ -386,7 +390,8 @@ class FrictionalMaccepa(Maccepa):
     def equations(self):
         return [*super().equations(), Eq(self.w_rel, der(self.phi_rel)),
                 Eq(self.spring_force, self.k * self.compression),
-                Eq(self.tau_f, (self.tau_0 + self.r_f * self.spring_force) * sp.tanh(self.w_rel / self.w_c)),
+                Eq(self.tau_f, (self.tau_0 + self.r_f * self.spring_force) * sp.tanh(self.w_rel / self.w_c)
+                   + self.d * self.w_rel),
                 Eq(self.loss_power, self.tau_f * self.w_rel)]
 
     def friction_torque(self):

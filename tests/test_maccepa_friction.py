@@ -120,7 +120,8 @@ def test_lossless_maccepa_has_no_loss_account():
     assert not sim.accounts.losses and "link.energy" in sim.accounts.stored
 
 
-@pytest.mark.parametrize("name, value", [("r_f", -1e-3), ("tau_0", -0.1), ("w_c", 0.0), ("w_c", -0.05)])
+@pytest.mark.parametrize("name, value", [("r_f", -1e-3), ("tau_0", -0.1), ("d", -0.1), ("w_c", 0.0),
+                                         ("w_c", -0.05)])
 def test_bad_friction_parameters_are_named(swing, name, value):
     with pytest.raises(ModelError, match=rf"'link\.{name}'.*below its minimum"):
         swing.simulate(1.0, n_points=11, params={f"link.{name}": value})
@@ -136,3 +137,23 @@ def test_bad_default_given_at_construction_is_named():
 
     with pytest.raises(ModelError, match=r"'link\.w_c'"):
         compile_model(Rig()).simulate(1.0, n_points=11)
+
+
+def test_viscous_part_adds_d_w_squared_and_grows_at_faster_swings(swing):
+    """``d w_rel`` adds ``d w_rel^2`` to the loss; on the same swing made twice as fast the Coulomb loss per cycle
+    stays and the viscous loss per cycle doubles (it scales with the speed)."""
+    d, r_f = 0.5, 1e-3
+    base = {"link.r_f": r_f, "link.w_c": 1e-4}
+    res = swing.simulate(1.0, n_points=2001, params={**base, "link.d": d})
+    plain = swing.simulate(1.0, n_points=2001, params=base)
+    w_rel = res["link.w_rel"]
+    np.testing.assert_allclose(res["link.tau_f"] - plain["link.tau_f"], d * w_rel, rtol=1e-10, atol=1e-12)
+    viscous = res.energy("link.loss_power")[-1] - plain.energy("link.loss_power")[-1]
+    a, w = 0.4, 2 * np.pi
+    assert viscous == pytest.approx(d * a**2 * w**2 / 2, rel=1e-6)   # int_0^1 d (a w cos wt)^2 dt
+    fast = compile_model(_Swing(FrictionalMaccepa, w=4 * np.pi)).simulate(0.5, n_points=2001,
+                                                                         params={**base, "link.d": d})
+    fast_plain = compile_model(_Swing(FrictionalMaccepa, w=4 * np.pi)).simulate(0.5, n_points=2001, params=base)
+    fast_viscous = fast.energy("link.loss_power")[-1] - fast_plain.energy("link.loss_power")[-1]
+    assert fast_viscous == pytest.approx(2 * viscous, rel=1e-6)
+    assert fast_plain.energy("link.loss_power")[-1] == pytest.approx(plain.energy("link.loss_power")[-1], rel=1e-3)
