@@ -28,6 +28,10 @@ completes it with the MACCEPA, the joint and the way the moment arm is moved. Op
   helical stage) or ``"ideal"`` (Eq. 4: one ideal gear ``gear`` of ratio 860).
 * ``driver``: ``"paper"`` (the EPOS2 model: quiescent draw, conduction, switching) or ``"ideal"`` (lossless);
   ``driver_cls`` the driver's class (default :class:`~acausal.library.drives.PWMDriver`).
+* ``linkage``: ``"lossless"`` (the paper's Eq. 1-3 MACCEPA) or ``"frictional"``
+  (:class:`~acausal.library.maccepa.FrictionalMaccepa`: bar and pivot friction, ``link.r_f``, ``link.tau_0``,
+  ``link.d``). The planned trajectory inverts the lossless linkage either way, so with friction the joint torque
+  falls short of the gait moment by the friction torque (the protocol reports it).
 * ``effects``: what Eq. (4) leaves out, as swap-in parts (:mod:`acausal.models.ankle.effects`):
   ``gear_coulomb_friction`` (a BearingFriction before the gear), ``gear_load_dependent_loss`` (the ideal gear
   swapped for a LossyGear), ``winding_temperature`` (the motor's heat port on its lumped thermal capacitance),
@@ -56,7 +60,7 @@ from acausal.library.drives import DCMotor, PWMDriver
 from acausal.library.electrical import (ConstantVoltage, Ground, IdealNonRegenerativeRectifier,
                                         NonRegenerativeRectifier, Supply, VoltageSensor)
 from acausal.library.gait import DEFAULT_BODY_MASS, AnkleAngleSource, GaitProfile, unit_cycle
-from acausal.library.maccepa import Maccepa
+from acausal.library.maccepa import FrictionalMaccepa, Maccepa
 from acausal.library.rotational import (AngleSensor, Backlash, BearingFriction, Gearbox, IdealGear, LossyGear,
                                         Position, SelfLockingGear, TorqueSensor)
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
@@ -70,7 +74,7 @@ from .presets import EQ4_LUMPED, N_TOTAL  # N_TOTAL: planetary 86:1 x helical 10
 #: the constructor options and their choices
 OPTIONS = {"mode": ("replay", "closed_loop"), "motion": ("gait", "recorded"),
            "supply": ("rectifier", "battery", "ideal"), "gears": ("paper", "self_locking", "ideal"),
-           "driver": ("paper", "ideal")}
+           "driver": ("paper", "ideal"), "linkage": ("lossless", "frictional")}
 
 
 class DriveTrain(Model):
@@ -258,7 +262,8 @@ class AnkleActuator(SeriesLinkAnkle):
     winding_heating = Parameter(EFFECTS["winding_temperature"].typical, unit="K/J", min=1e-9,
                                 doc="1 / the motor's lumped heat capacity (effect winding_temperature)")
 
-    def __init__(self, mode: str = "replay", effects=(), **kw):
+    def __init__(self, mode: str = "replay", effects=(), linkage: str = "lossless", **kw):
+        self.linkage = check_option(self, "linkage", linkage, OPTIONS["linkage"])
         self.effects = tuple(sorted({effect(e).id for e in effects}))
         if "gear_load_dependent_loss" in self.effects and kw.get("gears", "paper") != "ideal":
             raise ModelError(f"{type(self).__name__}: effect gear_load_dependent_loss swaps the ideal gear "
@@ -308,7 +313,8 @@ class AnkleActuator(SeriesLinkAnkle):
             connect(self.cooling.port_b, self.ambient.port)
 
     def make_link(self):
-        return Maccepa(P=self.P_nominal + self.precompression_error)
+        cls = FrictionalMaccepa if self.linkage == "frictional" else Maccepa
+        return cls(P=self.P_nominal + self.precompression_error)
 
     def planned_arm(self) -> ParametricSignal:
         """The planned moment-arm angle over the gait fraction, from this run's parameters."""
