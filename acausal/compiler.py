@@ -259,19 +259,15 @@ class CompiledModel:
                 raise self.unknown_name_error(k, "numeric input", self.input_names)
             if not isinstance(v, Signal):
                 raise ModelError(f"input {k!r}: a replacement must be a Signal, got {type(v).__name__}")
-            need = self.generator.signal_orders.get(k, 0)
-            if v.max_order is not None and v.max_order < need:
-                raise SignalError(f"input {k!r}: the model needs derivatives up to order {need}, the replacement "
-                                  f"{type(v).__name__} provides up to {v.max_order}")
         chosen = [inputs.get(n, self.flat.inputs[n].signal) for n in self.input_names]
         if any(isinstance(v, ParametricSignal) for v in chosen):
             values = dict(zip(self.param_names, self.param_vector() if p is None else p))
             chosen = [v.bind(values) if isinstance(v, ParametricSignal) else v for v in chosen]
-            for n, v in zip(self.input_names, chosen):
-                need = self.generator.signal_orders.get(n, 0)
-                if v.max_order is not None and v.max_order < need:
-                    raise SignalError(f"input {n!r}: the model needs derivatives up to order {need}, the signal "
-                                      f"{v.name!r} provides up to {v.max_order}")
+        for n, v in zip(self.input_names, chosen):  # replacements and bound signals (the model's own are checked
+            need = self.generator.signal_orders.get(n, 0)  # when it compiles)
+            if v.max_order is not None and v.max_order < need:
+                raise SignalError(f"input {n!r}: the model needs derivatives up to order {need}, the signal "
+                                  f"{v.name!r} ({type(v).__name__}) provides up to {v.max_order}")
         return tuple(chosen)
 
     def discrete_start(self) -> np.ndarray:

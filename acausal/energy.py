@@ -19,7 +19,7 @@ holds for any model built from such components (Tellegen's theorem per connectio
 
 Measurement points and stages follow the build order: the power sensors in the order the model created them, and
 each loss in the stage that ends at the first sensor created after it (losses created before the first sensor
-join the first stage). A model that builds its chain from source to load therefore needs no hand-kept lists.
+join the first stage; those after the last sensor are in no stage, listed under ""). A model that builds its chain from source to load therefore needs no hand-kept lists.
 """
 from __future__ import annotations
 
@@ -48,69 +48,47 @@ class Accounts:
     sources: tuple  # source-power variables (power delivered by ideal sources)
     boundary: tuple  # (component, (ports...)): power delivered into the model through these ports
     sensors: tuple  # power-sensor readings ("P_source.P", ...), build order
-    stages: dict = field(default_factory=dict)  # sensor reading -> loss variables between it and the previous one
-
-    def losses_under(self, path: str) -> list:
-        """Loss variables of the sub-tree ``path`` (its own and its parts')."""
-        return [n for n in self.losses if n == f"{path}.{LOSS}" or n.startswith(f"{path}.")]
-
-
-def _ordered(root: Component) -> list:
-    """Components below ``root`` (excluded) depth-first in build order."""
-    out = []
-
-    def visit(c):
-        for child in c._children.values():
-            out.append(child)
-            visit(child)
-    visit(root)
-    return out
+    stages: dict = field(default_factory=dict)  # sensor reading -> loss variables between it and the previous one;
+    # "" -> losses after the last sensor (or of a model without sensors)
 
 
 def accounts(model: Component) -> Accounts:
     """The accounts of a built model instance (a compiled model keeps them as ``CompiledModel.accounts``)."""
     model._ensure_built()
     losses, stored, sources, boundary, sensors = [], [], [], [], []
-    stages: dict = {}
-    pending: list = []  # losses waiting for the next sensor
-    covered: list = []  # paths of accounted components (their parts are not looked at)
-    for c in _ordered(model):
-        if isinstance(c, Connector) or any(c.path.startswith(p + ".") for p in covered):
-            continue
-        decl = c.declarations()
-        names = [k for k in decl if not isinstance(decl[k], Component)]
-        if type(c).__name__.endswith(SENSOR_SUFFIX) and "P" in names:
-            sensors.append(f"{c.path}.P")
-            stages[sensors[-1]] = pending
-            pending = []
-            covered.append(c.path)
-            continue
-        own = [f"{c.path}.{n}" for n in names if n == LOSS]
-        keep = [f"{c.path}.{n}" for n in names if _is_stored(n)]
-        src = [f"{c.path}.{n}" for n in names if n == SOURCE]
-        if own or keep or src:
-            losses += own
-            pending += own
-            stored += keep
-            sources += src
-            covered.append(c.path)
-            continue
-        if any(isinstance(ch, Component) and not isinstance(ch, Connector) for ch in c._children.values()):
-            continue  # a composite without accounts of its own: its parts are looked at
-        ports = tuple(ch.path for ch in c._children.values()
-                      if isinstance(ch, Connector) and ch.domain in PHYSICAL_DOMAINS)
-        if ports:
-            boundary.append((c.path, ports))
-    if pending and sensors:  # losses after the last sensor: the last stage
-        stages[sensors[-1]] = stages[sensors[-1]] + pending
-    elif pending:
-        stages[""] = pending
-    if sensors and "" not in stages:
-        first = sensors[0]
-        # losses before the first sensor join the first stage that has a predecessor
-        if len(sensors) > 1 and stages[first]:
-            stages[sensors[1]] = stages[first] + stages[sensors[1]]
-            stages[first] = []
+    segments: list = [[]]  # losses between consecutive sensors: segments[i] comes before sensors[i]
+
+    def visit(parent):
+        for c in parent._children.values():  # build order; an accounted component's parts are not looked at
+            if isinstance(c, Connector):
+                continue
+            names = [k for k, d in c.declarations().items() if not isinstance(d, Component)]
+            if type(c).__name__.endswith(SENSOR_SUFFIX) and "P" in names:
+                sensors.append(f"{c.path}.P")
+                segments.append([])
+                continue
+            own = [f"{c.path}.{n}" for n in names if n == LOSS]
+            keep = [f"{c.path}.{n}" for n in names if _is_stored(n)]
+            src = [f"{c.path}.{n}" for n in names if n == SOURCE]
+            if own or keep or src:
+                losses.extend(own)
+                segments[-1].extend(own)
+                stored.extend(keep)
+                sources.extend(src)
+            elif any(not isinstance(ch, Connector) for ch in c._children.values()):
+                visit(c)  # a composite without accounts of its own: its parts are looked at
+            else:
+                ports = tuple(ch.path for ch in c._children.values()
+                              if isinstance(ch, Connector) and ch.domain in PHYSICAL_DOMAINS)
+                if ports:
+                    boundary.append((c.path, ports))
+    visit(model)
+    stages = {s: segments[i] for i, s in enumerate(sensors)}
+    if len(sensors) > 1:  # losses before the first sensor join the first stage
+        stages[sensors[1]] = segments[0] + stages[sensors[1]]
+        stages[sensors[0]] = []
+    if segments[-1]:
+        stages[""] = segments[-1]  # after the last sensor (or no sensor at all): no stage
     return Accounts(tuple(losses), tuple(stored), tuple(sources), tuple(boundary), tuple(sensors), stages)
 
 

@@ -157,17 +157,19 @@ class Result:
         delivered, lost per ``loss_power``, change of every stored ``energy``; ``print`` it for the table,
         ``.residual`` is the relative residual."""
         from .energy import balance
-        k0 = 0 if t0 is None else int(np.argmin(np.abs(self.t - t0)))
-        k1 = self.t.size - 1 if t1 is None else int(np.argmin(np.abs(self.t - t1)))
-        return balance(self, self.model.accounts, k0, k1)
+        return balance(self, self.model.accounts, *self._window(t0, t1))
 
     def sankey(self, ax=None, t0: float | None = None, t1: float | None = None, title: str | None = None):
         """Sankey diagram between output times ``t0`` and ``t1``: the energy passed on at each power sensor (in
         the order the model built them), each stage's loss named by its components (:mod:`acausal.energy`)."""
         from .energy import draw_sankey
+        return draw_sankey(self, self.model.accounts, ax, *self._window(t0, t1), title)
+
+    def _window(self, t0, t1) -> tuple:
+        """Output samples nearest to ``t0`` and ``t1`` (default: the first and the last)."""
         k0 = 0 if t0 is None else int(np.argmin(np.abs(self.t - t0)))
         k1 = self.t.size - 1 if t1 is None else int(np.argmin(np.abs(self.t - t1)))
-        return draw_sankey(self, self.model.accounts, ax, k0, k1, title)
+        return k0, k1
 
     def integral(self, name: str) -> float:
         """Integral of a variable (or a port's power) over the whole result, like :meth:`energy`."""
