@@ -52,6 +52,8 @@ Assumptions (not published, ``../shared/data/parameters.md``): lever lengths A =
 """
 from __future__ import annotations
 
+import abc
+
 from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable, connect
 from acausal.partials import check_option
 from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource
@@ -140,13 +142,14 @@ class DriveTrain(Model):
             self.gear = IdealGear(ratio=N_TOTAL)
             connect(shaft, self.gear.flange_a)
             return self.gear.flange_b
-        self.planetary = Gearbox(ratio=86.0, eta=0.7, J_a=0.7e-7, law="smooth")
+        planetary = 86.0  # the planetary gearhead's ratio; the output stage makes up the rest of N_TOTAL
+        self.planetary = Gearbox(ratio=planetary, eta=0.7, J_a=0.7e-7, law="smooth")
         connect(shaft, self.planetary.flange_a)
         if self.options["gears"] == "paper":
-            self.helical = Gearbox(ratio=N_TOTAL / 86.0, eta=0.9, law="smooth")
+            self.helical = Gearbox(ratio=N_TOTAL / planetary, eta=0.9, law="smooth")
             connect(self.planetary.flange_b, self.helical.flange_a)
             return self.helical.flange_b
-        self.worm = SelfLockingGear(ratio=N_TOTAL / 86.0)
+        self.worm = SelfLockingGear(ratio=N_TOTAL / planetary)
         connect(self.planetary.flange_b, self.worm.flange_a)
         return self.worm.flange_b
 
@@ -176,11 +179,7 @@ class DriveTrain(Model):
         connect(self.available.y, self.controller.limit)
 
 
-def _plan(P, k, A, B, body_mass, tolerance, arm_limit):
-    return planned_arm_angle(P, k, A, B, body_mass, tolerance, arm_limit)
-
-
-class SeriesLinkAnkle(DriveTrain):
+class SeriesLinkAnkle(DriveTrain, abc.ABC):
     """A :class:`DriveTrain` whose gear output moves a moment arm that drives the joint through a series
     elastic link: ``-[P_link]- link -[P_output]- torque_sensor - ankle``, with the moment arm following a planned
     angle (``mode``, ``motion``: module docstring). Extensions say what the link is (:meth:`make_link`) and how
@@ -197,13 +196,13 @@ class SeriesLinkAnkle(DriveTrain):
                              "the gait)")
         super().__init__(saturate=mode == "closed_loop", **kw)
 
+    @abc.abstractmethod
     def make_link(self):
         """The elastic element between moment arm (``flange_b``) and joint (``flange_a``)."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def planned_arm(self):
         """The planned moment-arm angle over the gait fraction (a Signal of period 1)."""
-        raise NotImplementedError
 
     def build_extras(self):
         """Parts added to the drive before the link (none here)."""
@@ -318,9 +317,9 @@ class AnkleActuator(SeriesLinkAnkle):
 
     def planned_arm(self) -> ParametricSignal:
         """The planned moment-arm angle over the gait fraction, from this run's parameters."""
-        return ParametricSignal(_plan, {"P": self.P_nominal, "k": self.link.k, "A": self.link.A, "B": self.link.B,
-                                        "body_mass": self.body_mass, "tolerance": self.torque_tolerance,
-                                        "arm_limit": self.arm_limit}, name="planned moment-arm angle", max_order=5)
+        depends = {"P": self.P_nominal, "k": self.link.k, "A": self.link.A, "B": self.link.B,
+                   "body_mass": self.body_mass, "tolerance": self.torque_tolerance, "arm_limit": self.arm_limit}
+        return ParametricSignal(planned_arm_angle, depends, name="planned moment-arm angle", max_order=5)
 
     def reading(self, tau):
         if self.has("torque_sensor_offset"):

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acausal import compile_model
+from acausal import ModelError, compile_model
 from acausal.library.drives import PWMDriver
 from acausal.library.gait import unit_cycle
 from acausal.energy import balance
@@ -61,7 +61,7 @@ def compiled(name: str) -> Compiled:
         acc = sim.accounts
         labels = [p for p in POINTS if p not in model.shared_points]
         if len(acc.sensors) != len(labels):
-            raise RuntimeError(f"model {name!r}: {len(acc.sensors)} power sensors {acc.sensors}, expected one per "
+            raise ModelError(f"model {name!r}: {len(acc.sensors)} power sensors {acc.sensors}, expected one per "
                                f"measurement point {labels}")
         points = dict(zip(labels, acc.sensors))
         points.update({a: points[b] for a, b in model.shared_points.items()})
@@ -159,7 +159,8 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
 
     energy = {k: stride_energy(points[k]) for k in POINTS}
     stage_loss = {st: energy[a] - energy[b] for st, a, b in STAGES}
-    peak = {k: float(np.max(np.abs(res[points[k]][window]))) for k in POINTS}
+    power = {k: np.asarray(res[points[k]][window]) for k in POINTS}
+    peak = {k: float(np.max(np.abs(p))) for k, p in power.items()}
     bal = balance(res, sim.accounts, k0)
     t = res.t[window] - res.t[k0]
     i_m = np.asarray(res["motor.i"][window])
@@ -169,9 +170,9 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
                      peak_motor_current=float(np.max(np.abs(i_m))),
                      rms_motor_current=float(np.sqrt(np.sum(np.diff(t) * (i_m[1:]**2 + i_m[:-1]**2) / 2) / t[-1])),
                      peak_motor_voltage=float(np.max(np.abs(res["motor.v"][window]))),
-                     returned=negative_energy(t, np.asarray(res[points["source"]][window])),
+                     returned=negative_energy(t, power["source"]),
                      loss_energy=dict(bal.losses), params={k: float(v) for k, v in values.items()},
-                     stages=c.stages, time=t, power={k: np.asarray(res[points[k]][window]) for k in POINTS})
+                     stages=c.stages, time=t, power=power)
     if "tracking_error" in res:
         e = res["tracking_error"][window]
         r.tracking_rms, r.tracking_max = float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))

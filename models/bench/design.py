@@ -25,12 +25,13 @@ from scipy.interpolate import make_interp_spline
 from scipy.optimize import minimize
 
 from acausal import Signal
-from acausal.library.gait import unit_cycle
 from acausal.library.maccepa import Maccepa, inverse_torque, max_torque
 from acausal.sweep import chunks, sweep
 
 from ..ankle.actuator import AnkleActuator
+from ..ankle.planning import gait_samples
 from ..ankle.presets import EQ4_LUMPED
+from ..ankle.protocol import POINTS
 from .calibration import replay_model
 
 A_LEVER, B_LEVER = Maccepa.A.default, Maccepa.B.default  # the lever lengths every design keeps
@@ -38,8 +39,6 @@ BODY_MASS = AnkleActuator.body_mass.default
 N_STRIDE = 400  # samples per stride
 K_GRID = np.linspace(40e3, 280e3, 25)  # N/m (10 N/mm steps)
 P_GRID = np.linspace(0.001, 0.018, 18)  # m
-POINTS = {"source": "P_source.P", "driver": "P_driver.P", "motor": "P_motor.P", "link": "P_link.P",
-          "output": "P_output.P"}
 
 
 class PeriodicSplineBatch(Signal):
@@ -79,10 +78,7 @@ class Designs:
 def plan_designs(ks, Ps, stride_time: float, n: int = N_STRIDE) -> Designs:
     """The moment-arm trajectory of every (k, P) pair (vectorised over P for each k)."""
     ks, Ps = np.asarray(ks, float), np.asarray(Ps, float)
-    cyc = unit_cycle()
-    s = np.arange(n) / n
-    theta = cyc.angle(s)
-    M = BODY_MASS * cyc.torque(s)
+    s, theta, M = gait_samples(BODY_MASS, n)
     feasible = max_torque(Ps, ks, A_LEVER, B_LEVER)[0] >= np.max(np.abs(M)) if np.ndim(ks) == 0 else \
         np.array([max_torque(P, k, A_LEVER, B_LEVER)[0] >= np.max(np.abs(M)) for k, P in zip(ks, Ps)])
     phi = []
@@ -112,15 +108,16 @@ def evaluate_designs(ks, Ps, stride_time: float, params: dict | None = None, n: 
     phi = PeriodicSplineBatch(d.t, d.phi.T, T, "planned moment-arm angles")
     base = {**EQ4_LUMPED, **(params or {}), "stride_time": T}
     pb = sim.param_batch([{**base, "link.k": k, "P_nominal": P} for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
-    vals = sim.evaluate(d.t, params=pb, names=list(POINTS.values()) + ["driver.d"],
+    points = dict(zip(POINTS, sim.accounts.sensors))  # the model's power sensors, in chain order
+    vals = sim.evaluate(d.t, params=pb, names=list(points.values()) + ["driver.d"],
                         inputs={"ankle.phi_ref": theta, "arm_target.signal": phi})
-    E = {p: np.mean(vals[v], axis=-1) * T for p, v in POINTS.items()}  # periodic: the rectangle rule
+    E = {p: np.mean(vals[v], axis=-1) * T for p, v in points.items()}  # periodic: the rectangle rule
     f = d.feasible
     for p in POINTS:
         out[f"E_{p}_J"][f] = E[p]
     out["efficiency"][f] = E["output"] / E["source"]
-    out["peak_link_W"][f] = np.max(np.abs(vals["P_link.P"]), axis=-1)
-    out["peak_motor_W"][f] = np.max(np.abs(vals["P_motor.P"]), axis=-1)
+    out["peak_link_W"][f] = np.max(np.abs(vals[points["link"]]), axis=-1)
+    out["peak_motor_W"][f] = np.max(np.abs(vals[points["motor"]]), axis=-1)
     out["max_duty"][f] = np.max(np.abs(vals["driver.d"]), axis=-1)
     return out
 
