@@ -27,9 +27,9 @@ import sympy as sp
 
 from sympy import Eq
 
-from acausal import Parameter, Variable, der
+from acausal import Parameter, Variable
 from acausal.errors import ModelError
-from acausal.partials import PartialCompliant
+from acausal.partials import PartialCompliant, PartialCompliantWithRelativeStates
 
 __all__ = [
     "link_length", "spring_compression", "perpendicular_force", "torque", "spring_energy", "stiffness",
@@ -339,7 +339,7 @@ class Maccepa(PartialCompliant):
         return 0
 
 
-class FrictionalMaccepa(Maccepa):
+class FrictionalMaccepa(Maccepa, PartialCompliantWithRelativeStates):
     """The MACCEPA linkage with the friction of its sliding bar and pivots, a swap-in for :class:`Maccepa`.
 
     The spring force ``F = k (P + A + B - C(alpha))`` (>= 0: the spring is always compressed) loads the sliding
@@ -382,13 +382,12 @@ class FrictionalMaccepa(Maccepa):
                     "at reversals)")
     d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="viscous friction on the relative motion (lubricant shear; "
                   "not measured, 0 by default: a speed-dependent loss for the paper's short-stride worst case)")
-    w_rel = Variable(unit="rad/s", doc="relative angular velocity der(alpha)")
     spring_force = Variable(unit="N", doc="spring force k (P + A + B - C(alpha)), the friction's normal load")
     tau_f = Variable(unit="N.m", doc="friction torque on the relative motion, in the direction of w_rel")
     loss_power = Variable(unit="W", doc="dissipated power tau_f w_rel (>= 0)")
 
     def equations(self):
-        return [*super().equations(), Eq(self.w_rel, der(self.phi_rel)),
+        return [*super().equations(),  # w_rel = der(phi_rel) from PartialCompliantWithRelativeStates
                 Eq(self.spring_force, self.k * self.compression),
                 Eq(self.tau_f, (self.tau_0 + self.r_f * self.spring_force) * sp.tanh(self.w_rel / self.w_c)
                    + self.d * self.w_rel),
