@@ -26,6 +26,9 @@ from pathlib import Path
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
 EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
             "fig15_efficiency", "table2", "fig14_calibration", "fig16_17_design", "diagnosis_gear_losses"]
+#: the examples that simulate on their own (they need no protocol results): ``acausal paper`` runs them in its
+#: process pool beside the protocol sweep, longest first, so their single-core work overlaps the sweep
+SELF_CONTAINED = ["fig16_17_design", "diagnosis_gear_losses", "fig14_calibration"]
 
 
 
@@ -45,6 +48,13 @@ def load_example(name: str):
     return module
 
 
+def run_example(name: str, out_dir: str) -> dict:
+    """``examples/<name>.py``'s ``main(out_dir)``, the parts of its output the report reads (a module-level
+    function returning plain data, so a process pool can run it)."""
+    out = load_example(name).main(Path(out_dir))
+    return {k: out[k] for k in ("title", "markdown", "figures", "csv", "comparisons") if k in out}
+
+
 def cmd_paper(args) -> int:
     from concurrent.futures import ProcessPoolExecutor
 
@@ -58,16 +68,40 @@ def cmd_paper(args) -> int:
     print(f"acausal paper: {len(conditions)} conditions on {jobs} process(es)"
           f"{' (quick: reduced grid)' if args.quick else ''}", file=sys.stderr)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
+        early = {name: pool.submit(run_example, name, str(out)) for name in SELF_CONTAINED}
         results = report.run_all(conditions, progress=not args.no_progress, executor=pool)
-    t_sim = time.perf_counter() - t0
-    outputs = []
-    for name in EXAMPLES:
-        outputs.append(load_example(name).main(out, results))
+        t_sim = time.perf_counter() - t0
+        outputs = []
+        for name in EXAMPLES:
+            outputs.append(early[name].result() if name in early else load_example(name).main(out, results))
     elapsed = time.perf_counter() - t0
     path = report.write_report(out, results, outputs, quick=args.quick, elapsed=elapsed)
     print(f"acausal paper: simulated in {t_sim:.1f} s, figures and report in {elapsed - t_sim:.1f} s",
           file=sys.stderr)
     print(f"report: {path}")
+    return 0
+
+
+def cmd_infer(args) -> int:
+    from concurrent.futures import ProcessPoolExecutor
+
+    from acausal.models.ankle import inference, presets  # the CLI wires verbs to models (design rule exception)
+
+    out = Path(args.out)
+    jobs = args.jobs or os.cpu_count() or 1
+
+    def progress(n, values, cost):
+        if not args.no_progress:
+            shown = ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
+            print(f"  evaluation {n}: cost {cost:.3f} at {shown}", file=sys.stderr, flush=True)
+
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        record = inference.infer(executor=pool, progress=progress)
+    paths = [inference.write(record, out / "paper_fit.json"), inference.write_tables(record, out)]
+    if args.install:
+        paths.append(inference.write(record, presets.PAPER_FIT_RECORD))
+    for p in paths:
+        print(p)
     return 0
 
 
@@ -150,6 +184,13 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     paper.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     paper.set_defaults(run=cmd_paper)
+    infer = sub.add_parser("infer", help="infer the paper's unpublished parameters from its published numbers "
+                           "(the paper_fit preset; several minutes)")
+    infer.add_argument("--out", required=True, help="output directory (paper_fit.json, inference.md)")
+    infer.add_argument("--install", action="store_true", help="also replace the shipped paper_fit preset record")
+    infer.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    infer.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    infer.set_defaults(run=cmd_infer)
     bench = sub.add_parser("bench", help="virtual test bench: record the paper's protocol on a truth model")
     bench.add_argument("--out", required=True, help="folder for the recordings (NAME.csv + NAME.json)")
     bench.add_argument("--effect", action="append", metavar="NAME=VALUE",

@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
-from acausal.models.ankle.paper import comparison, pick  # noqa: E402
+from acausal.models.ankle.paper import HEADLINE, comparison, pick  # noqa: E402
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
@@ -52,7 +52,7 @@ def main(out_dir: Path, results=None) -> dict:
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3)
     png = save_figure(fig, out_dir / "fig08_power_chain.png",
-                      shows="simulation: AnkleActuator (replay), preset library")
+                      shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
 
     md = md_table(["measurement point", "energy per stride [J]", "mean power [W]", "peak magnitude of power [W]",
                    "time of the peak [ms]"],

@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.ankle.paper import D_MAX, comparison, grid_rows, heatmap, replay_grid  # noqa: E402
+from acausal.models.ankle.paper import D_MAX, HEADLINE, comparison, grid_rows, heatmap, replay_grid  # noqa: E402
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
@@ -78,7 +78,7 @@ def main(out_dir: Path, results=None) -> dict:
                 cmap="magma_r", vmin=vmin, vmax=vmax,
                 mark=(0.008, 2.0, f"Table 1 condition (paper: {100 * table1:.1f} %)"))
         ax.set_title(title + "\n" + "\n".join(textwrap.wrap(f"({paper_says})", 80)), fontsize=9.5)
-        png = save_figure(fig, out_dir / f"{stem}.png", shows="simulation: AnkleActuator (replay), preset library")
+        png = save_figure(fig, out_dir / f"{stem}.png", shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
         figures.append(png)
         csvs.append(write_csv(out_dir / f"{stem}.csv",
                               grid_rows(grid, {"loss_pct_of_previous_point": lambda r, k=key: 100 * r.loss_fraction[k],

@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.ankle.paper import pick, rms  # noqa: E402
+from acausal.models.ankle.paper import HEADLINE, pick, rms  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 
@@ -65,7 +65,7 @@ def main(out_dir: Path, results=None) -> dict:
     fig.suptitle("Fig. 13: tracking of the moment-arm angle (upper) and its effect on the power to the joint (lower),"
                  " closed loop at 48 V", fontsize=10.5)
     png = save_figure(fig, out_dir / "fig13_tracking.png",
-                      shows="simulation: AnkleActuator, closed loop and replay, preset library")
+                      shows=f"simulation: AnkleActuator, closed loop and replay, preset {HEADLINE}")
     csv_path = write_csv(out_dir / "fig13_tracking.csv", rows)
     md = md_table(["stride time [s]", "rms tracking error [deg]", "max tracking error [deg]", "largest duty",
                    "source energy [J/stride]", "joint work, closed loop [J/stride]", "joint work, planned [J/stride]",

@@ -279,6 +279,8 @@ class Gearbox(Model):
     J_b = Parameter(0.0, unit="kg.m2", min=0.0, doc="inertia on the output side")
     tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="output bearing Coulomb friction")
     d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="output bearing viscous friction")
+    w_c = Parameter(BearingFriction.w_c.default, unit="rad/s", min=1e-12,
+                    doc="speed scale of the bearing's smooth Coulomb law (see BearingFriction)")
     flange_a = Flange(doc="input (fast) side")
     flange_b = Flange(doc="output (slow) side")
     loss_power = Variable(unit="W", doc="mesh + bearing losses")
@@ -291,7 +293,7 @@ class Gearbox(Model):
     def build(self):
         self.inertia_a = Inertia(J=self.J_a)
         self.mesh = LossyGear(ratio=self.ratio, eta=self.eta, law=self.law)
-        self.bearing = BearingFriction(tau_c=self.tau_c, d=self.d)
+        self.bearing = BearingFriction(tau_c=self.tau_c, d=self.d, w_c=self.w_c)
         self.inertia_b = Inertia(J=self.J_b)
         connect(self.flange_a, self.inertia_a.flange_a)
         connect(self.inertia_a.flange_b, self.mesh.flange_a)

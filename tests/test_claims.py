@@ -60,10 +60,22 @@ def test_r_inflation_claim(tmp_path):
     assert _claims(tmp_path, [], diagnosis_gear_losses=diag)["C13"]["holds"] == "no"
 
 
-def test_every_claim_is_a_prediction_until_a_fit_uses_it():
-    assert len(CLAIMS) == 13 and not any(c.used_in_fit for c in CLAIMS)
+def test_every_claim_is_a_prediction_until_a_fit_uses_it(tmp_path):
+    assert len(CLAIMS) == 13
     for c in CLAIMS:
         assert c.statement and c.paper and c.reading, c.id
+    assert {c["used_in_fit"] for c in evaluate(tmp_path)} == {"no"}
+    marked = {c["id"] for c in evaluate(tmp_path, fitted=frozenset({"C1", "C9"})) if c["used_in_fit"] == "yes"}
+    assert marked == {"C1", "C9"}
+
+
+def test_fig7_claim_reads_its_own_preset(tmp_path):
+    rows = [dict(preset=p, drive=d, peak_source_power_W=peak, energy_per_stride_J=100.0)
+            for p, d, peak in (("library", "MACCEPA actuator", 100.0), ("library", "direct drive", 140.0),
+                               ("paper_fit", "MACCEPA actuator", 100.0), ("paper_fit", "direct drive", 250.0))]
+    write_csv(tmp_path / "fig07_summary.csv", rows)
+    assert {c["id"]: c for c in evaluate(tmp_path, "library")}["C9"]["holds"] == "yes"
+    assert {c["id"]: c for c in evaluate(tmp_path, "paper_fit")}["C9"]["holds"] == "no"
 
 
 def test_missing_files_are_not_checked(tmp_path):

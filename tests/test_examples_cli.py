@@ -24,7 +24,8 @@ def test_report_has_table1_next_to_the_paper(out):
     assert "## Table 1" in text
     for paper_value in ("64.5", "42.0", "33.0", "15.4", "12.0", "34.9 %", "53.3 %", "18.6 %"):
         assert paper_value in text, paper_value
-    assert "No number is tuned to the paper" in text
+    assert "## Inferred parameters (`paper_fit`)" in text and "Every other number is a prediction" in text
+    assert "`library`" in text  # the a-priori preset beside the headline
     assert "ratio" in text
     # every figure is embedded, every difference > 25 % comes with the assumption behind it
     for stem in FIGURES:
@@ -69,10 +70,12 @@ def test_table1_csv_matches_the_paper_column(out):
 def test_protocol_csv_one_row_per_condition(out):
     with (out / "protocol.csv").open() as f:
         rows = list(csv.DictReader(f))
-    replay = [r for r in rows if r["model"] == "replay" and r["preset"] == "library"]
-    assert len(replay) == 9  # quick grid: 3 precompressions x 3 stride times
+    for preset in ("paper_fit", "library"):
+        replay = [r for r in rows if r["model"] == "replay" and r["preset"] == preset]
+        assert len(replay) == 9  # quick grid: 3 precompressions x 3 stride times
+        assert max(abs(float(r["balance_residual"])) for r in rows if r["preset"] == preset) < 1e-6
     assert {r["model"] for r in rows} == {"replay", "closed_loop", "direct_drive"}
-    assert max(abs(float(r["balance_residual"])) for r in rows if r["preset"] == "library") < 1e-5
+    assert all(r["preset"] for r in rows)
 
 
 def test_examples_registered():
@@ -93,14 +96,18 @@ def test_no_verb_is_an_error(capsys):
 def test_claims_table_is_written_and_in_the_report(out):
     with (out / "claims.csv").open() as f:
         rows = list(csv.DictReader(f))
-    assert [r["id"] for r in rows] == [f"C{i}" for i in range(1, 14)]
+    assert [(r["preset"], r["id"]) for r in rows] == [(p, f"C{i}") for p in ("paper_fit", "library")
+                                                      for i in range(1, 14)]
     assert set(rows[0]) >= {"id", "statement", "paper", "simulated", "holds", "used_in_fit", "note", "preset"}
     assert {r["holds"] for r in rows} <= {"yes", "no", "not checked"}
-    held = {r["id"]: r["holds"] for r in rows}
+    held = {r["id"]: r["holds"] for r in rows if r["preset"] == "paper_fit"}
     assert held["C2"] == "not checked"  # the quick grid has 9 of the 36 conditions
     assert held["C1"] in ("yes", "no") and held["C10"] in ("yes", "no")
+    fitted = {r["id"] for r in rows if r["used_in_fit"] == "yes"}
+    assert fitted == {"C1", "C2", "C8", "C9"} and all(r["used_in_fit"] == "no" for r in rows
+                                                      if r["preset"] == "library")
     text = (out / "report.md").read_text()
-    assert "## Claims" in text and f"**{sum(h == 'yes' for h in held.values())} of 13 hold**" in text
+    assert "## Claims" in text and f"**{sum(h == 'yes' for h in held.values())} of 13 hold** with" in text
 
 
 def test_every_link_in_the_report_resolves(out):

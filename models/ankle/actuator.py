@@ -143,7 +143,9 @@ class DriveTrain(Model):
             connect(shaft, self.gear.flange_a)
             return self.gear.flange_b
         planetary = 86.0  # the planetary gearhead's ratio; the output stage makes up the rest of N_TOTAL
-        self.planetary = Gearbox(ratio=planetary, eta=0.7, J_a=0.7e-7, law="smooth")
+        # the drag at the planetary's output (planetary.tau_c, inferred in paper_fit) turns smoothly over 0.1 rad/s
+        # (a fraction of a percent of the output's peak speed, about 25 rad/s), so the replay's derivatives stay bounded
+        self.planetary = Gearbox(ratio=planetary, eta=0.7, J_a=0.7e-7, law="smooth", w_c=0.1)
         connect(shaft, self.planetary.flange_a)
         if self.options["gears"] == "paper":
             self.helical = Gearbox(ratio=N_TOTAL / planetary, eta=0.9, law="smooth")

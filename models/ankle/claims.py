@@ -81,7 +81,6 @@ class Claim:
     paper: str  # the paper's numbers
     reading: str  # how it is checked: quantity and tolerance
     check: Callable  # Tables -> (simulated: str, holds: bool | None, note: str)
-    used_in_fit: bool = False
 
 
 NOT_CHECKED = ("-", None)
@@ -174,7 +173,7 @@ def _c8(t: Tables):
 
 
 def _c9(t: Tables):
-    rows = {r["drive"]: r for r in t["fig07_summary"]}
+    rows = {r["drive"]: r for r in t["fig07_summary"] if r.get("preset", t.preset) == t.preset}
     if len(rows) < 2:
         return (*NOT_CHECKED, "fig07_summary.csv missing")
     act, dd = rows["MACCEPA actuator"], rows["direct drive"]
@@ -273,14 +272,16 @@ _TABLE = [
 CLAIMS = [Claim(*row) for row in _TABLE]
 
 
-def evaluate(out_dir, preset: str = "library") -> list[dict]:
-    """The claims checked on the CSV files in ``out_dir``: one row per claim (``claims.csv``'s columns)."""
+def evaluate(out_dir, preset: str = "library", fitted: frozenset = frozenset()) -> list[dict]:
+    """The claims checked on the CSV files in ``out_dir`` for one preset: one row per claim (``claims.csv``'s
+    columns). ``fitted``: the ids of the claims the preset's parameters were inferred from (the inference record
+    says which), marked ``used_in_fit``."""
     t = Tables(out_dir, preset)
     rows = []
     for c in CLAIMS:
         simulated, holds, note = c.check(t)
         rows.append(dict(id=c.id, statement=f"[{c.section}] {c.statement}", paper=c.paper, simulated=simulated,
                          holds="not checked" if holds is None else ("yes" if holds else "no"),
-                         used_in_fit="yes" if c.used_in_fit else "no", preset=preset,
+                         used_in_fit="yes" if c.id in fitted else "no", preset=preset,
                          note="; ".join(filter(None, [f"read as: {c.reading}", note]))))
     return rows

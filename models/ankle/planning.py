@@ -52,39 +52,50 @@ def gait_samples(body_mass: float, n: int = N_PLAN):
 
 
 def _least_speed_in_band(phi, lo, hi):
-    """The periodic path within ``[lo, hi]`` of least sum of squared differences (projected red-black SOR with the
-    optimal factor for a ring of ``len(phi)`` points, started from ``phi``); stops when no sample moves more than
-    ``_CONVERGED`` in a sweep."""
+    """The periodic path within ``[lo, hi]`` of least sum of squared differences along the last axis (projected
+    red-black SOR with the optimal factor for a ring of ``phi.shape[-1]`` points, started from ``phi``; leading
+    axes are independent paths solved together); stops when no sample moves more than ``_CONVERGED`` in a
+    sweep."""
     phi = np.array(phi, dtype=float)
-    n = phi.size
+    n = phi.shape[-1]
     w = 2.0 / (1.0 + np.sin(np.pi / n))
     halves = (np.arange(0, n, 2), np.arange(1, n, 2))
     for _ in range(_ITER_MAX):
         before = phi.copy()
         for idx in halves:
-            mean = 0.5 * (phi[idx - 1] + phi[(idx + 1) % n])
-            phi[idx] = np.clip((1.0 - w) * phi[idx] + w * mean, lo[idx], hi[idx])
+            mean = 0.5 * (phi[..., idx - 1] + phi[..., (idx + 1) % n])
+            phi[..., idx] = np.clip((1.0 - w) * phi[..., idx] + w * mean, lo[..., idx], hi[..., idx])
         if np.max(np.abs(phi - before)) < _CONVERGED:
             return phi
     raise ModelError(f"planning: the path within the torque band did not settle in {_ITER_MAX} sweeps")
+
+
+def arm_angles(P, k: float, A: float, B: float, body_mass: float, tolerance: float = 0.0,
+               arm_limit: float = ARM_LIMIT, n: int = N_PLAN):
+    """``(s, theta, M, phi)``: the gait samples and the planned moment-arm angle [rad] of one stride for
+    precompression ``P`` [m], a scalar or a 1-D array of designs sharing the stiffness ``k`` (``phi`` then has a
+    row per design); ``tolerance`` and ``arm_limit`` as in the module docstring."""
+    if not tolerance >= 0:
+        raise ModelError(f"planning: torque tolerance must be >= 0 N m, got {tolerance!r}")
+    if not arm_limit > 0:
+        raise ModelError(f"planning: arm_limit must be > 0 rad, got {arm_limit!r}")
+    s, theta, M = gait_samples(body_mass, n)
+    Pc = np.asarray(P, dtype=float)[..., None]
+    phi = theta + inverse_torque(M, Pc, k, A, B)
+    if tolerance > 0 or np.max(np.abs(phi)) > arm_limit:
+        reach = np.max(np.abs(M))  # the band's ends stay within the linkage's reach
+        lo = theta + inverse_torque(np.clip(M - tolerance, -reach, reach), Pc, k, A, B)
+        hi = theta + inverse_torque(np.clip(M + tolerance, -reach, reach), Pc, k, A, B)
+        lo, hi = np.clip(lo, -arm_limit, arm_limit), np.clip(hi, -arm_limit, arm_limit)
+        phi = _least_speed_in_band(np.clip(phi, lo, hi), lo, hi)
+    return s, theta, M, phi
 
 
 def plan_moment_arm(P: float, k: float, A: float, B: float, body_mass: float, tolerance: float = 0.0,
                     arm_limit: float = ARM_LIMIT, n: int = N_PLAN) -> Plan:
     """The moment-arm trajectory for one stride (independent of the stride time: the profile is stretched);
     ``tolerance`` [N m] and ``arm_limit`` [rad] as in the module docstring."""
-    if not tolerance >= 0:
-        raise ModelError(f"planning: torque tolerance must be >= 0 N m, got {tolerance!r}")
-    if not arm_limit > 0:
-        raise ModelError(f"planning: arm_limit must be > 0 rad, got {arm_limit!r}")
-    s, theta, M = gait_samples(body_mass, n)
-    phi = theta + inverse_torque(M, P, k, A, B)
-    if tolerance > 0 or np.max(np.abs(phi)) > arm_limit:
-        reach = np.max(np.abs(M))  # the band's ends stay within the linkage's reach
-        lo = theta + inverse_torque(np.clip(M - tolerance, -reach, reach), P, k, A, B)
-        hi = theta + inverse_torque(np.clip(M + tolerance, -reach, reach), P, k, A, B)
-        lo, hi = np.clip(lo, -arm_limit, arm_limit), np.clip(hi, -arm_limit, arm_limit)
-        phi = _least_speed_in_band(np.clip(phi, lo, hi), lo, hi)
+    s, theta, M, phi = arm_angles(P, k, A, B, body_mass, tolerance, arm_limit, n)
     alpha = phi - theta
     shortfall = float(np.max(np.abs(torque(alpha, P, k, A, B) - M)))
     name = f"planned moment-arm angle (P = {P * 1e3:g} mm" + (f", within {tolerance:g} N m)" if tolerance else ")")

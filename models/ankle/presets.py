@@ -10,18 +10,25 @@ inertia is 3.33e-6 kg m2; 5.68e-6 is the no-load friction torque over the no-loa
 total" inertia and friction read as referred to the moment-arm angle (divided by n = 860 they give 4.07e-6 kg m2
 = rotor + gearhead input inertia, and 7.0e-6 N m s/rad = the no-load friction). Both readings are offered:
 ``optimized_total_as_printed`` (motor side, as printed) and ``optimized_total_arm_side`` (divided by n).
-The ``paper_*`` presets therefore switch our gear stages to ideal (eta = 1, no inertia, no friction) and the
+The ``paper_datasheet`` and ``paper_*_total`` presets therefore switch our gear stages to ideal (eta = 1, no inertia, no friction) and the
 driver to lossless and the supply to stiff (1 milliohm), so that only Eq. (4)'s parameters act.
 """
+import json
+from pathlib import Path
+
 N_TOTAL = 860.0
+#: the record of the inference of the unpublished parameters (:mod:`acausal.models.ankle.inference`, written by
+#: ``acausal infer --install``): the ``paper_fit`` preset with ranges, sources, uncertainties and targets met
+PAPER_FIT_RECORD = Path(__file__).with_name("paper_fit.json")
 
 #: Eq. (4)'s lumped motor values the paper's data implies (the Eq. 4 model's defaults and the virtual bench's
 #: truth): R as Table 2's estimated total; J = rotor 3.33e-6 + gearhead input 0.7e-6 kg m2 (= Table 2's optimized
 #: total / 860); b = the no-load friction 7.0e-6 N m s/rad (= Table 2's optimized total / 860)
 EQ4_LUMPED = {"motor.R": 0.7, "motor.J": 4.07e-6, "motor.b": 7.0e-6}
 
-# our component model's physical defaults (datasheet motor, catalogue gear efficiency, measured driver draw)
-LIBRARY = {}
+# our component model's physical defaults (datasheet motor, catalogue gear efficiency, measured driver draw), and
+# the paper's lossless linkage (Eq. 1-3): the registry's MACCEPA is the frictional one, its friction set to zero
+LIBRARY = {"link.r_f": 0.0}
 
 _IDEAL_REST = {
     "planetary.eta": 1.0, "planetary.J_a": 0.0, "helical.eta": 1.0,
@@ -29,6 +36,8 @@ _IDEAL_REST = {
     # would then have a time constant of nanoseconds. Cost: with so stiff a bus the energy balance of these runs
     # closes to about 1e-5 rather than 1e-6 (the report states the residual).
     "driver.P_q": 0.0, "driver.R_on": 0.0, "driver.k_sw": 0.0, "supply.R_int": 1e-3,
+    # and the paper's lossless linkage (Eq. 1-3)
+    "link.r_f": 0.0,
 }
 
 PRESETS = {
@@ -47,8 +56,13 @@ PRESETS = {
     "paper_optimized_total_arm_side": {**_IDEAL_REST, "motor.J": 3.5e-3 / N_TOTAL, "motor.b": 6e-3 / N_TOTAL,
                                        "motor.R": 2.0, "motor.L": 6.53e-5},
 }
+#: inferred from the paper's published numbers (claims C1, C2, C8, C9): the library preset with the unknowns'
+#: fitted values on top, read from :data:`PAPER_FIT_RECORD` when used
+FITTED = ("paper_fit",)
 
 DESCRIPTIONS = {
+    "paper_fit": "component model with the unpublished parameters (body mass, linkage friction, gearhead drag and "
+                 "efficiency, driver draw, planner tolerance) inferred from the paper's Table 1, Fig. 9 and Fig. 7",
     "library": "component model with datasheet motor, lossy gears (planetary 70 %, helical 90 % assumed), "
                "EPOS2 driver (12.5 W quiescent), non-regenerative rectifier",
     "paper_datasheet": "paper Eq. 4, motor datasheet values (Table 2 'motor parameter', swap corrected)",
@@ -58,10 +72,29 @@ DESCRIPTIONS = {
 }
 
 
+def paper_fit_record(path: Path = PAPER_FIT_RECORD) -> dict:
+    """The inference record (the shipped one by default); a missing or malformed file is a ModelError naming it."""
+    from acausal import ModelError
+    path = Path(path)
+    try:
+        record = json.loads(path.read_text())
+        values = record["preset"]
+    except FileNotFoundError:
+        raise ModelError(f"preset paper_fit: {path} not found (run `acausal infer --out DIR --install`)") from None
+    except (json.JSONDecodeError, KeyError, TypeError) as e:
+        raise ModelError(f"preset paper_fit: {path} is not an inference record ({type(e).__name__}: {e})") from None
+    bad = [k for k, v in values.items() if not isinstance(v, (int, float))] if isinstance(values, dict) else ["preset"]
+    if bad:
+        raise ModelError(f"preset paper_fit: {path}: key 'preset' must map parameter names to numbers; bad: {bad}")
+    return record
+
+
 def preset(name: str) -> dict:
     """The overrides of a named preset; an unknown name lists the known ones."""
     from acausal import ModelError
+    if name in FITTED:
+        return {**LIBRARY, **paper_fit_record()["preset"]}
     try:
         return dict(PRESETS[name])
     except KeyError:
-        raise ModelError(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}") from None
+        raise ModelError(f"unknown preset {name!r}; known: {', '.join(sorted([*PRESETS, *FITTED]))}") from None

@@ -20,6 +20,9 @@ from acausal.library.drives import PWMDriver
 from . import windings
 
 RPM = 2 * np.pi / 60.0
+#: every MACCEPA actuator of the registry has the frictional linkage; the ``library`` preset sets its friction to
+#: zero (the paper's lossless Eq. 1-3), ``paper_fit`` to the inferred values
+LINKAGE = {"linkage": "frictional"}
 
 
 @dataclass(frozen=True)
@@ -78,16 +81,17 @@ class ModelSpec:
 def _winding(name: str) -> ModelSpec:
     w = windings.WINDINGS[name]
     return ModelSpec(f"winding_{name}", f"the paper's actuator with the motor's {name} winding and a {w['V']:g} V "
-                     "supply (R_int, brake threshold scaled)", "ankle.actuator:AnkleActuator",
+                     "supply (R_int, brake threshold scaled)", "ankle.actuator:AnkleActuator", LINKAGE,
                      params=windings.winding_params(name), build_key="replay",
                      limits=Limits(nominal_torque=w["nominal_torque"]), doc_from="ankle.windings")
 
 
 _SPECS = [
     ModelSpec("replay", "the paper's actuator: MACCEPA series spring, replayed along the planned moment-arm angle",
-              "ankle.actuator:AnkleActuator"),
+              "ankle.actuator:AnkleActuator", LINKAGE),
     ModelSpec("closed_loop", "the paper's actuator under PID control within the bus voltage (tracking error)",
-              "ankle.actuator:AnkleActuator", {"mode": "closed_loop"}, tol=dict(rtol=1e-6, atol=1e-8)),
+              "ankle.actuator:AnkleActuator", {"mode": "closed_loop", **LINKAGE},
+              tol=dict(rtol=1e-6, atol=1e-8)),
     ModelSpec("direct_drive", "no spring: the same motor and gears move the joint along the gait (paper Fig. 7)",
               "drivetrains.direct_drive:DirectDrive", uses_precompression=False),
     ModelSpec("sea", "linear torsion spring in place of the MACCEPA, stiffness by the paper's peak-power criterion",
@@ -95,16 +99,16 @@ _SPECS = [
     ModelSpec("parallel_elastic", "torsion spring in parallel with the joint plus the drive (no series spring)",
               "drivetrains.parallel_elastic:ParallelElastic", uses_precompression=False),
     ModelSpec("self_locking", "MACCEPA with a self-locking (non-backdrivable) 10:1 worm stage, driver always on",
-              "drivetrains.switch_off:SelfLockingMaccepa", inputs="drivetrains.switch_off:condition_inputs"),
+              "drivetrains.switch_off:SelfLockingMaccepa", LINKAGE, inputs="drivetrains.switch_off:condition_inputs"),
     ModelSpec("switch_off", "MACCEPA, self-locking worm stage, driver switched off while little torque is needed",
-              "drivetrains.switch_off:SelfLockingMaccepa", inputs="drivetrains.switch_off:condition_inputs",
+              "drivetrains.switch_off:SelfLockingMaccepa", LINKAGE, inputs="drivetrains.switch_off:condition_inputs",
               build_key="self_locking"),
     _winding("24V"),
     _winding("36V"),
     # without the rectifier's bus capacitor the replay has no states: energies are integrated on the output grid,
     # which must resolve the kinks of |i| in the driver's switching loss (1601 points: balance to ~1e-10)
     ModelSpec("battery", "the paper's actuator on a battery (48 V, 0.05 ohm) that takes regenerated energy back",
-              "ankle.actuator:AnkleActuator", {"supply": "battery"}, min_points_per_stride=1601,
+              "ankle.actuator:AnkleActuator", {"supply": "battery", **LINKAGE}, min_points_per_stride=1601,
               doc_from="drivetrains.battery"),
 ]
 

@@ -1,6 +1,8 @@
 """Hand-vectorised numpy reference for the design map: the Eq. (4) replay equations of AnkleActuator.eq4 written out by
-hand (ideal driver, non-regenerative rectifier, ideal gear n, MACCEPA), evaluated on the same planned trajectories
-as the compiled model (planning and spline evaluation are shared, so the ratio measures the generated code)."""
+hand (ideal driver, non-regenerative rectifier, ideal gear n, lossless MACCEPA), evaluated on the same planned
+trajectories as the compiled chain with the Eq. (4) preset ``paper_datasheet`` and the virtual bench's lumped motor
+values (:data:`PRESET`, :data:`OVERRIDES`: ideal gears, driver and linkage, so the same equations); planning and
+spline evaluation are shared, so the ratio measures the generated code."""
 import numpy as np
 
 from acausal.library.maccepa import stiffness, torque
@@ -8,12 +10,14 @@ from acausal.models.bench import design
 from acausal.models.bench.virtual import TRUTH
 
 N_GEAR = 860.0
+PRESET, OVERRIDES = "paper_datasheet", dict(TRUTH)
 
 
-def evaluate_designs(ks, Ps, T, params=None):
-    p = {**TRUTH, **(params or {})}
-    R, L, kt, J, b = (p[f"motor.{x}"] for x in "RLkJb")
-    d = design.plan_designs(ks, Ps, T)
+def evaluate_designs(ks, Ps, T):
+    values = design.design_params(PRESET, OVERRIDES)[1]
+    R, L, kt, J, b = (values[f"motor.{x}"] for x in "RLkJb")
+    A, B = values["link.A"], values["link.B"]
+    d = design.plan_designs(ks, Ps, T, values)
     theta_s = design.PeriodicSplineBatch(d.t, d.theta[:, None], T)
     phi_s = design.PeriodicSplineBatch(d.t, d.phi.T, T)
     th, th1 = theta_s.evaluate(d.t, 0), theta_s.evaluate(d.t, 1)
@@ -25,8 +29,8 @@ def evaluate_designs(ks, Ps, T, params=None):
     for k in np.unique(ks_f):
         sel = ks_f == k
         a, P = alpha[sel], Ps_f[sel][:, None]
-        Tl[sel] = torque(a, P, k, design.A_LEVER, design.B_LEVER)
-        Tl1[sel] = stiffness(a, P, k, design.A_LEVER, design.B_LEVER) * (ph1[sel] - th1)
+        Tl[sel] = torque(a, P, k, A, B)
+        Tl1[sel] = stiffness(a, P, k, A, B) * (ph1[sel] - th1)
     w, w1, w2 = N_GEAR * ph1, N_GEAR * ph2, N_GEAR * ph3
     i = (J * w1 + b * w + Tl / N_GEAR) / kt
     di = (J * w2 + b * w1 + Tl1 / N_GEAR) / kt

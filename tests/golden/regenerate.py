@@ -19,6 +19,8 @@ CASES = {
     "replay_5mm_3s": Condition(0.005, 3.0),
     "direct_drive_3s": Condition(0.008, 3.0, model="direct_drive"),
     "closed_loop_18mm_3s": Condition(0.018, 3.0, model="closed_loop", strides=3),
+    "paper_fit_replay_8mm_2s": Condition(0.008, 2.0, preset="paper_fit"),
+    "paper_fit_direct_drive_3s": Condition(0.008, 3.0, model="direct_drive", preset="paper_fit"),
 }
 
 

@@ -1,0 +1,387 @@
+"""Inference of what the paper does not publish, from the numbers it does: the ``paper_fit`` preset.
+
+The unknowns (:data:`UNKNOWNS`) are run-time parameters of the registered actuator, each bounded by a physically
+plausible range with its source (``../shared/data/parameters.md`` and the notes here). The targets
+(:data:`TARGETS`) are the paper's own numbers of claims C1 (Table 1: the five energies at 8 mm, 2 s/stride), C2
+(Fig. 9: the smallest and largest driver loss over the 6 x 6 grid) and C9 (Fig. 7: direct drive against actuator
+at 8 mm, 3 s/stride), each with a standard deviation of a third of the tolerance its claim is read with
+(:mod:`acausal.models.ankle.claims`), so a target met to 3 sigma is a claim that holds. Every other claim is a
+prediction of the fitted model. C8 (where the motor can follow) is met by the planner's torque tolerance, chosen
+after the fit as the smallest one that satisfies it (:func:`choose_tolerance`), the fit repeated with it (:func:`infer`).
+
+Method: weighted least squares in the unknowns scaled to their ranges (``scipy.optimize.least_squares``, trust
+region with bounds), each residual evaluation a handful of protocol runs (:func:`acausal.models.ankle.protocol.
+run_condition`) through one executor. Grid targets (C2) are evaluated during the iterations on the grid conditions
+where the extremes lie at the start, and the result is checked on the whole grid (``verified``). Uncertainty:
+the linearised covariance ``(J^T J)^-1`` of the scaled Jacobian at the optimum; an unknown whose standard
+deviation exceeds a quarter of its range, or that sits on a bound, is reported as not identified by these numbers
+(its value is then the range's choice, not the data's).
+
+``acausal infer --out DIR`` runs it and writes ``paper_fit.json`` (the preset with ranges, sources, standard
+deviations, the targets met, the condition of the fit); ``--install`` also replaces the shipped one
+(:data:`acausal.models.ankle.presets.PAPER_FIT_RECORD`) that the ``paper_fit`` preset reads.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from acausal import SimulationError
+from acausal.sweep import sweep
+
+from .protocol import D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, compiled, run_condition
+from .published import PAPER
+
+
+
+@dataclass(frozen=True)
+class Unknown:
+    """A parameter the paper does not publish: its plausible range, the a-priori value the fit starts from, and
+    where the range comes from."""
+
+    name: str  # run-time parameter of the registered actuator
+    lo: float
+    hi: float
+    start: float
+    unit: str
+    source: str
+
+
+UNKNOWNS = (
+    Unknown("body_mass", 50.0, 90.0, 60.0, "kg",
+            "the subject's mass scales the gait torque (gait data per kg); adult amputee users 50-90 kg; not "
+            "published (parameters.md)"),
+    Unknown("link.r_f", 0.0, 4e-3, 1e-3, "m",
+            "MACCEPA bar and pivot friction radius = friction coefficient 0.1-0.4 (steel on bronze/polymer "
+            "bushings) x pin and bar radius 4-10 mm; the paper measures about 20 % output loss (4.2.3)"),
+    Unknown("planetary.tau_c", 0.0, 1.3, 0.0, "N.m",
+            "drag of the gearhead at its output: 0-15 mN m at the motor side x 86 (the gearhead's no-load "
+            "current, 0-0.5 A at 27.4 mN m/A); the paper measures >= 50 % gearing loss against a 70 % catalogue "
+            "maximum (4.2.3)"),
+    Unknown("planetary.eta", 0.55, 0.75, 0.7, "1",
+            "mesh efficiency of the planetary gearhead at load: catalogue maximum 70 % (maxon GP 32 HP, 3 "
+            "stages), 55 % at partial load"),
+    Unknown("driver.P_q", 10.0, 15.0, 12.5, "W", "the driver's constant consumption, measured 10-15 W (paper 4.2.1)"),
+)
+
+#: the planner's torque tolerance (N m) tried for C8, smallest first (paper 4.1: torque about 10 % of its 100 N m
+#: peak below target)
+TOLERANCES = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0)
+
+
+def _key(model: str, P: float, T: float) -> tuple:
+    return (model, float(P), float(T))
+
+
+TABLE1 = _key("replay", 0.008, 2.0)
+FIG7 = (_key("replay", 0.008, 3.0), _key("direct_drive", 0.008, 3.0))
+GRID = tuple(_key("replay", P, T) for P in PRECOMPRESSIONS for T in STRIDE_TIMES)
+
+
+def driver_loss(r) -> float:
+    """Driver loss relative to the source energy (Fig. 9)."""
+    return 1.0 - r.energy["driver"] / r.energy["source"]
+
+
+@dataclass(frozen=True)
+class Target:
+    """A published number the fit matches: ``value(runs)`` computes it from the protocol runs it needs (``keys``:
+    (model, P [m], T [s]) of each). ``sigma``: a third of the claim's tolerance, on ``log(sim/paper)`` when
+    ``relative`` else on ``sim - paper``."""
+
+    id: str
+    claim: str
+    paper: float
+    sigma: float
+    relative: bool
+    keys: tuple
+    value: Callable
+
+    def z(self, sim: float, paper: float | None = None) -> float:
+        """The weighted residual of a simulated value (against ``paper``, default the paper's number)."""
+        paper = self.paper if paper is None else paper
+        if self.relative:
+            return math.log(sim / paper) / self.sigma if sim > 0 else 1e3
+        return (sim - paper) / self.sigma
+
+
+def _energy(point):
+    return lambda runs: runs[TABLE1].energy[point]
+
+
+def _grid_extreme(fn):
+    return lambda runs: fn(driver_loss(r) for k, r in runs.items() if k in GRID)
+
+
+TARGETS = (
+    *(Target(f"C1.{p}", "C1", PAPER["table1_energy"][p], 0.05, True, (TABLE1,), _energy(p)) for p in POINTS),
+    Target("C2.min", "C2", PAPER["fig9_driver_loss_range"][0], 0.02, False, GRID, _grid_extreme(min)),
+    Target("C2.max", "C2", PAPER["fig9_driver_loss_range"][1], 0.02, False, GRID, _grid_extreme(max)),
+    # the claim reads the peak ratio as 1.3-1.6 (the paper: "about 40 % higher") and the energies within 10 %. The
+    # peak ratio gets three times the claim's sigma: the paper's direct drive was the bench's output motor, whose
+    # drive train is unpublished and which delivered about 10 % less than the target torque (4.1), so the ratio
+    # measures that motor as much as the actuator; at the claim's own sigma this one number (which no parameter in
+    # range reaches: see the record) would set the body mass and the linkage friction against Table 1
+    Target("C9.peak_ratio", "C9", 1.45, 0.1, True, FIG7,
+           lambda runs: runs[FIG7[1]].peak_power["source"] / runs[FIG7[0]].peak_power["source"]),
+    Target("C9.energy_ratio", "C9", PAPER["fig7_energy_direct"] / PAPER["fig7_energy_actuator"], 0.033, True, FIG7,
+           lambda runs: runs[FIG7[1]].energy["source"] / runs[FIG7[0]].energy["source"]),
+)
+
+
+def conditions(keys, preset: str, overrides: dict) -> list[Condition]:
+    """Protocol conditions for run keys, with the unknowns' values as overrides (a model gets those of its own
+    parameters only: the direct drive has no linkage and no planner)."""
+    out = []
+    for model, P, T in keys:
+        sim = compiled(model).sim
+        ov = {k: v for k, v in overrides.items() if sim.has_parameter(k)}
+        out.append(Condition(P, T, model, preset=preset, overrides=ov))
+    return out
+
+
+def _run(cond: Condition):
+    """One protocol run; an integration failure (e.g. a bus that collapses under a demand the supply cannot
+    meet) is returned as its message."""
+    try:
+        return run_condition(cond)
+    except SimulationError as e:
+        return f"{cond.model}, {cond.P * 1e3:g} mm, {cond.stride_time:g} s: {e}"
+
+
+class Problem:
+    """The residual function of the fit: unknowns scaled to [0, 1] over their ranges -> weighted residuals."""
+
+    def __init__(self, unknowns=UNKNOWNS, targets=TARGETS, fixed: dict | None = None, preset: str = "library",
+                 executor=None, targets_paper: dict | None = None):
+        self.unknowns, self.targets, self.fixed = tuple(unknowns), tuple(targets), dict(fixed or {})
+        self.preset, self.executor = preset, executor
+        self.paper = {t.id: (targets_paper or {}).get(t.id, t.paper) for t in self.targets}
+        self.keys = sorted({k for t in self.targets for k in t.keys})
+        self.lo = np.array([u.lo for u in self.unknowns])
+        self.hi = np.array([u.hi for u in self.unknowns])
+        self.history: list = []
+
+    def values(self, x) -> dict:
+        return {**self.fixed, **{u.name: float(v) for u, v in zip(self.unknowns, self.lo + np.asarray(x)
+                                                                   * (self.hi - self.lo))}}
+
+    def scaled(self, values: dict) -> np.ndarray:
+        return np.array([(values[u.name] - u.lo) / (u.hi - u.lo) for u in self.unknowns])
+
+    def simulate(self, values: dict, keys=None) -> dict:
+        """The runs of ``keys`` (default: the fit's) with parameter ``values``; a run whose integration fails is
+        its error message instead of a result."""
+        keys = list(keys if keys is not None else self.keys)
+        results = sweep(_run, conditions(keys, self.preset, values), executor=self.executor)
+        return dict(zip(keys, results))
+
+    def simulated(self, runs: dict) -> dict:
+        """Each target's value; NaN for a target whose runs failed (a grid target leaves failed runs out)."""
+        ok = {k: r for k, r in runs.items() if not isinstance(r, str)}
+        out = {}
+        for t in self.targets:
+            needed = [k for k in t.keys if k in runs]
+            usable = all(k in ok for k in needed) or (t.keys == GRID and any(k in ok for k in needed))
+            out[t.id] = float(t.value(ok)) if usable else float("nan")
+        return out
+
+    def residuals_of(self, sim: dict) -> np.ndarray:
+        """Weighted residuals; a target whose runs failed counts as 30 sigma off (the fit steers away)."""
+        return np.array([t.z(sim[t.id], self.paper[t.id]) if math.isfinite(sim[t.id]) else 30.0
+                         for t in self.targets])
+
+    def __call__(self, x) -> np.ndarray:
+        sim = self.simulated(self.simulate(self.values(x)))
+        r = self.residuals_of(sim)
+        self.history.append((np.array(x), float(r @ r)))
+        return r
+
+
+@dataclass
+class Fit:
+    """The inferred values, their uncertainty and what the targets became."""
+
+    values: dict  # unknown -> value (plus the fixed ones)
+    sd: dict  # unknown -> linearised standard deviation
+    identified: dict  # unknown -> bool
+    simulated: dict  # target -> simulated value (on the whole grid for grid targets)
+    paper: dict  # target -> the paper's value
+    cost: float  # sum of squared weighted residuals
+    evaluations: int
+    singular_values: list
+    unknowns: tuple
+    targets: tuple
+    failed: list  # runs of the final check whose integration failed (message each)
+
+    def rows(self) -> list[dict]:
+        """One row per unknown (value, range, sd, identified, source)."""
+        return [dict(parameter=u.name, value=self.values[u.name], unit=u.unit, lo=u.lo, hi=u.hi, start=u.start,
+                     sd=self.sd[u.name], identified=self.identified[u.name], source=u.source)
+                for u in self.unknowns]
+
+    def target_rows(self) -> list[dict]:
+        return [dict(target=t.id, claim=t.claim, paper=self.paper[t.id], simulated=self.simulated[t.id],
+                     sigma=t.sigma, relative=t.relative, z=t.z(self.simulated[t.id], self.paper[t.id]))
+                for t in self.targets]
+
+    def preset(self) -> dict:
+        """The parameter overrides of the ``paper_fit`` preset."""
+        return {k: float(v) for k, v in self.values.items()}
+
+    def to_json(self) -> dict:
+        return dict(preset=self.preset(), unknowns=self.rows(), targets=self.target_rows(), cost=self.cost,
+                    evaluations=self.evaluations, singular_values=self.singular_values, failed=self.failed)
+
+
+def _uncertainty(problem: Problem, jac: np.ndarray, x: np.ndarray):
+    """Standard deviations (in parameter units) and identifiability from the scaled Jacobian: the diagonal of
+    ``(J^T J)^-1`` from its singular values, a direction with a (numerically) zero singular value giving an
+    infinite deviation to every unknown that moves along it."""
+    span = problem.hi - problem.lo
+    _, s, vt = np.linalg.svd(jac, full_matrices=False)
+    flat = s <= 1e-10 * s.max()
+    v = vt.T  # columns: directions in the scaled unknowns
+    finite = np.sum((v[:, ~flat] / s[~flat]) ** 2, axis=1)
+    sd_scaled = np.where(np.any(np.abs(v[:, flat]) > 1e-6, axis=1), np.inf, np.sqrt(finite))
+    at_bound = (x <= 1e-3) | (x >= 1 - 1e-3)
+    sd = {u.name: float(v * w) for u, v, w in zip(problem.unknowns, sd_scaled, span)}
+    identified = {u.name: bool(v < 0.25 and not b) for u, v, b in zip(problem.unknowns, sd_scaled, at_bound)}
+    return sd, identified, [float(v) for v in s]
+
+
+def fit(unknowns=UNKNOWNS, targets=TARGETS, fixed: dict | None = None, start: dict | None = None,
+        executor=None, reduce_grid: bool = True, max_nfev: int = 15, targets_paper: dict | None = None,
+        progress: Callable | None = None) -> Fit:
+    """Weighted least squares of ``targets`` over ``unknowns`` (module docstring). ``fixed``: other overrides held
+    (e.g. the torque tolerance); ``start``: starting values (default each unknown's ``start``);
+    ``targets_paper``: replace the paper's numbers (tests: numbers computed by the model itself)."""
+    from scipy.optimize import least_squares
+
+    problem = Problem(unknowns, targets, fixed, executor=executor, targets_paper=targets_paper)
+    x0 = problem.scaled({u.name: (start or {}).get(u.name, u.start) for u in problem.unknowns})
+    if reduce_grid and any(k in GRID for k in problem.keys):
+        runs = problem.simulate(problem.values(x0))
+        grid = {k: r for k, r in runs.items() if k in GRID and not isinstance(r, str)}
+        keep = {min(grid, key=lambda k: driver_loss(grid[k])), max(grid, key=lambda k: driver_loss(grid[k]))}
+        keep |= {k for t in problem.targets if t.keys != GRID for k in t.keys}
+        problem.keys = sorted(k for k in problem.keys if k not in GRID or k in keep)
+
+    def fun(x):
+        r = problem(x)
+        if progress:
+            progress(len(problem.history), problem.values(x), float(r @ r))
+        return r
+
+    # max_nfev counts steps, not the Jacobian's finite differences (one evaluation per unknown each)
+    sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale=1.0, diff_step=1e-3, max_nfev=max_nfev,
+                        xtol=1e-4, ftol=1e-5)
+    values = problem.values(sol.x)
+    sd, identified, sv = _uncertainty(problem, sol.jac, sol.x)
+    check_keys = sorted({k for t in problem.targets for k in t.keys})  # the whole grid again
+    runs = problem.simulate(values, check_keys)
+    simulated = problem.simulated(runs)
+    r = problem.residuals_of(simulated)
+    return Fit(values, sd, identified, simulated, dict(problem.paper), float(r @ r), len(problem.history), sv,
+               problem.unknowns, problem.targets, [r for r in runs.values() if isinstance(r, str)])
+
+
+def feasibility(values: dict, tolerance: float, executor=None) -> dict:
+    """Required duty over the replay grid with the planner's ``torque_tolerance`` (C8's reading)."""
+    keys = list(GRID)
+    runs = sweep(_run, conditions(keys, "library", {**values, "torque_tolerance": tolerance}), executor=executor)
+    duty = {k: (math.inf if isinstance(r, str) else r.max_duty) for k, r in zip(keys, runs)}  # failed: no follow
+    follows = sum(d <= D_MAX for d in duty.values())
+    corner_fast, corner_slow = duty[_key("replay", 0.018, 1.2)], duty[_key("replay", 0.018, 3.0)]
+    ok = follows >= 30 and corner_fast > D_MAX and corner_slow <= D_MAX
+    return dict(tolerance=tolerance, follows=follows, duty_18mm_1p2s=corner_fast, duty_18mm_3s=corner_slow, holds=ok)
+
+
+def choose_tolerance(values: dict, executor=None, tolerances=TOLERANCES) -> tuple[float, list]:
+    """The smallest torque tolerance with which C8 holds (the last tried when none does), and every trial."""
+    trials = []
+    for tol in tolerances:
+        trials.append(feasibility(values, tol, executor))
+        if trials[-1]["holds"]:
+            return tol, trials
+    best = max(trials, key=lambda t: (t["duty_18mm_1p2s"] > D_MAX, t["follows"]))
+    return best["tolerance"], trials
+
+
+#: the planner's torque tolerance of the first pass (N m), before C8 chooses it
+FIRST_TOLERANCE = 3.0
+
+
+def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15) -> dict:
+    """The whole inference: fit at :data:`FIRST_TOLERANCE`, choose the planner's torque tolerance for C8 on the
+    fitted values and, if it differs from the one fitted with, refit with it and choose again on the refitted values
+    (a refit moves the duties a little), until the tolerance chosen is the one the values were fitted with (at
+    most three rounds). Returns the JSON record."""
+    first = fit(fixed={"torque_tolerance": FIRST_TOLERANCE}, executor=executor, progress=progress,
+                max_nfev=max_nfev)
+    final, tried = first, []
+    for _ in range(3):
+        tol, trials = choose_tolerance(final.values, executor)
+        tried += trials
+        if tol == final.values["torque_tolerance"]:
+            break  # C8's tolerance, checked on the values fitted with it
+        final = fit(fixed={"torque_tolerance": tol}, start=final.values, executor=executor, progress=progress,
+                    max_nfev=max_nfev)
+    tol = final.values["torque_tolerance"]
+    record = final.to_json()
+    record["preset"]["torque_tolerance"] = tol
+    record["tolerance_trials"] = tried
+    record["first_pass"] = first.to_json()
+    return record
+
+
+def write(record: dict, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    return path
+
+
+def markdown(record: dict) -> str:
+    """The inferred parameters (value, standard deviation, range, identified, source) and the targets met, as
+    markdown tables (the report's and README's "inferred parameters")."""
+    from ..reporting.tables import md_table
+
+    fixed = {k: v for k, v in record["preset"].items() if k not in {u["parameter"] for u in record["unknowns"]}}
+    rows = [[f"`{u['parameter']}`", f"{u['value']:.4g}", f"{u['sd']:.2g}", f"{u['lo']:g}-{u['hi']:g} {u['unit']}",
+             f"{u['start']:g}", "yes" if u["identified"] else "**no**", u["source"]] for u in record["unknowns"]]
+    rows += [[f"`{k}`", f"{v:.4g}", "-", "chosen for C8", "-", "-",
+              "the smallest planner tolerance with which the motor follows where the paper says it does "
+              "(trials below)"] for k, v in fixed.items()]
+    targets = [[t["target"], f"{t['paper']:.4g}", f"{t['simulated']:.4g}",
+                f"{t['sigma']:g}{' (log)' if t['relative'] else ''}", f"{t['z']:+.1f}"] for t in record["targets"]]
+    trials = [[f"{t['tolerance']:g}", f"{t['follows']}/36", f"{t['duty_18mm_1p2s']:.2f}", f"{t['duty_18mm_3s']:.2f}",
+               "yes" if t["holds"] else "no"] for t in record.get("tolerance_trials", [])]
+    out = ["Unknowns (standard deviation: linearised, from the weighted Jacobian; identified: sd below a quarter "
+           "of the range and not on a bound):", "",
+           md_table(["parameter", "value", "sd", "range", "a priori", "identified", "range's source"], rows), "",
+           f"Targets (z = weighted residual; cost {record['cost']:.2f} after {record['evaluations']} evaluations):",
+           "", md_table(["target", "paper", "simulated", "sigma", "z"], targets)]
+    if trials:
+        out += ["", "Planner torque tolerance for C8 (required duty at 18 mm):", "",
+                md_table(["tolerance [N m]", "follows", "1.2 s/stride", "3 s/stride", "C8 holds"], trials)]
+    return "\n".join(out) + "\n"
+
+
+def write_tables(record: dict, out_dir: Path) -> Path:
+    """``inference.md`` in ``out_dir``."""
+    path = Path(out_dir) / "inference.md"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("# Inference of the unpublished parameters (`paper_fit`)\n\n" + markdown(record))
+    return path
+
+
+def fitted_claims(record: dict) -> frozenset:
+    """The ids of the claims an inference record was fitted to (its targets' claims, and C8 when it chose the
+    planner's tolerance for it)."""
+    return frozenset({t["claim"] for t in record["targets"]} | ({"C8"} if record.get("tolerance_trials") else set()))

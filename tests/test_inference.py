@@ -1,0 +1,71 @@
+"""Inference of the paper's unpublished parameters (models/ankle/inference.py): it recovers known parameters from
+numbers the model itself computed, says which unknowns the numbers cannot identify, and the shipped ``paper_fit``
+record stays inside the documented ranges and applies to every registered model."""
+import json
+
+import numpy as np
+import pytest
+
+from acausal import ModelError
+from acausal.models.ankle import inference, presets
+from acausal.models.ankle.protocol import compiled
+from acausal.models.ankle.registry import MODELS
+
+TRUTH = {"body_mass": 66.0, "link.r_f": 2.0e-3, "planetary.tau_c": 0.5}
+
+
+def test_recovers_known_parameters_from_the_models_own_numbers():
+    unknowns = [u for u in inference.UNKNOWNS if u.name in TRUTH]
+    targets = [t for t in inference.TARGETS if t.claim == "C1"]  # Table 1: one condition
+    problem = inference.Problem(unknowns, targets, executor="serial")
+    made = problem.simulated(problem.simulate(TRUTH))
+    fit = inference.fit(unknowns, targets, executor="serial", targets_paper=made, max_nfev=30)
+    for u in unknowns:
+        assert fit.values[u.name] == pytest.approx(TRUTH[u.name], abs=0.02 * (u.hi - u.lo)), u.name
+        assert fit.identified[u.name], u.name
+    assert fit.cost < 1e-3
+    assert {r["target"] for r in fit.target_rows()} == {t.id for t in targets}
+
+
+def test_an_unknown_the_numbers_cannot_separate_is_not_identified():
+    problem = inference.Problem(inference.UNKNOWNS[:3], inference.TARGETS[:5])
+    column = np.array([1.0, 2.0, 0.5, 0.0, 1.0])
+    jac = np.column_stack([column, column, [0.0, 0.0, 0.0, 30.0, 10.0]])  # the first two act alike
+    sd, identified, sv = inference._uncertainty(problem, jac, np.array([0.5, 0.5, 0.5]))
+    assert not identified["body_mass"] and not identified["link.r_f"] and identified["planetary.tau_c"]
+    assert min(sv) < 1e-9 * max(sv)
+    _, on_bound, _ = inference._uncertainty(problem, np.eye(5)[:, :3] * 100, np.array([0.0, 0.5, 1.0]))
+    assert on_bound == {"body_mass": False, "link.r_f": True, "planetary.tau_c": False}
+
+
+def test_shipped_record_lies_in_the_ranges_and_names_what_it_fitted():
+    record = presets.paper_fit_record()
+    for u in record["unknowns"]:
+        assert u["lo"] <= u["value"] <= u["hi"], u["parameter"]
+        assert record["preset"][u["parameter"]] == u["value"]
+    assert {u.name for u in inference.UNKNOWNS} <= set(record["preset"])
+    assert inference.fitted_claims(record) == {"C1", "C2", "C8", "C9"}
+    assert presets.preset("paper_fit")["link.r_f"] == record["preset"]["link.r_f"] > 0
+    assert presets.preset("library")["link.r_f"] == 0.0
+    assert "paper_fit" in inference.markdown(record) or "body_mass" in inference.markdown(record)
+
+
+def test_every_preset_key_is_a_parameter_of_the_paper_actuator():
+    sim = compiled("replay").sim
+    for name in [*presets.PRESETS, *presets.FITTED]:
+        for key in presets.preset(name):
+            assert sim.has_parameter(key), (name, key)
+    assert all(m.options.get("linkage") == "frictional" for m in MODELS.values()
+               if m.model.endswith("AnkleActuator") or m.model.endswith("SelfLockingMaccepa"))
+
+
+def test_a_broken_record_is_named(tmp_path):
+    path = tmp_path / "paper_fit.json"
+    with pytest.raises(ModelError, match="not found"):
+        presets.paper_fit_record(path)
+    path.write_text("{not json")
+    with pytest.raises(ModelError, match="paper_fit.json is not an inference record"):
+        presets.paper_fit_record(path)
+    path.write_text(json.dumps({"preset": {"body_mass": "heavy"}}))
+    with pytest.raises(ModelError, match="body_mass"):
+        presets.paper_fit_record(path)
