@@ -41,7 +41,8 @@ def main(out_dir: Path, results=None) -> dict:
     t_d, p_d = dd.time, dd.power["source"]
     p_d_on_a = np.interp(t_a, t_d, p_d)
     curves_csv = write_columns(out_dir / "fig07_direct_drive.csv",
-                               {"time_ms": 1e3 * t_a, "P_source_actuator_W": p_a, "P_source_direct_drive_W": p_d_on_a})
+                               {"time_ms": 1e3 * t_a, "P_source_actuator_W": p_a, "P_source_direct_drive_W": p_d_on_a},
+                               {"preset": HEADLINE})
     peak_ratio = dd.peak_power["source"] / act.peak_power["source"]
 
     fig, (ax, axt) = plt.subplots(2, 1, figsize=(8.5, 6.2), gridspec_kw=dict(height_ratios=[3.2, 1]))

@@ -31,7 +31,7 @@ def main(out_dir: Path, results=None) -> dict:
     t_ms = 1e3 * r.time
     power = r.power
     csv_path = write_columns(out_dir / "fig08_power_chain.csv",
-                             {"time_ms": t_ms, **{f"P_{k}_W": power[k] for k in POINTS}})
+                             {"time_ms": t_ms, **{f"P_{k}_W": power[k] for k in POINTS}}, {"preset": HEADLINE})
 
     fig, ax = plt.subplots(figsize=(9, 5.2))
     for i, k in enumerate(POINTS):

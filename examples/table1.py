@@ -77,7 +77,7 @@ def main(out_dir: Path, results=None) -> dict:
     flows = []
     for name, e in (("simulation", r.energy), ("paper", paper_e)):
         for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), loss_names):
-            flows.append(dict(source=name, from_point=a, to_point=b, passed_on_J=e[b], loss_name=lname.split("\n")[0],
+            flows.append(dict(source=name, preset=HEADLINE if name == "simulation" else "published", from_point=a, to_point=b, passed_on_J=e[b], loss_name=lname.split("\n")[0],
                               loss_J=e[a] - e[b]))
     sankey_csv = write_csv(out_dir / "table1_sankey.csv", flows)
 

@@ -76,15 +76,15 @@ def main(out_dir: Path, results=None) -> dict:
 
     # grouped bars: energy at the five points per preset, with Table 1 for orientation
     fig, ax = plt.subplots(figsize=(11, 5.4))
-    series = [(SHORT[x["preset"]], [x[f"E_{k}_J"] for k in POINTS]) for x in rows]
-    series.append(("paper Table 1\n(measured)", [PAPER["table1_energy"][k] for k in POINTS]))
+    series = [(SHORT[x["preset"]], [x[f"E_{k}_J"] for k in POINTS], x["preset"]) for x in rows]
+    series.append(("paper Table 1\n(measured)", [PAPER["table1_energy"][k] for k in POINTS], "published"))
     width = 0.8 / len(series)
     x0 = np.arange(len(POINTS))
     # a reading that needs megajoules would flatten every other bar: clip it at the top and print its value
-    sane = [v for _, vals in series for v in vals if v < 1e3]
+    sane = [v for _, vals, _ in series for v in vals if v < 1e3]
     top = 1.45 * max(sane)
     bars = []
-    for j, (label, vals) in enumerate(series):
+    for j, (label, vals, preset_name) in enumerate(series):
         hatch = "//" if label.startswith("paper") else None
         xs = x0 + (j - (len(series) - 1) / 2) * width
         ax.bar(xs, np.minimum(vals, top), width, label=label, color=f"C{j}", hatch=hatch,
@@ -93,7 +93,8 @@ def main(out_dir: Path, results=None) -> dict:
             if v > top:
                 ax.text(x, 0.97 * top, f"{v:.2g} J\n(off scale)", ha="center", va="top", fontsize=7,
                         rotation=90, color="white")
-        bars += [dict(series=label.replace("\n", " "), point=k, energy_J=v) for k, v in zip(POINTS, vals)]
+        bars += [dict(preset=preset_name, series=label.replace("\n", " "), point=k, energy_J=v)
+                 for k, v in zip(POINTS, vals)]
     ax.set_xticks(x0, ["source", "driver output", "motor shaft", "moment arm (link)", "joint (output)"])
     ax.set_ylabel("energy per stride [J]")
     ax.set_title("Table 2 presets: energy chain at 8 mm, 2 s/stride (Eq. 4 presets: gears, driver and supply "

@@ -69,3 +69,11 @@ def test_a_broken_record_is_named(tmp_path):
     path.write_text(json.dumps({"preset": {"body_mass": "heavy"}}))
     with pytest.raises(ModelError, match="body_mass"):
         presets.paper_fit_record(path)
+
+
+def test_the_record_ships_with_the_package():
+    import tomllib
+    from pathlib import Path
+    cfg = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    data = cfg["tool"]["setuptools"]["package-data"]
+    assert presets.PAPER_FIT_RECORD.name in data["acausal.models.ankle"]

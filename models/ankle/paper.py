@@ -354,11 +354,11 @@ def heatmap(ax, results, value, label: str, cmap: str = "viridis", fmt: str = "{
 
 
 def grid_rows(results, columns: dict) -> list[dict]:
-    """One CSV row per replay condition: P, stride time, required duty, feasibility and ``columns`` (name ->
+    """One CSV row per replay condition: preset, P, stride time, required duty, feasibility and ``columns`` (name ->
     function of the result)."""
     rows = []
     for r in sorted(results, key=lambda r: (r.condition.P, r.condition.stride_time)):
-        row = dict(P_mm=1e3 * r.condition.P, stride_time_s=r.condition.stride_time)
+        row = dict(preset=r.condition.preset, P_mm=1e3 * r.condition.P, stride_time_s=r.condition.stride_time)
         row.update({k: f(r) for k, f in columns.items()})
         row.update(max_duty=r.max_duty, motor_can_follow=r.max_duty <= D_MAX)
         rows.append(row)

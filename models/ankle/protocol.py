@@ -158,7 +158,8 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
         raise ModelError(f"condition {cond}: strides must be >= 1 and put the evaluated stride on the output grid "
                          f"((strides - 1) x (points_per_stride - 1) = {(cond.strides - 1) * (pps - 1):g} intervals)")
     n = settle + pps
-    res = sim.simulate(settle * T / (pps - 1) + T, params=params, inputs=inputs, n_points=n, **s.tol)
+    # the evaluated stride is [0, T] (gait phase = t / T): what settles runs before t = 0
+    res = sim.simulate(T, t_start=-settle * T / (pps - 1), params=params, inputs=inputs, n_points=n, **s.tol)
     k0 = settle
     window = slice(k0, None)
     points = c.points

@@ -19,11 +19,11 @@ def write_csv(path: Path, rows: list[dict]) -> Path:
     return path
 
 
-def write_columns(path: Path, columns: dict) -> Path:
-    """Equal-length columns (time series) as CSV."""
+def write_columns(path: Path, columns: dict, constants: dict | None = None) -> Path:
+    """Equal-length columns (time series) as CSV, after ``constants`` (columns with one value, e.g. the preset)."""
     keys = list(columns)
     n = len(columns[keys[0]])
-    return write_csv(path, [{k: float(columns[k][i]) for k in keys} for i in range(n)])
+    return write_csv(path, [{**(constants or {}), **{k: float(columns[k][i]) for k in keys}} for i in range(n)])
 
 
 def md_table(header: list, rows: list[list]) -> str:
