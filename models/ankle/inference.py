@@ -353,7 +353,7 @@ def markdown(record: dict) -> str:
     from ..reporting.tables import md_table
 
     fixed = {k: v for k, v in record["preset"].items() if k not in {u["parameter"] for u in record["unknowns"]}}
-    rows = [[f"`{u['parameter']}`", f"{u['value']:.4g}", f"{u['sd']:.2g}", f"{u['lo']:g}-{u['hi']:g} {u['unit']}",
+    rows = [[f"`{u['parameter']}`", f"{u['value']:.4g}", f"{u['sd']:.2g}", f"{u['lo']:g}-{u['hi']:g} {u['unit'] if u['unit'] != '1' else ''}".rstrip(),
              f"{u['start']:g}", "yes" if u["identified"] else "**no**", u["source"]] for u in record["unknowns"]]
     rows += [[f"`{k}`", f"{v:.4g}", "-", "chosen for C8", "-", "-",
               "the smallest planner tolerance with which the motor follows where the paper says it does "
