@@ -49,9 +49,10 @@ def load_example(name: str):
 
 
 def run_example(name: str, out_dir: str) -> dict:
-    """``examples/<name>.py``'s ``main(out_dir)``, the parts of its output the report reads (a module-level
-    function returning plain data, so a process pool can run it)."""
-    out = load_example(name).main(Path(out_dir))
+    """``examples/<name>.py``'s ``main(out_dir)`` in this process (``executor="serial"``: it already runs beside the
+    sweep, in a worker of its pool), the parts of its output the report reads (a module-level function returning
+    plain data, so a process pool can run it)."""
+    out = load_example(name).main(Path(out_dir), executor="serial")
     return {k: out[k] for k in ("title", "markdown", "figures", "csv", "comparisons") if k in out}
 
 

@@ -29,10 +29,10 @@ ETA = 0.7
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]
 
 
-def main(out_dir: Path, results=None, seed: int = 7) -> dict:
+def main(out_dir: Path, results=None, seed: int = 7, executor=None) -> dict:
     out_dir = Path(out_dir)
     data = out_dir / "diagnosis_gear_losses" / "bench_data"
-    run_bench(data, CONDITIONS, {"gear_load_dependent_loss": ETA}, seed=seed)
+    run_bench(data, CONDITIONS, {"gear_load_dependent_loss": ETA}, seed=seed, executor=executor)
     d, problem = diagnosis.run(data)
     sub = write_report(out_dir / "diagnosis_gear_losses", d, problem,
                        f"**virtual-bench recordings (simulated)** with a hidden mesh efficiency of {ETA:.0%}")

@@ -21,11 +21,11 @@ from acausal.models.bench.fit_report import fit_outputs
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.015) for T in (1.2, 1.5, 2.0, 3.0)]
 
 
-def main(out_dir: Path, results=None, data=None, seed: int = 2014) -> dict:
+def main(out_dir: Path, results=None, data=None, seed: int = 2014, executor=None) -> dict:
     out_dir = Path(out_dir)
     if data is None:
         data = out_dir / "bench_data"
-        run_bench(data, CONDITIONS, seed=seed)
+        run_bench(data, CONDITIONS, seed=seed, executor=executor)
         label = (f"**virtual-bench recordings (simulated, not measured)**, generated on the fly into `{data.name}/` "
                  f"(seed {seed}; truth: Eq. 4 with R = 0.7 ohm, J = 4.07e-6 kg m2, b = 7e-6 N m s/rad; see its "
                  "README.md)")

@@ -56,3 +56,29 @@ def test_protocol_reports_the_shortfall_and_the_band_makes_the_soft_corner_feasi
     assert 4.9 < banded.torque_error_max < 5.05 and banded.row()["torque_error_max_Nm"] == banded.torque_error_max
     assert banded.energy["output"] < exact.energy["output"]  # less joint work: the torque falls short
     assert abs(banded.balance_residual) < 1e-6
+
+
+def test_taut_ring_is_the_exact_least_speed_path_in_the_band():
+    """The active-set solver against a general QP solver on random periodic bands, and the analytic case of two
+    pins (the path is straight between them, both ways round the ring)."""
+    from scipy.optimize import minimize
+    from acausal.models.ankle.planning import _least_speed_in_band
+
+    rng = np.random.default_rng(3)
+    n = 24
+    for _ in range(5):
+        centre = np.cumsum(rng.normal(size=n)) - np.linspace(0, 1, n) * np.sum(rng.normal(size=n))
+        half = rng.uniform(0.05, 1.0, n)
+        lo, hi = centre - half, centre + half
+        x = _least_speed_in_band(centre, lo, hi)
+        ref = minimize(lambda y: np.sum((np.roll(y, -1) - y) ** 2), centre, method="SLSQP",
+                       bounds=list(zip(lo, hi)), options={"ftol": 1e-14, "maxiter": 500}).x
+        assert np.all(x >= lo) and np.all(x <= hi)
+        obj = lambda y: np.sum((np.roll(y, -1) - y) ** 2)  # noqa: E731
+        assert obj(x) <= obj(ref) + 1e-9
+    lo, hi = np.full(12, -10.0), np.full(12, 10.0)
+    lo[2] = hi[2] = 1.0
+    lo[8] = hi[8] = 4.0
+    x = _least_speed_in_band(np.zeros(12), lo, hi)
+    np.testing.assert_allclose(x[2:9], np.linspace(1.0, 4.0, 7))
+    np.testing.assert_allclose(np.r_[x[8:], x[:3]], np.linspace(4.0, 1.0, 7))

@@ -14,8 +14,7 @@ writes the same files.
 """
 from __future__ import annotations
 
-import os
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -23,6 +22,7 @@ import numpy as np
 
 from acausal import DataError, compile_model
 from acausal.identify import write_recording
+from acausal.sweep import sweep
 
 from acausal.library.drives import DCMotor
 from acausal.library.maccepa import Maccepa
@@ -131,9 +131,10 @@ def default_conditions(strides: int = 6, body_mass: float = BODY_MASS) -> list:
 
 
 def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict | None = None,
-              sensors: Sensors = Sensors(), seed: int = 0, executor: Executor | None = None) -> list:
+              sensors: Sensors = Sensors(), seed: int = 0, executor: Executor | str | None = None) -> list:
     """Record every condition into ``out_dir`` (``P08mm_T2.0s.csv`` + ``.json`` ...) and describe the run in
     ``out_dir/README.md`` (truth, hidden effects, sensors: the answer key, which a loader ignores).
+    ``executor`` as in :func:`acausal.sweep.sweep` (default: a process pool on all cores; ``"serial"``).
     Returns the CSV paths."""
     out = Path(out_dir)
     conditions = list(conditions or default_conditions())
@@ -141,13 +142,7 @@ def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict
     for name in effects:
         effect(name)
     jobs = [(c, effects, truth, sensors, seed, i) for i, c in enumerate(conditions)]
-    if executor is None and len(jobs) > 1 and (os.cpu_count() or 1) > 1:
-        with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-            recs = list(pool.map(_record, jobs))
-    elif executor is None:
-        recs = [_record(j) for j in jobs]
-    else:
-        recs = list(executor.map(_record, jobs))
+    recs = sweep(_record, jobs, executor=executor)
     paths = []
     for c, (cols, meta) in zip(conditions, recs):
         name = f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s"
