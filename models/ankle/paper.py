@@ -272,7 +272,7 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           f"targets of the inference; every other claim is a prediction. A claim that does not hold says by how "
           "much; no parameter leaves its documented range to make one hold.", "",
           md_table(["id", "claim", "paper", f"`{HEADLINE}`", "holds", "fit", f"`{BESIDE}`", "holds",
-                    "how it is read"],
+                    "how it is read; what opposes it"],
                    [[c["id"], c["statement"], c["paper"], c["simulated"], f"**{c['holds']}**", c["used_in_fit"],
                      b["simulated"], b["holds"], c["note"]] for c, b in zip(claims, beside)]), ""]
     L += ["## Files", "", "- [`protocol.csv`](protocol.csv): one row per simulated condition (energies at the "
