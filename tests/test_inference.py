@@ -77,3 +77,10 @@ def test_the_record_ships_with_the_package():
     cfg = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
     data = cfg["tool"]["setuptools"]["package-data"]
     assert presets.PAPER_FIT_RECORD.name in data["acausal.models.ankle"]
+
+
+def test_the_infer_verb_is_wired(capsys):
+    from acausal.cli import main
+    with pytest.raises(SystemExit) as e:
+        main(["infer", "--help"])
+    assert e.value.code == 0 and "--install" in capsys.readouterr().out
