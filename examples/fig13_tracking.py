@@ -57,7 +57,8 @@ def main(out_dir: Path, results=None) -> dict:
         ax.legend(fontsize=8, loc="upper left")
         ax.grid(alpha=0.3)
         for i in range(len(t)):
-            rows.append(dict(preset=HEADLINE, stride_time_s=T, time_ms=t[i], phi_desired_deg=ref[i], phi_actual_deg=act[i],
+            rows.append(dict(preset=HEADLINE, stride_time_s=T, time_ms=t[i], phi_desired_deg=ref[i],
+                             phi_actual_deg=act[i],
                              P_output_closed_loop_W=p_cl[i], P_output_replay_W=p_rp[i]))
         table.append([f"{T:g}", f"{err_rms:.2f}", f"{np.degrees(cl.tracking_max):.1f}", f"{cl.max_duty:.2f}",
                       f"{cl.energy['source']:.1f}", f"{cl.energy['output']:.1f}", f"{rp.energy['output']:.1f}",

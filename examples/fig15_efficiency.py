@@ -29,7 +29,8 @@ def main(out_dir: Path, results=None) -> dict:
             mark=(0.008, 2.0, f"Table 1 condition (paper: {100 * PAPER['fig15_efficiency_8mm_2s']:.1f} %)"))
     ax.set_title("Fig. 15: overall efficiency of the actuator over precompression and stride time\n"
                  f"(simulation, {HEADLINE} preset; paper Fig. 15 plots measurement and its fitted model)", fontsize=9.5)
-    png = save_figure(fig, out_dir / "fig15_efficiency.png", shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
+    png = save_figure(fig, out_dir / "fig15_efficiency.png",
+                      shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
     csv_path = write_csv(out_dir / "fig15_efficiency.csv",
                          grid_rows(grid, {"efficiency_pct": lambda r: 100 * r.efficiency["output"],
                                           "E_source_J": lambda r: r.energy["source"],

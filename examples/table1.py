@@ -73,11 +73,13 @@ def main(out_dir: Path, results=None) -> dict:
                  f"{paper_e['output']:.1f} J to the joint ({100 * paper_eff['output']:.1f} %)")
     fig.suptitle("Table 1: where the energy of one stride goes (8 mm precompression, 2 s/stride; "
                  "arrow widths proportional to J per stride)", fontsize=11)
-    png = save_figure(fig, out_dir / "table1_sankey.png", shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
+    png = save_figure(fig, out_dir / "table1_sankey.png",
+                      shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
     flows = []
     for name, e in (("simulation", r.energy), ("paper", paper_e)):
         for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), loss_names):
-            flows.append(dict(source=name, preset=HEADLINE if name == "simulation" else "published", from_point=a, to_point=b, passed_on_J=e[b], loss_name=lname.split("\n")[0],
+            flows.append(dict(source=name, preset=HEADLINE if name == "simulation" else "published", from_point=a,
+                              to_point=b, passed_on_J=e[b], loss_name=lname.split("\n")[0],
                               loss_J=e[a] - e[b]))
     sankey_csv = write_csv(out_dir / "table1_sankey.csv", flows)
 

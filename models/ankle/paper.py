@@ -31,6 +31,9 @@ TRACES = ("arm_ref.y.value", "arm_angle.phi.value", "motor.i")
 QUICK_PRECOMPRESSIONS = [0.005, 0.008, 0.018]
 QUICK_STRIDE_TIMES = [1.2, 2.0, 3.0]
 
+#: strides a closed-loop condition runs (the last evaluated: one stride lets the controller settle)
+CLOSED_LOOP_STRIDES = 2
+
 #: the preset of the report's headline and the a-priori one shown beside it
 HEADLINE, BESIDE = "paper_fit", "library"
 
@@ -72,7 +75,7 @@ def paper_conditions(quick: bool = False) -> list[Condition]:
     """Every condition ``acausal paper`` simulates, longest first (they run through one process pool)."""
     Ps, Ts = (QUICK_PRECOMPRESSIONS, QUICK_STRIDE_TIMES) if quick else (PRECOMPRESSIONS, STRIDE_TIMES)
     pts = 101 if quick else 201
-    conds = [Condition(0.018, T, "closed_loop", HEADLINE, strides=2, points_per_stride=pts)
+    conds = [Condition(0.018, T, "closed_loop", HEADLINE, strides=CLOSED_LOOP_STRIDES, points_per_stride=pts)
              for T in (3.0, 1.2)]
     conds += [Condition(P, T, preset=p, points_per_stride=pts) for p in (HEADLINE, BESIDE) for P in Ps for T in Ts]
     conds += [Condition(0.008, 3.0, "direct_drive", p, points_per_stride=pts) for p in (HEADLINE, BESIDE)]
@@ -98,7 +101,7 @@ def pick(results, P: float, T: float, model: str = "replay", preset: str = HEADL
     for r in results or ():
         if _same(r, P, T, model, preset) and all(name in r.traces for name in traces):
             return r
-    strides = 2 if model == "closed_loop" else Condition.strides
+    strides = CLOSED_LOOP_STRIDES if model == "closed_loop" else Condition.strides
     return run_condition(Condition(P, T, model, preset, strides=strides), traces=tuple(traces) or TRACES)
 
 

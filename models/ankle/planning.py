@@ -14,8 +14,8 @@ minimisation of the torque error with a finite tolerance. Here that is ``toleran
 torque error up to ``tolerance`` and takes the path of least squared speed inside that band (the obstacle
 problem of a taut periodic string, solved exactly by a primal-dual active-set iteration from the exact plan);
 ``arm_limit`` [rad] bounds the arm's mechanical range (the band is clipped to ``|phi| <= arm_limit``; where that
-leaves no torque within tolerance, the arm saturates and the shortfall grows). ``tolerance = 0`` and an arm that stays inside its range give the
-exact plan. :attr:`Plan.shortfall` is the largest torque error the plan leaves [N m].
+leaves no torque within tolerance, the arm saturates and the shortfall grows). ``tolerance = 0`` and an arm that
+stays inside its range give the exact plan. :attr:`Plan.shortfall` is the largest torque error the plan leaves [N m].
 """
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def _taut_ring(start, lo, hi):
     n = start.size
     i = np.arange(n)
     x = np.full(n, np.mean(start))
-    on_lo, on_hi = x < lo, (x > hi) & ~(x < lo)
+    on_lo, on_hi = x < lo, x > hi
     for _ in range(_ITER_MAX):
         act = np.flatnonzero(on_lo | on_hi)
         if act.size == 0:  # the constant lies in every band: optimal
@@ -102,7 +102,7 @@ def arm_angles(P, k: float, A: float, B: float, body_mass: float, tolerance: flo
         lo = theta + inverse_torque(np.clip(M - tolerance, -reach, reach), Pc, k, A, B)
         hi = theta + inverse_torque(np.clip(M + tolerance, -reach, reach), Pc, k, A, B)
         lo, hi = np.clip(lo, -arm_limit, arm_limit), np.clip(hi, -arm_limit, arm_limit)
-        phi = _least_speed_in_band(np.clip(phi, lo, hi), lo, hi)
+        phi = _least_speed_in_band(phi, lo, hi)
     return s, theta, M, phi
 
 

@@ -10,8 +10,9 @@ inertia is 3.33e-6 kg m2; 5.68e-6 is the no-load friction torque over the no-loa
 total" inertia and friction read as referred to the moment-arm angle (divided by n = 860 they give 4.07e-6 kg m2
 = rotor + gearhead input inertia, and 7.0e-6 N m s/rad = the no-load friction). Both readings are offered:
 ``optimized_total_as_printed`` (motor side, as printed) and ``optimized_total_arm_side`` (divided by n).
-The ``paper_datasheet`` and ``paper_*_total`` presets therefore switch our gear stages to ideal (eta = 1, no inertia, no friction) and the
-driver to lossless and the supply to stiff (1 milliohm), so that only Eq. (4)'s parameters act.
+The ``paper_datasheet`` and ``paper_*_total`` presets therefore switch our gear stages to ideal (eta = 1, no
+inertia, no friction), the driver to lossless, the supply to stiff (1 milliohm) and keep the library's lossless
+linkage, so that only Eq. (4)'s parameters act.
 """
 import json
 from pathlib import Path
@@ -31,13 +32,12 @@ EQ4_LUMPED = {"motor.R": 0.7, "motor.J": 4.07e-6, "motor.b": 7.0e-6}
 LIBRARY = {"link.r_f": 0.0}
 
 _IDEAL_REST = {
+    **LIBRARY,  # the paper's lossless linkage
     "planetary.eta": 1.0, "planetary.J_a": 0.0, "helical.eta": 1.0,
     # a stiff supply (1 milliohm), as Eq. 4 assumes an ideal voltage. Not 0 ohm: the bus (diode 1e-5 ohm, 470 uF)
     # would then have a time constant of nanoseconds. Cost: with so stiff a bus the energy balance of these runs
     # closes to about 1e-5 rather than 1e-6 (the report states the residual).
     "driver.P_q": 0.0, "driver.R_on": 0.0, "driver.k_sw": 0.0, "supply.R_int": 1e-3,
-    # and the paper's lossless linkage (Eq. 1-3)
-    "link.r_f": 0.0,
 }
 
 PRESETS = {

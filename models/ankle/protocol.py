@@ -34,6 +34,20 @@ STRIDE_TIMES = [1.2, 1.3, 1.5, 2.0, 2.5, 3.0]  # s per stride (paper section 4)
 #: the driver's largest duty cycle: a replay needing more means the motor cannot follow at the bus voltage
 D_MAX = PWMDriver.d_max.default
 
+#: C8 (paper 4.2.3, Fig. 13): the motor cannot follow at 18 mm and 1.2 s/stride, follows there at 3 s, and the
+#: paper ran every condition, so it follows in (nearly) all: read as at least 30 of the 36
+FOLLOWS_AT_LEAST = 30
+
+
+def follows_as_in_the_paper(duty: dict) -> dict:
+    """C8's reading of the required duties of the 36-condition replay grid, ``{(P [mm], T [s]): duty}``: how many
+    conditions the motor follows (duty <= :data:`D_MAX`), the duties at 18 mm and 1.2 / 3 s, and whether it holds."""
+    fast, slow = duty[(18.0, 1.2)], duty[(18.0, 3.0)]
+    follows = sum(d <= D_MAX for d in duty.values())
+    return dict(follows=follows, duty_18mm_1p2s=fast, duty_18mm_3s=slow,
+                holds=bool(follows >= FOLLOWS_AT_LEAST and fast > D_MAX and slow <= D_MAX))
+
+
 #: the paper's measurement points in chain order: a drive train's power sensors, in the order it builds them
 POINTS = ("source", "driver", "motor", "link", "output")
 STAGES = [("driver", "source", "driver"), ("motor", "driver", "motor"), ("gearing", "motor", "link"),
@@ -144,7 +158,7 @@ def run_condition(cond: Condition, traces: tuple = ()) -> StrideResult:
     sim = c.sim
     T = cond.stride_time
     # a preset is written for the paper's actuator: keys naming parts a model does not have (the linkage of a
-    # direct drive) do not apply to it (every key is a parameter of the replay model: tests/test_presets)
+    # direct drive) do not apply to it (every key is a parameter of the replay model: tests/test_inference)
     params = {k: v for k, v in preset(cond.preset).items() if sim.has_parameter(k)}
     params.update({**s.params, "stride_time": T})
     if s.uses_precompression:

@@ -6,7 +6,7 @@ lever lengths, torque tolerance and arm range), and the paper's actuator is eval
 preset's parameters (default ``paper_fit``: the same chain as every other figure, gear, driver and linkage losses
 included). The chain runs on a stiff 48 V supply behind an ideal non-regenerative rectifier (:func:`chain_model`):
 without the lab supply's bus capacitor the replay has no states, so it is algebraic. At the Table 1 point its
-source energy is within about 1 % of the protocol's (the lab supply's internal resistance; tests/test_design).
+source energy is within about 1 % of the protocol's (the lab supply's internal resistance; tests/test_measured_data).
 The overall efficiency per stride is the joint energy over the source energy (the rectifier returns nothing, so
 the source energy is the integral of the positive bus power).
 
@@ -104,7 +104,10 @@ def plan_designs(ks, Ps, stride_time: float, values: dict, n: int = N_STRIDE) ->
     ks, Ps = np.asarray(ks, float), np.asarray(Ps, float)
     A, B = values["link.A"], values["link.B"]
     s, theta, M = gait_samples(values["body_mass"], n)
-    feasible = np.array([max_torque(P, k, A, B)[0] >= np.max(np.abs(M)) for k, P in zip(ks, Ps)], dtype=bool)
+    feasible = np.zeros(len(ks), dtype=bool)
+    for k in np.unique(ks):
+        sel = ks == k
+        feasible[sel] = max_torque(Ps[sel], k, A, B)[0] >= np.max(np.abs(M))
     phi = []
     for k in np.unique(ks[feasible]):
         sel = feasible & (ks == k)
