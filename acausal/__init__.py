@@ -13,7 +13,7 @@ from .connectors import Flange, HeatPort, Pin, RealInput, RealOutput
 from .errors import (AcausalError, ConnectError, DataError, ModelError, SignalError, SimulationError,
                      StructureError)
 from .result import Result
-from .signals import Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline, Signal
+from .signals import Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline, SampledSignal, Signal
 from .symbols import der, time
 
 __version__ = "0.1.0"
@@ -22,6 +22,6 @@ __all__ = [
     "Model", "Component", "Connector", "Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start",
     "Event", "connect", "der", "time", "Eq", "compile_model", "CompiledModel", "Result",
     "Pin", "Flange", "HeatPort", "RealInput", "RealOutput",
-    "Signal", "Constant", "ExpressionSignal", "ParametricSignal", "PeriodicSpline", "FourierSeries",
+    "Signal", "Constant", "ExpressionSignal", "ParametricSignal", "PeriodicSpline", "SampledSignal", "FourierSeries",
     "AcausalError", "ModelError", "ConnectError", "StructureError", "SignalError", "SimulationError", "DataError",
 ]

@@ -46,6 +46,12 @@ class _Printer(NumPyPrinter):
         except KeyError:
             raise ModelError(f"code generation: no value for symbol {expr.name!r}") from None
 
+    def _print_Piecewise(self, expr):
+        # a runtime helper instead of numpy.select: the same for arrays, a plain branch for the integrator's
+        # scalar calls (numpy.select on scalars costs tens of microseconds per call)
+        args = ", ".join(f"{self._print(e)}, {self._print(c)}" for e, c in expr.args)
+        return f"_piecewise({args})"
+
 
 class CodeGenerator:
     """Generates the numeric functions of a solved :class:`~acausal.structure.EquationSystem` (its states,
@@ -343,7 +349,7 @@ class CodeGenerator:
         srcs.append(self._render("zeros", items, [f"    return [{zs}{',' if len(zeros) == 1 else ''}]"]))
         self.source = "\n\n".join(self._blocks + srcs) + "\n"
         ns = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack, "_linsolve": runtime.linsolve,
-              "_newton": runtime.newton, "_labels": self._labels}
+              "_newton": runtime.newton, "_piecewise": runtime.piecewise, "_labels": self._labels}
         code = compile(self.source, "<acausal generated>", "exec")
         exec(code, ns)
         self._namespace = ns  # shared by functions generated later (sensitivity_function)

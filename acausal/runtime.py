@@ -16,6 +16,21 @@ def bstack(values) -> np.ndarray:
     return np.stack(arrs) if arrs else np.zeros((0,))
 
 
+def piecewise(*args):
+    """``sympy.Piecewise`` at run time: ``args`` = value, condition, value, condition, ... (the first true
+    condition's value; NaN if none holds). Scalar conditions take a plain branch; arrays go through
+    :func:`numpy.select` (every value is evaluated in both cases, as the generated code computes them first)."""
+    values, conds = args[0::2], args[1::2]
+    if all(isinstance(c, (bool, np.bool_)) for c in conds):
+        for v, c in zip(values, conds):
+            if c:
+                return v
+        return np.nan
+    shape = np.broadcast_shapes(*(np.shape(a) for a in args))
+    return np.select([np.broadcast_to(c, shape) for c in conds], [np.broadcast_to(v, shape) for v in values],
+                     default=np.nan)
+
+
 def linsolve(A_rows, b) -> list:
     """Solve ``A y = b`` for every broadcast sample; ``A_rows`` is a list of rows of entries."""
     m = len(b)

@@ -141,6 +141,51 @@ class PeriodicSpline(Signal):
         return y
 
 
+class SampledSignal(Signal):
+    """A measured signal: linear interpolation between samples ``(t[k], y[k])``, held constant outside them.
+
+    The first derivative is the slope of each interval (piecewise constant); higher derivatives are not defined
+    (``max_order = 1``). Meant for logged inputs that a model replays (a goal position, a supply voltage, a 0/1
+    enable): interpolation does not invent content between samples. Evaluation has a fast path for scalar times
+    (the integrator calls it once per right-hand side).
+    """
+
+    max_order = 1
+
+    def __init__(self, t, y, name: str = "sampled signal"):
+        t = np.asarray(t, dtype=float)
+        y = np.asarray(y, dtype=float)
+        if t.ndim != 1 or t.shape != y.shape or t.size < 2:
+            raise SignalError(f"signal {name!r}: t and y must be 1-D arrays of equal length >= 2")
+        if np.any(np.diff(t) <= 0):
+            k = int(np.argmax(np.diff(t) <= 0))
+            raise SignalError(f"signal {name!r}: sample times must increase strictly (sample {k + 1}: "
+                              f"{t[k + 1]!r} after {t[k]!r})")
+        if not np.all(np.isfinite(y)):
+            raise SignalError(f"signal {name!r}: non-finite sample at index {int(np.flatnonzero(~np.isfinite(y))[0])}")
+        self.name = name
+        self.t, self.y = t, y
+        self.slope = np.append(np.diff(y) / np.diff(t), 0.0)
+        self._tl, self._yl, self._sl = t.tolist(), y.tolist(), self.slope.tolist()
+
+    def evaluate(self, t, order):
+        if np.ndim(t) == 0:
+            return np.float64(self._scalar(float(t), order))
+        if order == 0:
+            return np.interp(t, self.t, self.y)
+        i = np.searchsorted(self.t, t, side="right") - 1
+        inside = (i >= 0) & (i < self.t.size - 1)
+        return np.where(inside, self.slope[np.clip(i, 0, self.t.size - 1)], 0.0)
+
+    def _scalar(self, t, order):
+        i = bisect.bisect_right(self._tl, t) - 1
+        if i < 0:
+            return self._yl[0] if order == 0 else 0.0
+        if i >= len(self._tl) - 1:
+            return self._yl[-1] if order == 0 else 0.0
+        return self._yl[i] + self._sl[i] * (t - self._tl[i]) if order == 0 else self._sl[i]
+
+
 class ParametricSignal(Signal):
     """A signal that depends on run-time parameters: ``make(**values)`` builds it from the values of
     ``parameters`` (``{keyword: parameter}``, a parameter given by its sympy symbol inside ``build`` or by its
