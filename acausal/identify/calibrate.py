@@ -114,8 +114,10 @@ def noise_scales(experiments, signals) -> dict:
 def residual_vector(experiments, values, signals, weights, scales, mask="train") -> np.ndarray:
     parts = []
     for e in experiments:
-        pred = e.predict(values)
         m = getattr(e, _check_mask(mask))
+        if not m.any():  # no samples of this kind (e.g. a recording held out whole): nothing to predict
+            continue
+        pred = e.predict(values)
         for s in signals:
             parts.append(np.sqrt(weights.get(s, 1.0)) * (pred[s][m] - e.measured[s][m]) / scales[s])
     return np.concatenate(parts)
@@ -123,8 +125,11 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
 
 def calibrate(experiments, free, signals, weights: dict | None = None, scales: dict | None = None,
               fixed: dict | None = None, max_nfev: int = 100, loss: str = "soft_l1",
-              f_scale: float = 3.0) -> Calibration:
+              f_scale: float = 3.0, tol: float = 1e-10) -> Calibration:
     """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``.
+
+    ``tol``: the optimiser's relative tolerances on the cost, the step and the gradient (``ftol``, ``xtol``,
+    ``gtol`` of :func:`scipy.optimize.least_squares`); ``max_nfev``: at most this many evaluations.
 
     The Jacobian is exact when every experiment has a ``sensitivity`` function, else forward differences (which,
     through an integrator's error control, can be too noisy to move a parameter that starts at zero)."""
@@ -164,7 +169,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     lo = np.array([f.lower for f in free]) / xs
     hi = np.array([f.upper for f in free]) / xs
     sol = least_squares(fun, z0, jac=jac_fn if exact else "2-point", bounds=(lo, hi), method="trf", x_scale=1.0,
-                        max_nfev=max_nfev, loss=loss, f_scale=f_scale, diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10)
+                        max_nfev=max_nfev, loss=loss, f_scale=f_scale, diff_step=1e-6, xtol=tol, ftol=tol, gtol=tol)
     J = sol.jac * 1.0
     m, n = J.shape
     s2 = 2 * sol.cost / max(m - n, 1)
@@ -197,8 +202,10 @@ def jacobian_matrix(experiments, values, names, signals, weights=None, scales=No
     scales = scales or {s: 1.0 for s in signals}
     parts = []
     for e in experiments:
-        _, sens = e.sensitivity(values, list(names))
         m = getattr(e, _check_mask(mask))
+        if not m.any():
+            continue
+        _, sens = e.sensitivity(values, list(names))
         for s in signals:
             parts.append(np.sqrt(weights.get(s, 1.0)) * sens[s][:, m].T / scales[s])
     return np.concatenate(parts)

@@ -35,12 +35,16 @@ class Column:
 
     @property
     def quantity(self) -> str:
-        return self.name[: -len(self.unit) - 1]
+        """The name without its unit suffix (``time`` of ``time_s``; a name without one is its own quantity)."""
+        suffix = f"_{self.unit}"
+        return self.name[: -len(suffix)] if self.name.endswith(suffix) else self.name
 
 
 @dataclass(frozen=True)
 class Key:
-    """A declared JSON key; ``kind`` is ``"number"``, ``"integer"`` or ``"text"``."""
+    """A declared JSON key; ``kind`` is ``"number"``, ``"integer"`` or ``"text"``. A dotted name
+    (``controller.kp``) is a path into nested objects. ``nullable``: ``null`` is accepted and means "not
+    recorded" (the key is then left out of ``Recording.meta``, with a note)."""
 
     name: str
     unit: str = ""
@@ -48,6 +52,7 @@ class Key:
     required: bool = True
     kind: str = "number"
     positive: bool = True
+    nullable: bool = False
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,9 @@ class RecordingFormat:
     columns: tuple  # of Column, all required
     keys: tuple  # of Key
     time_column: str = "time_s"
+    #: what an undeclared top-level JSON key is: ``"error"`` (a DataError naming it) or ``"note"`` (ignored, with
+    #: a note in ``Recording.notes``: for formats whose files carry provenance and documentation of their own)
+    unknown_keys: str = "error"
 
     def column(self, name: str) -> Column:
         return next(c for c in self.columns if c.name == name)
@@ -79,6 +87,7 @@ class Recording:
     meta: dict
     extra: dict = field(default_factory=dict)
     path: Path | None = None
+    notes: list = field(default_factory=list)  # what the loader ignored or assumed, one sentence each
 
     @property
     def t(self) -> np.ndarray:
@@ -99,7 +108,7 @@ class Recording:
     def select(self, mask) -> "Recording":
         """The rows where ``mask`` is true (e.g. some strides), as a new recording."""
         return Recording(self.name, {k: v[mask] for k, v in self.columns.items()}, dict(self.meta),
-                         {k: v[mask] for k, v in self.extra.items()}, self.path)
+                         {k: v[mask] for k, v in self.extra.items()}, self.path, list(self.notes))
 
 
 # ------------------------------------------------------------------------------------------------------ loading
@@ -126,9 +135,9 @@ def load_recording(csv_path, fmt: RecordingFormat) -> Recording:
         raise DataError(f"{csv_path}: no such file")
     if not json_path.exists():
         raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
-    meta = _load_meta(json_path, fmt)
+    meta, notes = _load_meta(json_path, fmt)
     columns, extra = _load_csv(csv_path, fmt)
-    return Recording(csv_path.stem, columns, meta, extra, csv_path)
+    return Recording(csv_path.stem, columns, meta, extra, csv_path, notes)
 
 
 def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
@@ -139,18 +148,27 @@ def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
     if not isinstance(raw, dict):
         raise DataError(f"{path}: the JSON must be an object of keys, got {type(raw).__name__}")
     keys = {k.name: k for k in fmt.keys}
+    tops = {k.name.split(".")[0] for k in fmt.keys}
+    notes = []
     for name in raw:
-        if name not in keys:
-            close = difflib.get_close_matches(name, keys, n=1)
+        if name not in tops:
+            close = difflib.get_close_matches(name, tops, n=1)
+            if fmt.unknown_keys == "note":
+                notes.append(f"{path.name}: key {name!r} is not used by format {fmt.name!r}; ignored")
+                continue
             hint = f"; did you mean {close[0]!r}?" if close else f"; known keys: {', '.join(keys)}"
             raise DataError(f"{path}: unknown key {name!r}{hint}")
     meta = {}
+    missing = object()
     for k in fmt.keys:
-        if k.name not in raw:
+        v = _lookup(raw, k.name, missing)
+        if v is missing:
             if k.required:
                 raise DataError(f"{path}: required key {k.name!r} [{k.unit}] is missing")
             continue
-        v = raw[k.name]
+        if v is None and k.nullable:
+            notes.append(f"{path.name}: key {k.name!r} is null (not recorded)")
+            continue
         if k.kind == "text":
             if not isinstance(v, str):
                 raise DataError(f"{path}: key {k.name!r} must be text, got {v!r}")
@@ -163,7 +181,17 @@ def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
                 raise DataError(f"{path}: key {k.name!r} must be positive [{k.unit}], got {v!r}")
             v = int(v) if k.kind == "integer" else float(v)
         meta[k.name] = v
-    return meta
+    return meta, notes
+
+
+def _lookup(raw: dict, dotted: str, missing):
+    """``raw["a"]["b"]`` for ``"a.b"``; ``missing`` where a step is absent or not an object."""
+    v = raw
+    for part in dotted.split("."):
+        if not isinstance(v, dict) or part not in v:
+            return missing
+        v = v[part]
+    return v
 
 
 def _load_csv(path: Path, fmt: RecordingFormat):

@@ -65,6 +65,10 @@ class AnkleProblem(Problem):
     def period(self, exp) -> float:
         return float(exp.info["meta"]["stride_time_s"])
 
+    def heldout(self) -> dict:
+        return {"signal": self.signals[0], "unit": "A" if self.signals[0].endswith("_A") else "",
+                "split": f"every {self.split.holdout_every}th stride of each recording"}
+
     def regressors(self, exp, values: dict) -> dict:
         cm = replay_model(exp.info["effects"])
         v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params={**exp.info["params"], **values},
