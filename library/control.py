@@ -12,6 +12,7 @@ Jacobian uses their exact piecewise derivatives.
 * :class:`PID` - PID with output limits, derivative on the filtered measurement and back-calculation anti-windup.
 * :class:`PIDVariableLimit` - the same with a time-varying symmetric limit from an input (e.g. the bus voltage).
 * :class:`FirstOrder`, :class:`Limiter`, :class:`Feedback`, :class:`Add` - the usual small blocks.
+* :class:`DutyPositionController` - a hobby servo's P position law commanding the PWM duty.
 * :class:`CascadeServo` - position -> velocity -> current cascade of a servo drive, built from the blocks above.
 """
 from __future__ import annotations
@@ -25,7 +26,8 @@ from sympy import Eq, Max, Min
 from acausal import Component, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.partials import check_option
 
-__all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "CascadeServo", "clamp"]
+__all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "DutyPositionController",
+           "CascadeServo", "clamp"]
 
 
 def clamp(u, lo, hi):
@@ -232,6 +234,29 @@ class Add(Component):
 
     def equations(self):
         return [Eq(self.y.value, self.k1 * self.u1.value + self.k2 * self.u2.value)]
+
+
+class DutyPositionController(Component):
+    """Proportional position controller of a hobby servo's firmware, commanding the PWM duty directly::
+
+        y = enable * clamp(kp * error_gain * (position_ref - position), -d_max, d_max)
+
+    ``kp`` is the firmware's gain register (dimensionless count), ``error_gain`` [1/rad] turns ``kp`` times the
+    position error into a duty (Dynamixel XL330: (4096 / 2 pi) / (256 * 885) = 0.0028774 per rad, Rhoban/bam
+    ``dynamixel/actuator.py``, confirmed on the logged duty). ``enable`` (0/1) is the torque-enable input.
+    """
+
+    kp = Parameter(None, unit="1", min=0.0, doc="position gain (firmware register value)")
+    error_gain = Parameter(None, unit="1/rad", min=0.0, doc="duty per rad of error per unit of kp")
+    d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty magnitude (XL330: PWM limit 885/885)")
+    position_ref = RealInput(doc="commanded position [rad]")
+    position = RealInput(doc="measured position [rad]")
+    enable = RealInput(doc="torque enable (1 on, 0 off)")
+    y = RealOutput(doc="duty command [1]")
+
+    def equations(self):
+        raw = self.kp * self.error_gain * (self.position_ref.value - self.position.value)
+        return [Eq(self.y.value, self.enable.value * clamp(raw, -self.d_max, self.d_max))]
 
 
 # --------------------------------------------------------------------------------------------- cascade

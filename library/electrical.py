@@ -40,6 +40,21 @@ class Conductor(OnePort):
         return [*super().equations(), Eq(self.i, self.G * self.v)]
 
 
+class SwitchedResistor(OnePort):
+    """A resistance ``R`` in series with an ideal switch that is closed while the input ``closed`` is 1 and open
+    while it is 0: ``i = closed v / R`` (values in between scale the conductance). A servo's winding behind its
+    torque-enable: with the torque off the bridge floats and no current flows (no back-EMF braking).
+    ``loss_power = v i = closed v^2 / R >= 0``."""
+
+    R = Parameter(1.0, unit="Ohm", min=1e-12, doc="resistance while closed")
+    closed = RealInput(doc="switch state: 1 closed, 0 open")
+    loss_power = Variable(unit="W", doc="dissipated power v i")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.i, self.closed.value * self.v / self.R),
+                Eq(self.loss_power, self.v * self.i)]
+
+
 class Capacitor(OnePort):
     """Ideal capacitor, ``i = C dv/dt``; stores ``energy = C v^2 / 2``."""
 

@@ -38,6 +38,41 @@ class Inertia(PartialTwoFlanges):
                 Eq(self.energy, self.J * self.w**2 / 2)]
 
 
+class Pendulum(Component):
+    """A pendulum on a horizontal shaft: a point mass ``m`` at distance ``l`` on a uniform arm of mass ``m_arm``.
+
+    ``phi = flange.phi`` is the arm's angle from hanging down (positive counter-clockwise seen along the shaft),
+    ``phi0`` the mounting offset (the arm hangs at ``phi = -phi0``)::
+
+        J = m l^2 + m_arm l^2 / 3
+        J dw/dt = flange.tau + tau_g,        tau_g = -(m + m_arm/2) g l sin(phi + phi0)
+
+    ``energy`` = kinetic ``J w^2/2`` + potential ``(m + m_arm/2) g l (1 - cos(phi + phi0))`` (zero hanging down),
+    so ``d energy/dt = flange.tau w``: gravity is conservative and stores, it does not dissipate.
+    ``g`` = 9.80665 m/s2 (standard gravity); the rig is that of BAM's test bench (Rhoban/bam ``testbench.Pendulum``).
+    """
+
+    m = Parameter(None, unit="kg", min=0.0, doc="point mass at the arm's end")
+    l = Parameter(None, unit="m", min=0.0, doc="distance of the point mass from the shaft")
+    m_arm = Parameter(0.0, unit="kg", min=0.0, doc="mass of the uniform arm (0: massless arm)")
+    phi0 = Parameter(0.0, unit="rad", doc="mounting offset of the arm")
+    g = Parameter(9.80665, unit="m/s2", min=0.0, doc="standard gravity")
+    flange = Flange(doc="shaft")
+    phi = Variable(unit="rad", doc="arm angle from hanging down (plus the offset phi0)")
+    w = Variable(unit="rad/s", doc="angular velocity")
+    J = Variable(unit="kg.m2", doc="moment of inertia about the shaft")
+    tau_g = Variable(unit="N.m", doc="gravity torque on the arm")
+    energy = Variable(unit="J", doc="kinetic + potential energy")
+
+    def equations(self):
+        lever = (self.m + self.m_arm / 2) * self.g * self.l
+        return [Eq(self.phi, self.flange.phi), Eq(self.w, der(self.phi)),
+                Eq(self.J, self.m * self.l**2 + self.m_arm * self.l**2 / 3),
+                Eq(self.tau_g, -lever * sp.sin(self.phi + self.phi0)),
+                Eq(self.J * der(self.w), self.flange.tau + self.tau_g),
+                Eq(self.energy, self.J * self.w**2 / 2 + lever * (1 - sp.cos(self.phi + self.phi0)))]
+
+
 class Damper(PartialCompliantWithRelativeStates):
     """Linear damper, ``tau = d w_rel``; dissipates ``loss_power = tau w_rel >= 0``."""
 

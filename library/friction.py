@@ -1,0 +1,127 @@
+"""Friction laws of a gear train as swap-in shaft elements (1-D rotational, MSL sign conventions).
+
+Every law is a rigid, massless shaft between ``flange_a`` (the driving side: motor and gear) and ``flange_b``
+(the load side) whose friction torque goes to the support (``use_support=True`` exposes the housing and its
+reaction ``support.tau = -tau_f``)::
+
+    flange_a.phi = flange_b.phi,   w = der(phi)
+    flange_a.tau + flange_b.tau = tau_f = F_max tanh(w / w_c) + d w
+    loss_power = tau_f w >= 0
+
+``F_max >= 0`` is the friction *budget* (the largest torque the contact can hold); the laws differ only in what it
+depends on. Each term vanishes when its parameter is zero, so a law extends a simpler one by one parameter:
+
+=============  ============================================  ======================================================
+term           budget contribution                           physics (BAM, Duclusaud et al., ICRA 2025, models M1-M4)
+=============  ============================================  ======================================================
+``coulomb``    ``tau_c``                                     dry friction of bearings and seals (M1, with ``d``)
+``stribeck``   ``tau_s exp(-(|w|_c / w_s)^alpha)``           extra breakaway friction at low speed (M2)
+``load``       ``k_l |flange_a.tau|``                        mesh friction proportional to the transmitted torque
+                                                             (M3; MSL ``LossyGear``'s torque-proportional loss)
+``backdrive``  ``k_b |flange_a.tau| (1 - tanh(P_a/P_s)) / 2``  extra mesh friction while the load drives the gear
+                                                             (power flows b -> a, ``P_a = flange_a.tau w < 0``; the
+                                                             direction dependence of M4 and of MSL's eta vs 1/eta)
+=============  ============================================  ======================================================
+
+The load measure is the torque at ``flange_a``: connect the driving side there through massless parts (an EMF and
+an ideal gear: it is then the motor's air-gap torque through the gear, BAM's "motor torque") and put the rotor's
+inertia on the ``flange_b`` side, so the budget does not depend on accelerations (otherwise the law is an
+algebraic loop, which the compiler solves by Newton iterations, slower).
+
+Smooth Coulomb law: ``tanh(w / w_c)`` replaces the sign of w (stiction becomes creep below about ``w_c``; default
+0.01 rad/s, against the 0.024 rad/s resolution of a Dynamixel speed reading), which keeps the model free of events
+so exact parameter sensitivities exist. ``loss_power >= 0`` at every instant because the budget is never negative.
+For the same reason the Stribeck curve uses ``|w|_c = sqrt(w^2 + w_c^2)`` (its derivatives stay finite at rest;
+the curve's value there is lower by a factor ``exp(-(w_c/w_s)^alpha)``, 1e-5 with the defaults).
+"""
+import sympy as sp
+from sympy import Eq
+
+from acausal import Parameter, Variable, der
+from acausal.errors import ModelError
+from acausal.partials import PartialElementaryTwoFlangesAndSupport2
+
+__all__ = ["GearFriction", "CoulombViscousFriction", "StribeckFriction", "LoadDependentFriction",
+           "DirectionalFriction", "TERMS"]
+
+#: the budget terms a law may have, in the order they are documented
+TERMS = ("coulomb", "stribeck", "load", "backdrive")
+
+
+class GearFriction(PartialElementaryTwoFlangesAndSupport2):
+    """A shaft with friction of the chosen ``terms`` (a subset of :data:`TERMS`) plus viscous friction ``d w``.
+
+    Defaults (``tau_c``, ``d``, ``tau_s``, ``w_s``, ``alpha``, ``k_l``, ``k_b``) are zero or, for the shape
+    parameters, of the order BAM published for Dynamixel servos (``w_s`` 2.6-4.2 rad/s, ``alpha`` 0.8-3 for the
+    XL330; Rhoban/bam ``params/xl330``, Apache-2.0); sizes come from calibration.
+    """
+
+    tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
+    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="viscous friction coefficient")
+    tau_s = Parameter(0.0, unit="N.m", min=0.0, doc="Stribeck (breakaway) friction torque added at rest")
+    w_s = Parameter(3.0, unit="rad/s", min=1e-9, doc="Stribeck speed (BAM xl330: 2.6-4.2 rad/s)")
+    alpha = Parameter(2.0, unit="1", min=0.1, doc="Stribeck curve exponent (BAM xl330: 0.8-3)")
+    k_l = Parameter(0.0, unit="1", min=0.0, doc="friction torque per unit of transmitted torque |flange_a.tau|")
+    k_b = Parameter(0.0, unit="1", min=0.0, doc="extra friction per unit of transmitted torque when back-driven")
+    P_s = Parameter(0.01, unit="W", min=1e-12, doc="power scale of the smooth back-drive switch")
+    w_c = Parameter(0.01, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
+
+    phi = Variable(unit="rad", doc="shaft angle relative to the support")
+    w = Variable(unit="rad/s", doc="shaft speed relative to the support")
+    budget = Variable(unit="N.m", doc="friction budget F_max >= 0 (torque the contact can hold)")
+    tau_f = Variable(unit="N.m", doc="friction torque opposing w (flows to the support)")
+    loss_power = Variable(unit="W", doc="dissipated power tau_f w >= 0")
+
+    default_terms = ("coulomb",)
+
+    def __init__(self, terms=None, use_support: bool = False, **kw):
+        terms = tuple(self.default_terms if terms is None else terms)
+        unknown = [t for t in terms if t not in TERMS]
+        if unknown or len(set(terms)) != len(terms):
+            raise ModelError(f"{type(self).__name__}: terms must be distinct names from {TERMS}, got {terms}")
+        self.terms = terms
+        super().__init__(use_support=use_support, **kw)
+
+    def budget_terms(self) -> dict:
+        """term name -> its contribution to the budget (sympy), for the chosen terms."""
+        w, tau_a = self.w, self.flange_a.tau
+        all_terms = {
+            "coulomb": self.tau_c,
+            "stribeck": self.tau_s * sp.exp(-(sp.sqrt(w**2 + self.w_c**2) / self.w_s) ** self.alpha),
+            "load": self.k_l * sp.Abs(tau_a),
+            "backdrive": self.k_b * sp.Abs(tau_a) * (1 - sp.tanh(tau_a * w / self.P_s)) / 2,
+        }
+        return {t: all_terms[t] for t in self.terms}
+
+    def equations(self):
+        return [*super().equations(), Eq(self.phi, self.flange_a.phi - self.phi_support),
+                Eq(self.flange_b.phi, self.flange_a.phi), Eq(self.w, der(self.phi)),
+                Eq(self.budget, sp.Add(*self.budget_terms().values())),
+                Eq(self.tau_f, self.budget * sp.tanh(self.w / self.w_c) + self.d * self.w),
+                Eq(self.flange_a.tau + self.flange_b.tau, self.tau_f), Eq(self.loss_power, self.tau_f * self.w)]
+
+
+class CoulombViscousFriction(GearFriction):
+    """Coulomb + viscous friction, ``tau_f = tau_c tanh(w/w_c) + d w`` (BAM M1)."""
+
+    default_terms = ("coulomb",)
+
+
+class StribeckFriction(GearFriction):
+    """Coulomb + Stribeck + viscous: ``F_max = tau_c + tau_s exp(-(|w|_c/w_s)^alpha)`` (BAM M2)."""
+
+    default_terms = ("coulomb", "stribeck")
+
+
+class LoadDependentFriction(GearFriction):
+    """Coulomb + load-dependent + viscous: ``F_max = tau_c + k_l |flange_a.tau|`` (BAM M3)."""
+
+    default_terms = ("coulomb", "load")
+
+
+class DirectionalFriction(GearFriction):
+    """Load-dependent friction that is larger while the load back-drives the gear (BAM M4's direction
+    dependence, MSL ``LossyGear``'s driving/back-driven efficiencies): ``F_max = tau_c + k_l |tau_a| +
+    k_b |tau_a| (1 - tanh(tau_a w / P_s)) / 2``."""
+
+    default_terms = ("coulomb", "load", "backdrive")
