@@ -8,6 +8,7 @@
     acausal fit DATA --params R,J,b --out DIR                      calibration (Table 2, Fig. 14)
 
     acausal diagnose DATA --out DIR [--json FILE]                  name what the Eq. 4 model misses
+    acausal diagnose DATA --model servo_pendulum --out DIR         the same for a servo on a pendulum (BAM logs)
 
     acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR | --list
 
@@ -29,6 +30,8 @@ EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losse
 #: the examples that simulate on their own (they need no protocol results): ``acausal paper`` runs them in its
 #: process pool beside the protocol sweep, longest first, so their single-core work overlaps the sweep
 SELF_CONTAINED = ["fig16_17_design", "diagnosis_gear_losses", "fig14_calibration"]
+#: example scripts outside the paper's report (each exercised by its own test)
+STANDALONE = ["servo_friction"]
 
 
 
@@ -154,24 +157,53 @@ def cmd_fit(args) -> int:
     return 0
 
 
-def cmd_diagnose(args) -> int:
-    from acausal.models.bench import diagnosis
-    from acausal.models.bench.diagnosis_report import write_json, write_report
+#: the models ``acausal diagnose --model`` knows (the ankle actuator's Eq. 4 model is the default)
+DIAGNOSE_MODELS = ("ankle", "servo_pendulum")
 
+
+def cmd_diagnose(args) -> int:
     out = Path(args.out)
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()] if args.candidates else None
     progress = None if args.no_progress else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
-    d, problem = diagnosis.run(args.data, split=diagnosis.Split(holdout_every=args.holdout_every),
-                               max_effects=args.max_effects, candidates=candidates, progress=progress)
-    write_report(out, d, problem, f"recordings in `{args.data}`")
-    if args.json:
-        write_json(args.json, d)
+    if args.model == "servo_pendulum":
+        d = _diagnose_servo(args, out, candidates, progress)
+    else:
+        from acausal.models.bench import diagnosis
+        from acausal.models.bench.diagnosis_report import write_json, write_report
+
+        d, problem = diagnosis.run(args.data, split=diagnosis.Split(holdout_every=args.holdout_every),
+                                   max_effects=args.max_effects, candidates=candidates, progress=progress)
+        write_report(out, d, problem, f"recordings in `{args.data}`")
+        if args.json:
+            write_json(args.json, d)
     print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else ""))
     for s in d.candidates:
         print(f"  {s.id:26s} held-out gain {100 * s.heldout_rmse_gain:+6.1f} %  delta BIC {s.delta_bic:10.4g}"
               f"  {s.parameter} = {s.value:.4g}{'  significant' if s.significant else ''}")
     print(f"report: {out / 'report.md'}")
     return 0
+
+
+def _diagnose_servo(args, out: Path, candidates, progress):
+    from concurrent.futures import ProcessPoolExecutor
+
+    from acausal.models.servo import bam, problem as servo  # the CLI wires verbs to models (design rule exception)
+    from acausal.models.servo.report import write_json, write_report
+
+    by, _, value = (args.split or "auto").partition("=")
+    split = servo.Split(by=by.strip(), value=value.strip() or None)
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) as pool:
+        d, problem = servo.run(args.data, split=split, max_effects=args.max_effects, candidates=candidates,
+                               progress=progress, executor=pool)
+        bam_rows = bam.replay_all(problem.recordings, pool) if args.bam else None
+    write_report(out, d, problem, f"recordings in `{args.data}`", bam_rows, elapsed=time.perf_counter() - t0)
+    if args.json:
+        write_json(args.json, d)
+    ho = d.heldout()
+    print(f"held-out {ho['signal']} MAE ({ho['split']}): baseline {ho['baseline']:.4g} {ho['unit']}, "
+          f"extended {ho['extended']:.4g} {ho['unit']}")
+    return d
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -218,14 +250,23 @@ def build_parser() -> argparse.ArgumentParser:
     from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
     cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
     compare.configure(cmp)
-    dg = sub.add_parser("diagnose", help="calibrate the Eq. 4 baseline on recordings, show its residuals, name the "
-                        "missing effect, extend the model and measure the gain")
+    dg = sub.add_parser("diagnose", help="calibrate a baseline model on recordings (the ankle's Eq. 4 model, or "
+                        "--model servo_pendulum), show its residuals, name the missing effect, extend the model and "
+                        "measure the gain on held-out data")
     dg.add_argument("data", help="folder of recordings")
     dg.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     dg.add_argument("--json", help="also write the machine-readable verdict to this file")
     dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all)")
     dg.add_argument("--max-effects", type=int, default=2, help="effects to add at most (default 2)")
-    dg.add_argument("--holdout-every", type=int, default=3, help="hold out every n-th stride (default 3)")
+    dg.add_argument("--holdout-every", type=int, default=3, help="ankle: hold out every n-th stride (default 3)")
+    dg.add_argument("--model", choices=DIAGNOSE_MODELS, default="ankle",
+                    help="which model the recordings are of (default: ankle, the paper's actuator; servo_pendulum: "
+                    "a position servo swinging a pendulum, BAM's log format)")
+    dg.add_argument("--split", help="servo_pendulum: held-out recordings, kp[=VALUE] or trajectory[=NAME] "
+                    "(default: every recording at the middle kp, else the middle trajectory)")
+    dg.add_argument("--jobs", type=int, default=None, help="servo_pendulum: worker processes (default: all cores)")
+    dg.add_argument("--bam", action="store_true", help="servo_pendulum: also replay BAM's published XL330 "
+                    "parameter sets on the recordings (for XL330 data)")
     dg.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
     dg.set_defaults(run=cmd_diagnose)
     return p

@@ -1,0 +1,230 @@
+"""The servo recordings as a calibration and diagnosis problem (``acausal diagnose --model servo_pendulum``).
+
+Each recording is replayed in closed loop: the model starts at the first measured position, at rest, and follows
+the logged goal, supply voltage and torque enable; its simulated position is compared with the measured one
+(there is no current or torque measurement; BAM scores its models the same way). Residuals are counted in units of
+the position reading's quantisation noise (one encoder step ``q`` over sqrt(12); ``q`` is the smallest position
+change in the data, so another servo's resolution is found, not typed).
+
+* **Baseline**: Coulomb + viscous friction at the output (BAM's M1): ``servo.kt``, ``servo.R``,
+  ``servo.armature``, ``pendulum.phi0`` (mounting offset), ``servo.tau_c``, ``servo.d``.
+* **Candidates** (one parameter each, zero = absent): the friction terms of
+  :class:`~acausal.library.friction.GearFriction`: ``stribeck`` (breakaway friction at low speed, BAM M2),
+  ``load`` (friction proportional to the transmitted torque, M3), ``backdrive`` (more of it while the load drives
+  the gear, the direction dependence of M4).
+* **Held out**: by default every recording at one gain ``kp`` (the middle of the distinct values; BAM's
+  ``--validation_kp``), else one trajectory, else every fourth recording; ``Split`` chooses another. Training
+  recordings are cut into ``segment`` second pieces: the groups of the leave-one-group-out score.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acausal import DataError
+from acausal.identify import load_recordings
+from acausal.identify.calibrate import Experiment, Free
+from acausal.identify.diagnose import Candidate, Problem, Thresholds, diagnose
+from acausal.library.friction import TERMS
+
+from .model import BASELINE, compiled
+from .recording_format import POSITION, SERVO_FORMAT, inputs, inputs_from, replay_columns, rig_params, start
+
+SIGNALS = (POSITION,)
+
+#: bounds and typical magnitudes of the baseline parameters: wide physical ranges for a small servo (not tuned
+#: to the XL330: the start values are BAM's xl330 m1 set, the library defaults)
+BOUNDS = {"servo.kt": (0.01, 10.0, 0.3), "servo.R": (0.1, 100.0, 3.0), "servo.armature": (1e-6, 0.1, 1e-3),
+          "pendulum.phi0": (-0.3, 0.3, 0.02), "servo.tau_c": (0.0, 2.0, 0.01), "servo.d": (0.0, 1.0, 0.003)}
+
+CANDIDATES = {
+    "stribeck": Candidate("stribeck", "servo.friction.tau_s", 0.0, (0.0, 2.0), 0.01, POSITION, "N.m"),
+    "load": Candidate("load", "servo.friction.k_l", 0.0, (0.0, 2.0), 0.1, POSITION, "1"),
+    "backdrive": Candidate("backdrive", "servo.friction.k_b", 0.0, (0.0, 2.0), 0.1, POSITION, "1"),
+}
+
+#: integration tolerances of the replays (positions in rad; errors that matter are ~1e-3 rad)
+RTOL, ATOL = 1e-6, 1e-8
+
+
+@dataclass(frozen=True)
+class Split:
+    """Which recordings are held out: ``by`` = ``"kp"`` (every recording at gain ``value``), ``"trajectory"``
+    (every recording of trajectory ``value``) or ``"auto"`` (kp if the set has several gains, else trajectory,
+    else every fourth recording); ``value=None`` takes the middle of the sorted distinct values.
+    ``segment`` [s]: length of the pieces of a training recording scored leave-one-out."""
+
+    by: str = "auto"
+    value: object = None
+    segment: float = 1.0
+
+    def held_out(self, recordings) -> tuple:
+        """``(mask over recordings, description)``."""
+        if self.by not in ("auto", "kp", "trajectory"):
+            raise DataError(f"split: by must be 'auto', 'kp' or 'trajectory', got {self.by!r}")
+        kps = [r.meta["kp"] for r in recordings]
+        trajs = [r.meta.get("trajectory_name", "") for r in recordings]
+        by = self.by
+        if by == "auto":
+            by = "kp" if len(set(kps)) > 1 else "trajectory" if len(set(trajs)) > 1 else "every"
+        if by == "every":
+            mask = np.arange(len(recordings)) % 4 == 3
+            if len(recordings) < 2:
+                raise DataError("split: one recording cannot be split into training and held-out data")
+            return mask, "every fourth recording (one gain and one trajectory only)"
+        values = kps if by == "kp" else trajs
+        distinct = sorted(set(values))
+        value = distinct[len(distinct) // 2] if self.value is None else self.value
+        if by == "kp" and self.value is not None:
+            value = float(self.value)
+        mask = np.array([v == value for v in values])
+        if not mask.any():
+            raise DataError(f"split: no recording has {by} = {value!r}; the set has {distinct}")
+        if mask.all():
+            raise DataError(f"split: every recording has {by} = {value!r}; nothing is left to fit on")
+        what = f"kp = {value:g}" if by == "kp" else f"trajectory {value!r}"
+        return mask, f"every recording at {what} held out ({int(mask.sum())} of {len(recordings)})"
+
+
+def terms_of(effects) -> tuple:
+    """The friction terms of the baseline extended with ``effects``, in the library's order."""
+    return tuple(t for t in TERMS if t == "coulomb" or t in effects)
+
+
+def replay(job: tuple) -> tuple:
+    """One closed-loop replay (a module-level function, so a process pool can run it): ``job`` =
+    ``(terms, t, goal, voltage, enable, params, starts, names)``; returns ``(position, sens)`` with ``sens`` the
+    sensitivities of the position to ``names`` (shape ``(len(names), N)``), or ``None`` when ``names`` is empty."""
+    terms, t, columns, params, x0, names = job
+    cm = compiled(terms)
+    u = inputs_from(t, columns)
+    if not names:
+        res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=params, inputs=u, starts=x0, method="LSODA",
+                          rtol=RTOL, atol=ATOL, dense_output=False)
+        return np.asarray(res["pendulum.phi"]), None
+    vals, S = cm.sensitivities(t, list(names), names=["pendulum.phi"], params=params, inputs=u, t_start=t[0],
+                               starts=x0, method="LSODA", rtol=RTOL, atol=ATOL)
+    return np.asarray(vals["pendulum.phi"]), np.asarray(S["pendulum.phi"])
+
+
+class _Batch:
+    """The replays of one model's experiments, run together (through ``executor`` when given) the first time any
+    of them is asked for with a parameter set, and kept for the other experiments' calls with the same set.
+    Experiments are batched with those of the same role (fitted or held out), since a calibration asks only for
+    the fitted ones."""
+
+    def __init__(self, terms, recordings, held, executor):
+        self.terms, self.recordings, self.held, self.executor = terms, recordings, held, executor
+        self._cache: dict = {}
+
+    def get(self, k: int, values: dict, names=()) -> tuple:
+        key = (tuple(sorted(values.items())), tuple(names), bool(self.held[k]))
+        if key not in self._cache:
+            group = [j for j in range(len(self.recordings)) if self.held[j] == self.held[k]]
+            jobs = []
+            for j in group:
+                r = self.recordings[j]
+                jobs.append((self.terms, r.t, replay_columns(r), {**rig_params(r.meta), **values}, start(r),
+                             tuple(names)))
+            runner = self.executor.map if self.executor is not None else map
+            results = list(runner(replay, jobs))
+            self._cache = {k2: v for k2, v in self._cache.items() if k2[1] != tuple(names) or k2[2] != key[2]}
+            self._cache[key] = dict(zip(group, results))
+        return self._cache[key][k]
+
+
+def experiment(rec, k: int, batch: _Batch, effects=(), held_out: bool = False, segment: float = 1.0) -> Experiment:
+    """Recording ``rec`` (number ``k`` of ``batch``) as a closed-loop replay :class:`Experiment`."""
+    t = rec.t
+    piece = np.floor((t - t[0]) / segment).astype(int)
+
+    def predict(values: dict) -> dict:
+        return {POSITION: batch.get(k, values)[0]}
+
+    def sensitivity(values: dict, names):
+        pos, S = batch.get(k, values, tuple(names))
+        return {POSITION: pos}, {POSITION: S}
+
+    train = np.full(t.size, not held_out)
+    return Experiment(rec.name, t, {POSITION: np.asarray(rec[POSITION])}, predict, train, ~train, piece,
+                      info={"meta": rec.meta, "inputs": inputs(rec), "params": rig_params(rec.meta),
+                            "effects": tuple(effects), "start": start(rec)}, sensitivity=sensitivity)
+
+
+def resolution(recordings) -> float:
+    """The position reading's step: the smallest change between consecutive samples over all recordings."""
+    steps = np.concatenate([np.abs(np.diff(r[POSITION])) for r in recordings])
+    steps = steps[steps > 1e-12]
+    if steps.size == 0:
+        raise DataError("the measured position never changes: nothing to fit")
+    return float(steps.min())
+
+
+class ServoProblem(Problem):
+    """The servo recordings (a folder or a list of :class:`~acausal.identify.recordings.Recording`) as a
+    diagnosis problem; see the module docstring."""
+
+    candidates = CANDIDATES
+
+    #: each evaluation replays every fitted recording with exact sensitivities; a relative change of 1e-5 in cost
+    #: or step is far below what the held-out scores resolve
+    fit_options = {"max_nfev": 20, "tol": 1e-5}
+
+    def __init__(self, recordings, split: Split = Split(), executor=None):
+        if not isinstance(recordings, (list, tuple)):
+            recordings = load_recordings(recordings, SERVO_FORMAT)
+        self.recordings = list(recordings)
+        self.split = split
+        self.executor = executor
+        self.signals = list(SIGNALS)
+        self.mask, self.split_text = split.held_out(self.recordings)
+        self.step = resolution(self.recordings)
+        self._cache: dict = {}
+
+    def experiments(self, effects: tuple) -> list:
+        key = terms_of(effects)
+        if key not in self._cache:
+            batch = _Batch(key, self.recordings, self.mask, self.executor)
+            self._cache[key] = [experiment(r, k, batch, effects, bool(h), self.split.segment)
+                                for k, (r, h) in enumerate(zip(self.recordings, self.mask))]
+        return self._cache[key]
+
+    def base_free(self, start: dict) -> list:
+        from acausal.library.servo import PositionServo
+        defaults = {"servo.kt": PositionServo.kt.default, "servo.R": PositionServo.R.default,
+                    "servo.armature": PositionServo.armature.default, "pendulum.phi0": 0.0,
+                    "servo.tau_c": PositionServo.tau_c.default, "servo.d": PositionServo.d.default}
+        out = []
+        for n in BASELINE:
+            lo, hi, scale = BOUNDS[n]
+            out.append(Free(n, float(np.clip(start.get(n, defaults[n]), lo, hi)), lo, hi, scale))
+        return out
+
+    def period(self, exp) -> float:
+        return float(exp.t[-1] - exp.t[0]) * (1 + 1e-9)
+
+    def noise_scales(self, exps) -> dict:
+        return {POSITION: self.step / np.sqrt(12.0)}
+
+    def heldout(self) -> dict:
+        return {"signal": POSITION, "unit": "rad", "split": self.split_text}
+
+    def regressors(self, exp, values: dict) -> dict:
+        cm = compiled(terms_of(exp.info["effects"]))
+        v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params={**exp.info["params"], **values},
+                        inputs=exp.info["inputs"], starts=exp.info["start"], method="LSODA", rtol=RTOL, atol=ATOL,
+                        dense_output=False)
+        w = np.asarray(v["pendulum.w"])
+        return {"speed": w, "sign(speed)": np.tanh(w / 0.05), "abs(motor torque)": np.abs(np.asarray(v["servo.friction.flange_a.tau"])),
+                "gravity torque": np.asarray(v["pendulum.tau_g"]), "duty": np.asarray(v["servo.ctrl.y.value"]),
+                "elapsed time": exp.t - exp.t[0]}
+
+
+def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(), max_effects: int = 2,
+        candidates=None, progress=None, executor=None) -> tuple:
+    """Diagnose servo ``recordings`` (list or folder); returns ``(Diagnosis, ServoProblem)``. ``executor``: a
+    process pool to run the replays of one parameter set in parallel (default: in this process)."""
+    problem = ServoProblem(recordings, split, executor)
+    d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)
+    return d, problem
