@@ -14,7 +14,7 @@ from acausal.identify import load_recordings
 from acausal.identify.recordings import write_recording
 from acausal.library.friction import (CoulombViscousFriction, DirectionalFriction, GearFriction,
                                       LoadDependentFriction, StribeckFriction)
-from acausal.library.rotational import Fixed, Inertia, Pendulum, TorqueSource
+from acausal.library.rotational import Inertia, Pendulum, TorqueSource
 
 
 # ------------------------------------------------------------------------------------------------ components

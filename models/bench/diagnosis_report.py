@@ -3,7 +3,6 @@ baseline and of the extended model, the candidates' scores, and the figures (res
 and after, autocorrelation before and after); ``diagnosis.json`` (the machine-readable verdict) on request."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib
@@ -15,16 +14,9 @@ import numpy as np  # noqa: E402
 from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
 from ..ankle.effects import EFFECTS  # noqa: E402
-from ..reporting.tables import md_table, write_csv  # noqa: E402
+from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
 
 _UNITS = {"motor_current_A": "A", "supply_current_A": "A", "joint_torque_Nm": "N m"}
-
-
-def write_json(path, diagnosis) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(diagnosis.to_dict(), indent=2, default=float, allow_nan=False) + "\n")
-    return path
 
 
 def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
@@ -152,3 +144,6 @@ def _acf_figure(path, before, after, d):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path)
+
+
+__all__ = ["write_report", "write_json"]

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,14 @@ def write_csv(path: Path, rows: list[dict]) -> Path:
         w.writeheader()
         for row in rows:
             w.writerow({k: (f"{v:.9g}" if isinstance(v, (float, np.floating)) else v) for k, v in row.items()})
+    return path
+
+
+def write_verdict(path, diagnosis) -> Path:
+    """A diagnosis's machine-readable verdict (:meth:`~acausal.identify.diagnose.Diagnosis.to_dict`) as JSON."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(diagnosis.to_dict(), indent=2, default=float, allow_nan=False) + "\n")
     return path
 
 

@@ -3,7 +3,6 @@ wrong over time, per recording and per phase, the candidates, the extended model
 BAM's published parameters replayed, what the data cannot show), CSV tables and figures."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib
@@ -14,7 +13,7 @@ import numpy as np  # noqa: E402
 
 from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
-from ..reporting.tables import md_table, write_csv  # noqa: E402
+from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
 from .bam import published  # noqa: E402
 from .problem import CANDIDATES  # noqa: E402
 from .recording_format import POSITION  # noqa: E402
@@ -173,6 +172,7 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
                       for r in worse) + ".\n")
     md += ["## 5. What these data cannot show", "",
            *[f"- {line}" for line in _correlated(fin)],
+           *[f"- {line}" for line in _loader_notes(problem)],
            "- There is no current or torque measurement: kt and R are seen only through the motion, and the "
            "friction law only through the position error it causes.",
            "- One mass at one arm length: load-dependent friction and inertia or gravity scale together, so a "
@@ -191,13 +191,6 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
             "heldout": ho, "causes": list(d.causes), "rows": rows}
 
 
-def write_json(path, d) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(d.to_dict(), indent=2, default=float, allow_nan=False) + "\n")
-    return path
-
-
 def _correlated(fit, limit: float = 0.9) -> list:
     """Sentences naming the parameter pairs whose estimates are correlated beyond ``limit`` (from the fit's
     covariance): directions the data barely constrain."""
@@ -210,6 +203,23 @@ def _correlated(fit, limit: float = 0.9) -> list:
             if np.isfinite(r) and abs(r) >= limit:
                 out.append(f"`{names[i]}` and `{names[j]}` are estimated together (correlation {r:+.2f}): the data "
                            "constrain a combination of them better than either.")
+    return out
+
+
+def _loader_notes(problem) -> list:
+    """What the loader ignored or assumed, once per key over all recordings."""
+    ignored, null = set(), set()
+    for r in problem.recordings:
+        for n in r.notes:
+            key = n.split("key '", 1)[1].split("'", 1)[0] if "key '" in n else n
+            (null if "is null" in n else ignored).add(key)
+    out = []
+    if null:
+        out.append("Not recorded (null in the JSON, taken as 0 as BAM does): " + ", ".join(f"`{k}`" for k in sorted(null))
+                   + ".")
+    if ignored:
+        out.append("JSON keys the model does not use (provenance and notes; ignored): "
+                   + ", ".join(f"`{k}`" for k in sorted(ignored)) + ".")
     return out
 
 
