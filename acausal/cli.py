@@ -109,6 +109,44 @@ def cmd_infer(args) -> int:
     return 0
 
 
+def check_outputs(data, **outputs):
+    """Output paths must not touch the input data: none equal to or inside the data folder (outputs would mix with
+    the recordings) and none an existing input file. ``outputs``: option name -> path (None: not given).
+    A DataError names the option, the path and why."""
+    from acausal import DataError
+
+    data = Path(data).resolve()
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        p = Path(path).resolve()
+        flag = "--" + option.replace("_", "-")
+        if p == data or data in p.parents:
+            raise DataError(f"{flag} {path}: inside the input data folder {data}; outputs would mix with the "
+                            "recordings (and a folder of recordings with other files in it no longer loads): "
+                            "choose a folder outside it")
+
+
+def check_bench_folder(out, force: bool):
+    """``acausal bench --out`` into a folder that already holds files needs ``--force`` (its recordings of the same
+    names would be overwritten and others would stay beside them)."""
+    from acausal import DataError
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out}: exists and is not a folder")
+    if out.is_dir() and not force:
+        present = [p.name for p in out.iterdir() if not p.name.startswith(".")]
+        if present:
+            raise DataError(f"--out {out}: the folder is not empty ({len(present)} files, e.g. {sorted(present)[0]!r}); "
+                            "its recordings would be overwritten or mixed with the new ones: give an empty or new "
+                            "folder, or --force to clear it first")
+    if out.is_dir() and force:
+        for p in out.iterdir():
+            if p.is_file():
+                p.unlink()
+
+
 def cmd_bench(args) -> int:
     from acausal.models.bench import virtual as bench
     from acausal.models.ankle.effects import parse_effects
@@ -121,6 +159,7 @@ def cmd_bench(args) -> int:
         conds = [bench.BenchCondition(P, T, args.strides, body_mass=args.body_mass)
                  for P in (0.005, 0.011, 0.018) for T in (1.2, 2.0, 3.0)]
     print(f"acausal bench: {len(conds)} recordings, effects: {effects or 'none'}", file=sys.stderr)
+    check_bench_folder(args.out, args.force)
     paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed)
     print(f"wrote {len(paths)} recordings to {args.out} (answer key in {Path(args.out) / 'README.md'})")
     return 0
@@ -143,6 +182,7 @@ def cmd_fit(args) -> int:
     from acausal.models.bench import calibration
     from acausal.models.bench.fit_report import fit_outputs
 
+    check_outputs(args.data, out=args.out)
     out = Path(args.out)
     weights = {k: float(v) for k, v in _pairs(args.weight, "--weight")}
     signals = [s.strip() for s in args.signals.split(",") if s.strip()]
@@ -162,6 +202,7 @@ DIAGNOSE_MODELS = ("ankle", "servo_pendulum")
 
 
 def cmd_diagnose(args) -> int:
+    check_outputs(args.data, out=args.out, json=args.json)
     out = Path(args.out)
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()] if args.candidates else None
     progress = None if args.no_progress else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
@@ -232,6 +273,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--sensor", action="append", metavar="NAME=VALUE", help="sensor setting, e.g. "
                        "motor_current_noise=0.05")
     bench.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    bench.add_argument("--force", action="store_true", help="write into a folder that already holds files (its "
+                       "files are deleted first)")
     bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
     bench.add_argument("--quick", action="store_true", help="9 conditions instead of the paper's 36")
     bench.add_argument("--body-mass", type=float, default=60.0, metavar="KG",
@@ -283,6 +326,10 @@ def main(argv=None) -> int:
         return args.run(args)
     except AcausalError as e:
         print(f"acausal {args.verb}: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a path that cannot be read or written: the message names it
+        print(f"acausal {args.verb}: {e.strerror or e}{': ' + str(e.filename) if e.filename else ''}",
+              file=sys.stderr)
         return 2
 
 

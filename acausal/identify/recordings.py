@@ -11,18 +11,30 @@ unknown unit (``time_ms`` where ``time_s`` is declared), values that are not num
 not strictly increasing (duplicated or going back), JSON that misses a required key, has an unknown key, a value
 of the wrong type or a non-positive value where a positive one is required, and CSV and JSON files that do not
 pair up. Nothing is dropped or guessed: extra CSV columns are kept (``Recording.extra``) and otherwise ignored.
+A file separated by semicolons or tabs is named as such; extensions may be upper-case.
+
+Torn and mixed sets: a format may declare the span a recording must cover (``RecordingFormat.expected_span``, e.g.
+strides x stride time), and a writer of a whole set writes ``manifest.json`` (:func:`write_manifest`: first as not
+complete, then with every recording's rows and SHA-256); :func:`load_recordings` refuses a set whose manifest is
+incomplete, lists other files or other contents. Every file is written atomically (:mod:`acausal.fileio`).
 """
 from __future__ import annotations
 
 import difflib
+import io
 import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from ..errors import DataError
+from ..fileio import atomic_write_text, sha256
+
+#: the file a writer of a recording set writes last: the recordings it wrote, with row counts and checksums
+MANIFEST = "manifest.json"
 
 
 @dataclass(frozen=True)
@@ -64,6 +76,9 @@ class RecordingFormat:
     #: what an undeclared top-level JSON key is: ``"error"`` (a DataError naming it) or ``"note"`` (ignored, with
     #: a note in ``Recording.notes``: for formats whose files carry provenance and documentation of their own)
     unknown_keys: str = "error"
+    #: ``meta -> seconds or None``: the time the recording must span according to its JSON (e.g. strides x
+    #: stride time); a recording that covers less (truncated) or more is an error. ``None``: no such check
+    expected_span: Callable | None = None
 
     def column(self, name: str) -> Column:
         return next(c for c in self.columns if c.name == name)
@@ -117,27 +132,99 @@ def load_recordings(folder, fmt: RecordingFormat) -> list:
     folder = Path(folder)
     if not folder.is_dir():
         raise DataError(f"recording set {folder}: no such folder")
-    csvs = {p.stem: p for p in folder.glob("*.csv")}
-    jsons = {p.stem: p for p in folder.glob("*.json")}
+    files = [p for p in folder.iterdir() if p.is_file() and not p.name.startswith(".")]
+    csvs = {p.stem: p for p in files if p.suffix.lower() == ".csv"}
+    jsons = {p.stem: p for p in files if p.suffix.lower() == ".json" and p.name != MANIFEST}
     for stem in sorted(set(csvs) ^ set(jsons)):
         have, miss = (csvs[stem], f"{stem}.json") if stem in csvs else (jsons[stem], f"{stem}.csv")
         raise DataError(f"{have}: no matching {miss} in {folder} (every experiment is a NAME.csv + NAME.json pair)")
     if not csvs:
         raise DataError(f"recording set {folder}: no NAME.csv + NAME.json pairs found")
-    return [load_recording(csvs[s], fmt) for s in sorted(csvs)]
+    if (folder / MANIFEST).exists():
+        check_manifest(folder, csvs, jsons)
+    return [load_recording(csvs[s], fmt, jsons[s]) for s in sorted(csvs)]
 
 
-def load_recording(csv_path, fmt: RecordingFormat) -> Recording:
-    """Load and validate one experiment (the JSON next to the CSV, same stem)."""
+def write_manifest(folder, names, complete: bool = True, about: dict | None = None) -> Path:
+    """Write ``folder/manifest.json`` listing the recordings ``names`` (data rows, SHA-256 of both files).
+    A writer calls it with ``complete=False`` (names planned, no checksums) before it writes the recordings and with
+    ``complete=True`` after the last: a folder whose writing was interrupted then says so when it is loaded."""
+    folder = Path(folder)
+    entries = {}
+    for n in names:
+        if complete:
+            csv, js = folder / f"{n}.csv", folder / f"{n}.json"
+            entries[n] = {"rows": _rows(csv), "csv_sha256": sha256(csv), "json_sha256": sha256(js)}
+        else:
+            entries[n] = {}
+    body = {"complete": bool(complete), **(about or {}), "recordings": entries}
+    return atomic_write_text(folder / MANIFEST, json.dumps(body, indent=1) + "\n")
+
+
+def _rows(csv: Path) -> int:
+    """Data rows of a CSV file (lines after the header)."""
+    with open(csv, "rb") as fh:
+        return sum(1 for line in fh if line.strip()) - 1
+
+
+def check_manifest(folder: Path, csvs: dict, jsons: dict):
+    """Every recording of ``folder`` is the one its manifest lists (a DataError naming the file otherwise)."""
+    path = folder / MANIFEST
+    try:
+        man = json.loads(path.read_text())
+        listed = man["recordings"]
+    except (json.JSONDecodeError, KeyError, TypeError):
+        raise DataError(f"{path}: not a manifest of this library (JSON object with 'recordings' expected)") from None
+    if not man.get("complete", False):
+        raise DataError(f"{path}: the run that wrote this folder did not finish (the manifest lists "
+                        f"{len(listed)} planned recordings and no checksums); its files may mix two runs: write the "
+                        "set again")
+    extra = sorted(set(csvs) - set(listed))
+    if extra:
+        raise DataError(f"{csvs[extra[0]]}: not listed in {path} ({len(extra)} such file(s)): the folder mixes "
+                        "recordings of different runs")
+    missing = sorted(set(listed) - set(csvs))
+    if missing:
+        raise DataError(f"{path} lists {missing[0]!r}, but {folder / (missing[0] + '.csv')} is missing")
+    for name in sorted(listed):
+        entry = listed[name]
+        for kind, files in (("csv", csvs), ("json", jsons)):
+            if sha256(files[name]) != entry.get(f"{kind}_sha256"):
+                rows = _rows(files[name]) if kind == "csv" else None
+                what = f" ({rows} rows, the manifest says {entry.get('rows')})" if rows is not None else ""
+                raise DataError(f"{files[name]}: its content differs from what {path} recorded{what}: the file was "
+                                "changed or its writing was interrupted")
+
+
+def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
+    """Load and validate one experiment (``json_path``, default: the JSON next to the CSV with the same stem, its
+    extension in any case)."""
     csv_path = Path(csv_path)
-    json_path = csv_path.with_suffix(".json")
+    if json_path is None:
+        same = [p for p in csv_path.parent.glob(f"{csv_path.stem}.*") if p.suffix.lower() == ".json"]
+        json_path = same[0] if same else csv_path.with_suffix(".json")
+    json_path = Path(json_path)
     if not csv_path.exists():
         raise DataError(f"{csv_path}: no such file")
     if not json_path.exists():
         raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
     meta, notes = _load_meta(json_path, fmt)
     columns, extra = _load_csv(csv_path, fmt)
+    if fmt.expected_span is not None:
+        _check_span(csv_path, columns[fmt.time_column], fmt.expected_span(meta))
     return Recording(csv_path.stem, columns, meta, extra, csv_path, notes)
+
+
+def _check_span(path: Path, t: np.ndarray, span):
+    """The samples cover ``span`` seconds (to within two sample intervals)."""
+    if span is None or t.size < 2:
+        return
+    dt = float(np.median(np.diff(t)))
+    covered = float(t[-1] - t[0]) + dt
+    if abs(covered - span) > 2 * dt:
+        why = "truncated (an interrupted write?)" if covered < span else "longer than declared"
+        raise DataError(f"{path}: the samples cover {covered:.4g} s ({t.size} rows) but its JSON declares "
+                        f"{span:.4g} s: {why}")
 
 
 def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
@@ -199,6 +286,11 @@ def _load_csv(path: Path, fmt: RecordingFormat):
         header_line = fh.readline()
         if not header_line.strip():
             raise DataError(f"{path}: empty file (expected a header row of column names)")
+        if "," not in header_line:
+            for sep, label in ((";", "semicolons"), ("\t", "tabs")):
+                if sep in header_line:
+                    raise DataError(f"{path}, line 1: the columns are separated by {label}; the format wants "
+                                    "comma-separated values (CSV with ',')")
         header = [h.strip() for h in header_line.rstrip("\r\n").split(",")]
         _check_header(path, header, fmt)
         body = fh.read()
@@ -275,7 +367,9 @@ def write_recording(folder, name: str, columns: dict, meta: dict, fmt: Recording
     names = [c.name for c in fmt.columns] + [k for k in columns if k not in {c.name for c in fmt.columns}]
     data = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
     path = folder / f"{name}.csv"
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=f"%.{digits}g")
-    (folder / f"{name}.json").write_text(json.dumps(meta, indent=2) + "\n")
+    buf = io.StringIO()
+    np.savetxt(buf, data, delimiter=",", header=",".join(names), comments="", fmt=f"%.{digits}g")
+    atomic_write_text(folder / f"{name}.json", json.dumps(meta, indent=2) + "\n")
+    atomic_write_text(path, buf.getvalue())
     load_recording(path, fmt)  # what is written must load
     return path

@@ -307,7 +307,8 @@ class AnkleActuator(SeriesLinkAnkle):
 
     def build_extras(self):
         if self.has("winding_temperature"):
-            self.winding = HeatCapacitor(C=1 / self.winding_heating)
+            # the winding starts at ambient (the motor's reference temperature), so zero heating is the baseline
+            self.winding = HeatCapacitor(C=1 / self.winding_heating, T=DCMotor.T_ref.default)
             self.cooling = ThermalConductor(G=1 / 7.61)  # winding-housing-ambient, 0.21 + 7.4 K/W (datasheet)
             self.ambient = FixedTemperature(T=self.motor.T_ref)
             connect(self.motor.heat_port, self.winding.port, self.cooling.port_a)

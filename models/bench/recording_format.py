@@ -6,6 +6,11 @@ is ``joint_torque_Nm * d(theta)/dt``. A recording holds several consecutive stri
 """
 from acausal.identify import Column, Key, RecordingFormat
 
+def recorded_span(meta: dict):
+    """The time a recording must cover by its JSON: ``strides`` x ``stride_time_s`` (None without ``strides``)."""
+    return meta["strides"] * meta["stride_time_s"] if "strides" in meta else None
+
+
 ANKLE_FORMAT = RecordingFormat(
     name="ankle actuator bench recording",
     columns=(
@@ -30,6 +35,7 @@ ANKLE_FORMAT = RecordingFormat(
         Key("strides", "", "number of consecutive strides recorded", required=False, kind="integer"),
         Key("description", "", "free text", required=False, kind="text"),
     ),
+    expected_span=recorded_span,
 )
 
 

@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from acausal import DataError, compile_model
-from acausal.identify import write_recording
+from acausal.fileio import atomic_write_text
+from acausal.identify.recordings import write_manifest, write_recording
 from acausal.sweep import sweep
 
 from acausal.library.drives import DCMotor
@@ -142,12 +143,14 @@ def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict
     for name in effects:
         effect(name)
     jobs = [(c, effects, truth, sensors, seed, i) for i, c in enumerate(conditions)]
+    names = [f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s" for c in conditions]
+    about = {"written_by": "acausal bench", "seed": seed, "effects": effects}
+    out.mkdir(parents=True, exist_ok=True)
+    write_manifest(out, names, complete=False, about=about)  # an interrupted run leaves this: loading then fails
     recs = sweep(_record, jobs, executor=executor)
-    paths = []
-    for c, (cols, meta) in zip(conditions, recs):
-        name = f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s"
-        paths.append(write_recording(out, name, cols, meta, ANKLE_FORMAT))
+    paths = [write_recording(out, name, cols, meta, ANKLE_FORMAT) for name, (cols, meta) in zip(names, recs)]
     _write_readme(out, conditions, effects, {**TRUTH, **(truth or {})}, sensors, seed)
+    write_manifest(out, names, complete=True, about=about)
     return paths
 
 
@@ -160,7 +163,7 @@ def _write_readme(out: Path, conditions, effects, truth, sensors, seed):
     lines += ["", "Hidden effects: " + (", ".join(f"`{k}` = {v:g} {EFFECTS[k].unit}" for k, v in effects.items())
                                         or "none"), "", "## Sensors", ""]
     lines += [f"- {k} = {v}" for k, v in asdict(sensors).items()]
-    (out / "README.md").write_text("\n".join(lines) + "\n")
+    atomic_write_text(out / "README.md", "\n".join(lines) + "\n")
 
 
 def sensors_with(overrides: dict) -> Sensors:

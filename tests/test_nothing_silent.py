@@ -1,0 +1,150 @@
+"""Nothing silently wrong (issue 20, first part): atomic writes, a manifest that catches torn or mixed recording
+sets, recordings checked against their declared length, outputs that cannot overwrite inputs, clear messages for
+bad CSV separators and CLI path errors, upper-case extensions, and the bench's winding starting at ambient."""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from acausal import DataError
+from acausal.cli import main
+from acausal.fileio import atomic_write_text
+from acausal.identify import MANIFEST, load_recordings
+from acausal.models.bench.recording_format import ANKLE_FORMAT
+from acausal.models.bench.virtual import BenchCondition, run_bench
+
+CONDS = [BenchCondition(0.011, 1.2, strides=2), BenchCondition(0.005, 1.2, strides=2)]
+
+
+@pytest.fixture(scope="module")
+def bench_set(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("bench")
+    run_bench(folder, CONDS, executor="serial")
+    return folder
+
+
+def _copy(src, dst):
+    dst.mkdir(parents=True, exist_ok=True)
+    for p in src.iterdir():
+        (dst / p.name).write_bytes(p.read_bytes())
+    return dst
+
+
+def test_a_bench_set_loads_with_its_manifest(bench_set):
+    man = json.loads((bench_set / MANIFEST).read_text())
+    assert man["complete"] and set(man["recordings"]) == {"P11.0mm_T1.2s", "P05.0mm_T1.2s"}
+    assert len(load_recordings(bench_set, ANKLE_FORMAT)) == 2
+
+
+def test_a_truncated_recording_is_caught_by_the_manifest(bench_set, tmp_path):
+    """The reported case: a rewrite interrupted after part of a CSV, beside the old JSON."""
+    data = _copy(bench_set, tmp_path / "data")
+    csv = data / "P11.0mm_T1.2s.csv"
+    lines = csv.read_text().splitlines()
+    csv.write_text("\n".join(lines[: int(0.76 * len(lines))]) + "\n")
+    with pytest.raises(DataError, match=r"P11.0mm_T1.2s.csv: its content differs from what .*manifest.json "
+                                        r"recorded \(\d+ rows, the manifest says \d+\)"):
+        load_recordings(data, ANKLE_FORMAT)
+
+
+def test_a_truncated_recording_without_manifest_is_caught_by_its_length(bench_set, tmp_path):
+    data = _copy(bench_set, tmp_path / "data")
+    (data / MANIFEST).unlink()
+    csv = data / "P05.0mm_T1.2s.csv"
+    lines = csv.read_text().splitlines()
+    csv.write_text("\n".join(lines[: len(lines) // 2]) + "\n")
+    with pytest.raises(DataError, match=r"P05.0mm_T1.2s.csv: the samples cover .* s .* but its JSON declares 2.4 s: "
+                                        r"truncated"):
+        load_recordings(data, ANKLE_FORMAT)
+
+
+def test_an_interrupted_bench_run_and_a_mixed_folder_are_errors(bench_set, tmp_path):
+    data = _copy(bench_set, tmp_path / "data")
+    man = json.loads((data / MANIFEST).read_text())
+    (data / MANIFEST).write_text(json.dumps({**man, "complete": False}))
+    with pytest.raises(DataError, match="did not finish"):
+        load_recordings(data, ANKLE_FORMAT)
+    (data / MANIFEST).write_text(json.dumps(man))
+    for ext in (".csv", ".json"):
+        (data / f"P18.0mm_T1.2s{ext}").write_bytes((data / f"P05.0mm_T1.2s{ext}").read_bytes())
+    with pytest.raises(DataError, match="P18.0mm_T1.2s.csv: not listed in .*mixes recordings of different runs"):
+        load_recordings(data, ANKLE_FORMAT)
+
+
+def test_an_interrupted_write_leaves_the_old_file(tmp_path, monkeypatch):
+    path = tmp_path / "r.csv"
+    atomic_write_text(path, "old\n")
+
+    def interrupted(src, dst):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_text(path, "new content that never lands\n")
+    assert path.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["r.csv"]  # no temporary file left behind
+
+
+def test_outputs_never_inside_the_input_data(bench_set, tmp_path, capsys):
+    data = _copy(bench_set, tmp_path / "data")
+    before = {p.name: p.read_bytes() for p in data.iterdir()}
+    assert main(["diagnose", str(data), "--out", str(tmp_path / "o"), "--json",
+                 str(data / "P11.0mm_T1.2s.json")]) == 2
+    assert "--json" in capsys.readouterr().err
+    assert main(["fit", str(data), "--out", str(data)]) == 2
+    err = capsys.readouterr().err
+    assert "--out" in err and "inside the input data folder" in err
+    assert {p.name: p.read_bytes() for p in data.iterdir()} == before  # nothing was touched
+
+
+def test_bench_into_a_non_empty_folder_needs_force(tmp_path, capsys):
+    out = tmp_path / "old_run"
+    out.mkdir()
+    (out / "P08.0mm_T2.0s.csv").write_text("time_s\n0\n")
+    assert main(["bench", "--out", str(out), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert "not empty" in err and "--force" in err
+    from acausal.cli import check_bench_folder
+    check_bench_folder(out, force=True)
+    assert not list(out.iterdir())
+
+
+def test_semicolon_separated_csv_is_named(bench_set, tmp_path):
+    data = _copy(bench_set, tmp_path / "data")
+    csv = data / "P11.0mm_T1.2s.csv"
+    csv.write_text(csv.read_text().replace(",", ";"))
+    (data / MANIFEST).unlink()
+    with pytest.raises(DataError, match=r"P11.0mm_T1.2s.csv, line 1: the columns are separated by semicolons"):
+        load_recordings(data, ANKLE_FORMAT)
+
+
+def test_upper_case_extensions_load(bench_set, tmp_path):
+    data = _copy(bench_set, tmp_path / "data")
+    (data / MANIFEST).unlink()
+    for ext in ("csv", "json"):
+        (data / f"P05.0mm_T1.2s.{ext}").rename(data / f"P05.0mm_T1.2s.{ext.upper()}")
+    assert sorted(r.name for r in load_recordings(data, ANKLE_FORMAT)) == ["P05.0mm_T1.2s", "P11.0mm_T1.2s"]
+
+
+def test_cli_path_errors_are_clean_messages(tmp_path, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    assert main(["bench", "--out", str(blocker / "sub"), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("acausal bench:") and "Traceback" not in err
+
+
+def test_bench_winding_starts_at_ambient():
+    """With the winding-temperature effect at zero heating the truth is the baseline: the winding starts at the
+    motor's reference (ambient) temperature, not 5 K below it."""
+    from acausal import compile_model
+    from acausal.library.drives import DCMotor
+    from acausal.models.ankle.actuator import AnkleActuator
+    cm = compile_model(AnkleActuator.eq4(mode="replay", effects=("winding_temperature",)))
+    res = cm.simulate(0.5, params={"winding_heating": 1e-9}, n_points=3)
+    assert np.allclose(np.asarray(res["winding.T"]), DCMotor.T_ref.default)
+    R = float(cm.param_vector({"winding_heating": 1e-9})[cm.param_index("motor.R")])
+    assert np.allclose(np.asarray(res["motor.R_T"]), R)  # the winding resistance is the baseline's
