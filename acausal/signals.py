@@ -282,5 +282,11 @@ def as_signal_expr(value, token: str):
     """
     if isinstance(value, Signal):
         return SignalCall(ConstantSymbol(token, real=True), sp.Integer(0), time)
-    expr = sp.sympify(value)
-    return expr
+    if isinstance(value, str):  # sympify would evaluate the text as Python code
+        raise SignalError(f"input {token!r}: got the string {value!r}; give a number, a sympy expression of "
+                          "acausal.time or a Signal (text is not parsed: it would be executed as code)")
+    try:
+        return sp.sympify(value, strict=True)
+    except sp.SympifyError:
+        raise SignalError(f"input {token!r}: {value!r} ({type(value).__name__}) is not a number, a sympy expression "
+                          "or a Signal") from None

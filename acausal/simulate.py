@@ -85,7 +85,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             opts["first_step"] = first_step
         if method in IMPLICIT:
             opts["jac"] = jac
-        solver = solver_cls(fun, t, x, t_end, **opts)
+        try:
+            solver = solver_cls(fun, t, x, t_end, **opts)  # evaluates the model to choose its first step
+        except _NonFinite as exc:
+            raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
         z_old = _zeros(cm, t, x, p, d, u) if has_events else None
         restarted = False
         while solver.status == "running":
@@ -420,6 +423,16 @@ def _value_lookup(cm, t, x, p, d, u):
 
 
 # ---------------------------------------------------------------------------------------------- failures
+def _zero_parameters_hint(cm, p, names) -> str:
+    """A hint naming the parameters equal to zero of the components that own ``names`` (a zero resistance,
+    capacitance or inertia makes a system singular although it lies inside the declared bounds)."""
+    owners = {cm.flat.owner_of(n) for n in names} - {None}
+    zero = [k for k, v in zip(cm.param_names, np.atleast_1d(p)) if np.ndim(v) == 0 and v == 0
+            and k.rsplit(".", 1)[0] in owners]
+    return (f"; {', '.join(f'{k} = 0' for k in zero)} makes the system singular: give a positive value"
+            if zero else "")
+
+
 def _non_finite_error(cm, t, x, p, d, u, where="rhs"):
     # Evaluate at a numpy time so that a division by zero gives inf instead of raising, and name the
     # non-finite unknown computed *first* (the cause, e.g. y = sqrt(x)) rather than the first in name order
@@ -440,7 +453,8 @@ def _non_finite_error(cm, t, x, p, d, u, where="rhs"):
         owner = cm.flat.owner_of(n)
         return SimulationError(f"non-finite value at t = {t:.9g} s: {n!r} (of {owner or 'the model'}) = {value[n]}"
                                + (f"; then also {bad[1:]}" if len(bad) > 1 else "")
-                               + (f"; non-finite states {bad_state}" if bad_state else ""))
+                               + (f"; non-finite states {bad_state}" if bad_state else "")
+                               + _zero_parameters_hint(cm, p, [n] + bad[1:]))
     if where == "jac":
         try:
             with np.errstate(all="ignore"):

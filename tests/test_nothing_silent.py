@@ -148,3 +148,40 @@ def test_bench_winding_starts_at_ambient():
     assert np.allclose(np.asarray(res["winding.T"]), DCMotor.T_ref.default)
     R = float(cm.param_vector({"winding_heating": 1e-9})[cm.param_index("motor.R")])
     assert np.allclose(np.asarray(res["motor.R_T"]), R)  # the winding resistance is the baseline's
+
+
+def _rc():
+    from acausal import Model, compile_model, connect
+    from acausal.library.electrical import Capacitor, ConstantVoltage, Ground, Resistor
+
+    class RC(Model):
+        def build(self):
+            self.src, self.R, self.C, self.g = ConstantVoltage(V=1.0), Resistor(R=1.0), Capacitor(C=1.0), Ground()
+            connect(self.src.p, self.R.p)
+            connect(self.R.n, self.C.p)
+            connect(self.C.n, self.src.n, self.g.p)
+    return compile_model(RC())
+
+
+@pytest.mark.parametrize("param", ["C.C", "R.R"])
+def test_degenerate_parameters_are_named_not_leaked(param):
+    """C = 0 or R = 0 lie inside the declared bounds but make the system singular: a SimulationError naming the
+    parameter, never the integrator's private exception."""
+    from acausal import SimulationError
+    with pytest.raises(SimulationError, match=rf"t = 0 s: .*{param} = 0 makes the system singular"):
+        _rc().simulate(1.0, params={param: 0.0})
+
+
+def test_a_string_input_is_refused_not_executed(tmp_path):
+    from acausal import Model, SignalError, compile_model, connect
+    from acausal.library.rotational import Inertia, Position
+    marker = tmp_path / "executed"
+
+    class Prescribed(Model):
+        def build(self):
+            self.pos = Position(phi_ref=f"__import__('pathlib').Path({str(marker)!r}).touch()")
+            self.J = Inertia(J=1.0)
+            connect(self.pos.flange, self.J.flange_a)
+    with pytest.raises(SignalError, match="got the string .*not parsed"):
+        compile_model(Prescribed())
+    assert not marker.exists()
