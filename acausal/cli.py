@@ -218,6 +218,8 @@ def cmd_diagnose(args) -> int:
         if args.json:
             write_json(args.json, d)
     print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else ""))
+    for w in d.warnings:
+        print(f"warning: {w}")
     for s in d.candidates:
         print(f"  {s.id:26s} held-out gain {100 * s.heldout_rmse_gain:+6.1f} %  delta BIC {s.delta_bic:10.4g}"
               f"  {s.parameter} = {s.value:.4g}{'  significant' if s.significant else ''}")

@@ -185,3 +185,36 @@ def test_a_string_input_is_refused_not_executed(tmp_path):
     with pytest.raises(SignalError, match="got the string .*not parsed"):
         compile_model(Prescribed())
     assert not marker.exists()
+
+
+@pytest.fixture(scope="module")
+def diagnosis_set(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("diag")
+    run_bench(folder, [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)], seed=4,
+              executor="serial")
+    return folder
+
+
+def test_clean_data_gives_no_warning(diagnosis_set):
+    from acausal.models.bench import diagnosis
+    d, _ = diagnosis.run(diagnosis_set, candidates=["driver_quiescent_power"], max_effects=1)
+    assert d.cause == "none" and d.warnings == []
+
+
+def test_swapped_columns_are_flagged_not_a_silent_none(diagnosis_set, tmp_path):
+    """The reported case: one recording with its two angle columns swapped gave `Verdict: none` with residuals
+    tens of times the noise. Now the recording is named and the misfit is reported."""
+    from acausal.models.bench import diagnosis
+    data = _copy(diagnosis_set, tmp_path / "data")
+    (data / MANIFEST).unlink()
+    csv = data / "P11.0mm_T2.0s.csv"
+    lines = csv.read_text().splitlines()
+    header = lines[0].split(",")
+    a, b = header.index("ankle_angle_rad"), header.index("moment_arm_angle_rad")
+    header[a], header[b] = header[b], header[a]
+    csv.write_text("\n".join([",".join(header)] + lines[1:]) + "\n")
+    d, _ = diagnosis.run(data, candidates=["driver_quiescent_power"], max_effects=1)
+    text = " ".join(d.warnings)
+    assert "P11.0mm_T2.0s" in text and "times the set's median" in text
+    assert "noise level" in text
+    assert d.to_dict()["warnings"] == d.warnings

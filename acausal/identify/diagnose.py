@@ -64,6 +64,8 @@ class Thresholds:
     max_delta_bic: float = -10.0
     confusable: float = 0.9  # |cos| of projected fingerprints
     screen: float = 0.005  # refit only candidates whose fingerprint alone could gain this much (linearised)
+    outlier: float = 5.0  # a recording whose RMSE is this many times the median of the set is flagged
+    misfit: float = 10.0  # a final model whose held-out RMSE is this many noise levels is flagged
 
 
 class Problem(ABC):
@@ -167,6 +169,7 @@ class Diagnosis:
     scales: dict
     fingerprints: dict = field(default_factory=dict)  # id -> match with the baseline residual
     heldout_info: dict = field(default_factory=dict)  # Problem.heldout(): signal, unit, split
+    warnings: list = field(default_factory=list)  # data and fit problems found by :func:`screen` (sentences)
 
     def heldout(self) -> dict:
         """The verdict's held-out score: mean absolute error of the judging signal on the held-out samples, for
@@ -194,7 +197,7 @@ class Diagnosis:
                 "extended": {"effects": list(self.final.effects), "params": dict(self.final.values),
                              "std": {k: _num(v) for k, v in self.final.cal.std.items()},
                              "heldout_rmse": dict(self.final.test_rmse)},
-                "heldout": self.heldout(),
+                "heldout": self.heldout(), "warnings": list(self.warnings),
                 "confusable": [{"a": a, "b": b, "cos": c} for a, b, c in self.confusable],
                 "thresholds": vars(self.thresholds) if not hasattr(self.thresholds, "__dataclass_fields__")
                 else {k: getattr(self.thresholds, k) for k in self.thresholds.__dataclass_fields__}}
@@ -373,7 +376,47 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
             break
         causes.append(best.id)
         base = best.fit
-    return Diagnosis(causes, steps, baseline, base, confusable, thresholds, scales, match, problem.heldout())
+    d = Diagnosis(causes, steps, baseline, base, confusable, thresholds, scales, match, problem.heldout())
+    d.warnings = screen(problem, d.final, scales, thresholds)
+    for w in d.warnings:
+        say(f"warning: {w}")
+    return d
+
+
+def screen(problem: Problem, fit: Fit, scales: dict, thresholds: Thresholds = Thresholds()) -> list:
+    """What is wrong with the data or the fit, as sentences (empty when nothing is): per recording and signal, a
+    dead sensor (the reading is constant while the model's varies), a reversed sign (reading and prediction
+    anti-correlated), a recording far off the others (RMSE ``outlier`` times the set's median: swapped columns, a
+    wrong setting in its JSON such as the stride time, another rig); and for the whole fit, a held-out RMSE many
+    noise levels (``misfit``) above the noise: the model misses something no candidate covers, or the data is
+    wrong. A verdict is never a silent ``none`` on data its own model cannot follow."""
+    out = []
+    preds = {e.name: e.predict(fit.values) for e in fit.exps}
+    for s in problem.signals:
+        rows = []
+        for e in fit.exps:
+            inner = e.train | e.test
+            m, p = np.asarray(e.measured[s])[inner], np.asarray(preds[e.name][s])[inner]
+            rows.append((e, m, p, float(np.sqrt(np.mean((p - m) ** 2)))))
+        median = float(np.median([r for *_, r in rows]))
+        for e, m, p, rmse in rows:
+            where = f"{e.name}, {s}"
+            if np.std(m) <= 1e-12 * max(1.0, abs(float(np.mean(m)))) and np.std(p) > 3 * scales[s]:
+                out.append(f"{where}: the reading is constant while the model's varies by {np.std(p):.3g}: a dead "
+                           "or disconnected sensor")
+            elif np.std(m) > 0 and np.std(p) > 0 and np.corrcoef(m, p)[0, 1] < -0.5:
+                out.append(f"{where}: reading and prediction are anti-correlated (r = {np.corrcoef(m, p)[0, 1]:.2f}): "
+                           "a reversed sign (sensor or column)")
+            elif len(rows) > 2 and rmse > thresholds.outlier * median and rmse > 3 * scales[s]:
+                out.append(f"{where}: RMSE {rmse:.3g} is {rmse / median:.1f} times the set's median {median:.3g}: "
+                           "swapped columns, a wrong setting in its JSON, or another rig")
+    worst = max(problem.signals, key=lambda s: fit.test_rmse[s] / scales[s])
+    level = fit.test_rmse[worst] / scales[worst]
+    if level > thresholds.misfit:
+        out.append(f"the final model's held-out RMSE of {worst} is {level:.0f} times its noise level: "
+                   + ("no candidate explains it; the model misses an effect outside the candidates, or the data "
+                      "is wrong" if not fit.effects else "the named effects do not explain everything"))
+    return out
 
 
 def residual_analysis(problem: Problem, fit: Fit, bins: int = 50, max_lag: int = 50) -> dict:

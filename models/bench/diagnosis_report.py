@@ -32,7 +32,7 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
           "of their noise level (estimated from the data): "
           + ", ".join(f"{s} {v:.3g} {_UNITS.get(s, '')}" for s, v in d.scales.items()) + ".", "",
           f"**Verdict: `{d.cause}`**" + (f" (all named, in order: {', '.join(f'`{c}`' for c in d.causes)})"
-                                          if len(d.causes) > 1 else ""), "",
+                                          if len(d.causes) > 1 else ""), "", *_warning_lines(d),
           f"A candidate counts when its held-out RMSE gain and its leave-one-stride-out gain are both at least "
           f"{100 * th.min_gain:.0f} %, the paired t statistic of its per-stride improvements is at least "
           f"{th.min_t:g} and its BIC falls by at least {-th.max_delta_bic:g}. These thresholds were tuned on "
@@ -147,3 +147,11 @@ def _acf_figure(path, before, after, d):
 
 
 __all__ = ["write_report", "write_json"]
+
+
+def _warning_lines(d) -> list:
+    """The diagnosis's data and fit warnings, as a markdown list (nothing when there are none)."""
+    if not d.warnings:
+        return []
+    return ["**Warnings** (data or fit problems the verdict does not cover):", "",
+            *[f"- {w}" for w in d.warnings], ""]
