@@ -218,3 +218,19 @@ def test_swapped_columns_are_flagged_not_a_silent_none(diagnosis_set, tmp_path):
     assert "P11.0mm_T2.0s" in text and "times the set's median" in text
     assert "noise level" in text
     assert d.to_dict()["warnings"] == d.warnings
+
+
+def test_compare_csv_is_byte_identical_across_hash_seeds(tmp_path):
+    """Two fresh processes with different PYTHONHASHSEED values write the same bytes (no iteration order of a
+    set or dict of symbols leaks into the generated code or the results)."""
+    import subprocess
+    import sys
+    out = {}
+    for seed in ("1", "2"):
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        folder = tmp_path / f"seed{seed}"
+        proc = subprocess.run([sys.executable, "-m", "acausal.cli", "compare", "replay", "sea", "closed_loop",
+                               "--stride-time", "1.2", "--out", str(folder)], env=env, capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        out[seed] = (folder / "compare.csv").read_bytes()
+    assert out["1"] == out["2"]
