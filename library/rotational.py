@@ -9,8 +9,9 @@ from sympy import Eq
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange
 from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates,
-                              PartialElementaryOneFlangeAndSupport2, PartialElementaryTwoFlangesAndSupport2,
-                              PartialGear, PartialTwoFlanges, check_option)
+                              PartialElementaryOneFlangeAndSupport2, PartialGear, PartialTwoFlanges, check_option)
+
+from .friction import GearFriction
 
 
 class Fixed(Component):
@@ -208,26 +209,17 @@ class TorqueSensor(PartialTwoFlanges):
                 Eq(self.tau.value, self.flange_a.tau)]
 
 
-class BearingFriction(PartialElementaryTwoFlangesAndSupport2):
+class BearingFriction(GearFriction):
     """Rigid shaft with bearing friction to the support: ``tau_f = tau_c tanh(w / w_c) + d w``.
 
-    ``flange_a.tau + flange_b.tau = tau_f`` (the friction torque flows to the support), ``loss_power = tau_f w >= 0``.
-    Coulomb friction uses the documented smooth law (see :class:`acausal.library.drives.DCMotor`).
+    The Coulomb + viscous law of :class:`~acausal.library.friction.GearFriction` (``flange_a.tau + flange_b.tau =
+    tau_f``, the friction torque flows to the support, ``loss_power = tau_f w >= 0``) with a narrower smooth-sign
+    scale by default (``w_c`` = 1e-3 rad/s, for shafts that turn fast); Coulomb friction uses the documented
+    smooth law (see :class:`acausal.library.drives.DCMotor`).
     """
 
-    tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
-    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="viscous friction coefficient")
     w_c = Parameter(1e-3, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
-    phi = Variable(unit="rad", doc="shaft angle")
-    w = Variable(unit="rad/s", doc="shaft speed relative to the support")
-    tau_f = Variable(unit="N.m", doc="friction torque opposing w")
-    loss_power = Variable(unit="W", doc="dissipated power tau_f w")
-
-    def equations(self):
-        return [*super().equations(), Eq(self.phi, self.flange_a.phi), Eq(self.phi, self.flange_b.phi),
-                Eq(self.w, der(self.phi - self.phi_support)),
-                Eq(self.tau_f, self.tau_c * sp.tanh(self.w / self.w_c) + self.d * self.w),
-                Eq(self.flange_a.tau + self.flange_b.tau, self.tau_f), Eq(self.loss_power, self.tau_f * self.w)]
+    default_terms = ("coulomb",)
 
 
 class LossyGear(PartialGear):
