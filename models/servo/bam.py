@@ -34,8 +34,8 @@ from importlib import resources
 
 import numpy as np
 
-from .problem import replay
-from .recording_format import POSITION, replay_columns, rig_params, start
+from .problem import replay, replay_job
+from .recording_format import POSITION
 
 #: BAM parameter name -> (our parameter, factor)
 MAPPING = {"kt": ("servo.kt", 1.0), "R": ("servo.R", 1.0), "armature": ("servo.armature", 1.0),
@@ -63,7 +63,7 @@ def replay_set(recordings, label: str, params: dict, executor=None) -> dict:
     model = label.split()[-1]
     terms = TERMS[model]
     values = mapped(params)
-    jobs = [(terms, r.t, replay_columns(r), {**rig_params(r.meta), **values}, start(r), ()) for r in recordings]
+    jobs = [replay_job(terms, r, values) for r in recordings]
     runner = executor.map if executor is not None else map
     out = {}
     for r, (pos, _) in zip(recordings, runner(replay, jobs)):

@@ -92,10 +92,17 @@ def terms_of(effects) -> tuple:
     return tuple(t for t in TERMS if t == "coulomb" or t in effects)
 
 
+def replay_job(terms, rec, values: dict, names=()) -> tuple:
+    """The job of :func:`replay` for recording ``rec`` with parameter ``values`` (over its rig's) and the
+    sensitivities to ``names`` (none: the position only)."""
+    return (tuple(terms), rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names))
+
+
 def replay(job: tuple) -> tuple:
     """One closed-loop replay (a module-level function, so a process pool can run it): ``job`` =
-    ``(terms, t, goal, voltage, enable, params, starts, names)``; returns ``(position, sens)`` with ``sens`` the
-    sensitivities of the position to ``names`` (shape ``(len(names), N)``), or ``None`` when ``names`` is empty."""
+    ``(terms, t, input columns, params, starts, names)`` (:func:`replay_job`); returns ``(position, sens)`` with
+    ``sens`` the sensitivities of the position to ``names`` (shape ``(len(names), N)``), or ``None`` when ``names``
+    is empty."""
     terms, t, columns, params, x0, names = job
     cm = compiled(terms)
     u = inputs_from(t, columns)
@@ -120,13 +127,13 @@ class _Batch:
 
     def get(self, k: int, values: dict, names=()) -> tuple:
         key = (tuple(sorted(values.items())), tuple(names), bool(self.held[k]))
+        if not names:  # a run with sensitivities at the same values has the position already
+            near = next((v for k2, v in self._cache.items() if k2[0] == key[0] and k2[2] == key[2]), None)
+            if near is not None:
+                return near[k][0], None
         if key not in self._cache:
             group = [j for j in range(len(self.recordings)) if self.held[j] == self.held[k]]
-            jobs = []
-            for j in group:
-                r = self.recordings[j]
-                jobs.append((self.terms, r.t, replay_columns(r), {**rig_params(r.meta), **values}, start(r),
-                             tuple(names)))
+            jobs = [replay_job(self.terms, self.recordings[j], values, names) for j in group]
             runner = self.executor.map if self.executor is not None else map
             results = list(runner(replay, jobs))
             self._cache = {k2: v for k2, v in self._cache.items() if k2[1] != tuple(names) or k2[2] != key[2]}

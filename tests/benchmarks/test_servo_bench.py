@@ -18,7 +18,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from acausal.identify import load_recordings
-from acausal.models.servo.problem import ATOL, RTOL, replay
+from acausal.models.servo.problem import ATOL, RTOL, replay, replay_job
 from acausal.models.servo.recording_format import SERVO_FORMAT, replay_columns, rig_params, start
 
 PARAMS = {"servo.kt": 0.38, "servo.R": 3.4, "servo.armature": 0.0019, "pendulum.phi0": 0.03, "servo.tau_c": 0.009,
@@ -69,7 +69,7 @@ def _best(fn, rounds=3):
 def test_servo_replay_vs_handwritten(benchmark):
     rec = _recording()
     columns, rig, x0 = replay_columns(rec), rig_params(rec.meta), start(rec)
-    job = (TERMS, rec.t, columns, {**rig, **PARAMS}, x0, ())
+    job = replay_job(TERMS, rec, PARAMS)
     replay(job)  # compile once (cached per process), as the diagnosis does
     pos, _ = benchmark.pedantic(lambda: replay(job), rounds=3, iterations=1)
     t_ref, ref = _best(lambda: _handwritten(rec, columns, rig, x0))
