@@ -122,6 +122,29 @@ class CompiledModel:
         self._param_plan = _param_plan(flat)
         self._event_assign = _event_assignment_table(flat)
         self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
+        self._compiled_path = None
+
+    @property
+    def compiled_path(self):
+        """The model's compiled simulation path (:class:`acausal.compiled.path.CompiledPath`, built on first use;
+        it needs CasADi)."""
+        if self._compiled_path is None:
+            from .compiled.path import CompiledPath
+            self._compiled_path = CompiledPath(self)
+        return self._compiled_path
+
+    def simulation_path(self, inputs: dict | None = None) -> str:
+        """Which path :meth:`simulate` takes by default for a run with ``inputs`` (the model's own when None), and
+        why: ``"compiled (CasADi CVODES)"`` or ``"scipy BDF: <reason>"``."""
+        from .simulate import _choose_path
+        u = self.input_tuple(inputs)
+        if not self.state_names:
+            return "algebraic (no states: evaluated at the output times)"
+        method, why = _choose_path(self, "auto", u, 1e-6, 1e-9)
+        return "compiled (CasADi CVODES)" if not why else f"scipy {method}: {why}"
+
+    def __getstate__(self):
+        return {**self.__dict__, "_compiled_path": None}  # CasADi objects are rebuilt where they are used
 
     # ------------------------------------------------------------------ names and values
     @property
@@ -348,6 +371,7 @@ class CompiledModel:
                 lines.append(f"    Newton on {s.vars} (from {sorted(set(s.origins))})")
             elif isinstance(s, LinearSolve):
                 lines.append(f"    linear solve for {s.vars}")
+        lines.append(f"  simulation path: {self.simulation_path()}")
         if self.generator.signal_orders:
             lines.append("  input derivatives used: " + ", ".join(
                 f"{k} up to order {v}" for k, v in sorted(self.generator.signal_orders.items())))

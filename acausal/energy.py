@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import sympy as sp
 
 from .components import Component, Connector
 
@@ -168,3 +169,43 @@ def draw_sankey(res, acc: Accounts, ax=None, k0: int = 0, k1: int = -1, title: s
     sankey(ax, energy, title=title or f"{res.model.flat.name}: energy at each power sensor [J]", scale=1.0 / top,
            loss_names=names)
     return ax
+
+
+def integrand_expr(cm, what: str):
+    """The sympy expression (in the compiled model's variables, parameters and time) that
+    :meth:`Result.energy <acausal.result.Result.energy>` integrates for ``what``: a port's power into its
+    component (``v*i``, ``tau*der(phi)``, ``Q_flow``) or a variable; None when a derivative it needs is not
+    computed by the model (the result then differentiates numerically)."""
+    from .symbols import der, var_symbol
+
+    known = set(cm.state_names) | set(cm.unknown_names)
+
+    def value(name):
+        if name in known:
+            return var_symbol(name)
+        return sp.sympify(cm.flat.aliases[name]) if name in cm.flat.aliases else None
+
+    def rate(name):
+        e = value(name)
+        if e is None:
+            return None
+        d = der(e)
+        needed = {s.name for s in d.free_symbols if s.name.startswith("der(")}
+        return d if needed <= set(cm.unknown_names) else None
+
+    names = known | set(cm.flat.aliases)
+    if f"{what}.v" in names and f"{what}.i" in names:
+        return value(f"{what}.v") * value(f"{what}.i")
+    if f"{what}.phi" in names and f"{what}.tau" in names:
+        w = rate(f"{what}.phi")
+        return None if w is None else value(f"{what}.tau") * w
+    if f"{what}.Q_flow" in names:
+        return value(f"{what}.Q_flow")
+    return value(what)
+
+
+def account_integrals(acc: Accounts) -> list:
+    """Every name whose energy the balance and the Sankey diagram integrate (sources, boundary ports, losses,
+    power sensors), once each."""
+    names = list(acc.sources) + [p for _, ports in acc.boundary for p in ports] + list(acc.losses) + list(acc.sensors)
+    return list(dict.fromkeys(names))

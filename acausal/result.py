@@ -20,9 +20,13 @@ class Result:
     :meth:`energy`; export: :meth:`to_csv`, :meth:`plot`.
     """
 
-    def __init__(self, cm, t, X, p, u, D, events, segments=None, exact_time_function=False):
+    def __init__(self, cm, t, X, p, u, D, events, segments=None, exact_time_function=False, nodes=None,
+                 integrals=None, solver: str = ""):
         self.model = cm
+        self.solver = solver  # which integrator ran, and on which path (see CompiledModel.simulate)
         self._segments = segments or []
+        self._given_nodes = nodes  # compiled path: () -> (breakpoints, states at their Gauss nodes)
+        self._integrals = integrals or {}  # name -> integral from the start at t, integrated with the states
         self._exact_time_function = exact_time_function
         self.t = np.asarray(t)
         self.states = X
@@ -147,7 +151,10 @@ class Result:
 
         Integrated as accurately as the simulation itself: 5-point Gauss-Legendre on every solver step, with
         the states taken from the integrator's dense output (steps end at events, so mode switches are exact).
-        A model without states is integrated the same way on the output grid with exact values at the nodes.
+        On the compiled path the model's energy accounts (sources, boundary ports, losses, power sensors) are
+        integrated by CVODES with the states; anything else by the same rule on the output intervals (states at
+        their Gauss nodes). A model without states is integrated the same way on the output grid with exact
+        values at the nodes.
         """
         return self._cumulative(what)
 
@@ -181,6 +188,16 @@ class Result:
         if getattr(self, "_nodes", None) is not None:
             return self._nodes
         t = self.t
+        cm = self.model
+        if self._given_nodes is not None:
+            bps, Xn = self._given_nodes()
+            tn, half, wg = gauss_nodes(bps)
+            nx = len(cm.state_names)
+            sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), self.params, self.inputs,
+                         np.asarray(self.modes if np.ndim(self.modes) == 1 else self.modes[:, 0], dtype=float),
+                         events=[])
+            self._nodes = (bps, tn.shape, half, wg, sub)
+            return self._nodes
         segs = self._segments
         if segs:
             starts = np.array([s[0] for s in segs])
@@ -188,11 +205,8 @@ class Result:
             bps = bps[(bps >= t[0]) & (bps <= t[-1])]
         else:
             bps = t
-        a, b = bps[:-1], bps[1:]
-        xi, wg = np.polynomial.legendre.leggauss(5)
-        half, mid = (b - a) / 2, (a + b) / 2
-        tn = mid[:, None] + half[:, None] * xi[None, :]
-        cm = self.model
+        a = bps[:-1]
+        tn, half, wg = gauss_nodes(bps)
         nx = len(cm.state_names)
         Xn = np.zeros((nx,) + tn.shape)
         if segs:
@@ -215,7 +229,10 @@ class Result:
 
     def _cumulative(self, what):
         t = self.t
-        if not self._segments and not self._exact_time_function:
+        if what in self._integrals:
+            q = self._integrals[what]
+            return q - q[0]
+        if not self._segments and not self._exact_time_function and self._given_nodes is None:
             return integrate_cumulative(self._integrand(what), t)
         bps, shape, half, wg, sub = self._quadrature_nodes()
         y = np.asarray(sub._integrand(what), dtype=float).reshape(shape)
@@ -260,6 +277,15 @@ class Result:
 
     def __repr__(self):
         return f"<Result {self.model.flat.name}: {self.t.size} samples, t = {self.t[0]:g}..{self.t[-1]:g} s>"
+
+
+def gauss_nodes(bps):
+    """5-point Gauss-Legendre nodes ``(intervals, 5)`` of the intervals between breakpoints ``bps``, their
+    half-widths and the weights."""
+    a, b = bps[:-1], bps[1:]
+    xi, wg = np.polynomial.legendre.leggauss(5)
+    half, mid = (b - a) / 2, (a + b) / 2
+    return mid[:, None] + half[:, None] * xi[None, :], half, wg
 
 
 def integrate_cumulative(y, t):

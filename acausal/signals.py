@@ -10,11 +10,17 @@ inertia through a gear needs the 2nd). A source's signal is therefore either
 
 Inside equations a numeric signal appears as ``SignalCall(token, order, time)``, a sympy function whose derivative
 is the same call with ``order + 1``.
+
+A signal may also describe itself in a closed form that code outside Python can evaluate (the compiled simulation
+path, an exported model): :meth:`Signal.table` as a :class:`PiecewisePolynomial` (splines, sampled data,
+constants) or :meth:`Signal.symbolic` as a sympy expression of its argument (expressions, Fourier series).
+A signal with neither is evaluated in Python only.
 """
 from __future__ import annotations
 
 import abc
 import bisect
+from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
@@ -22,6 +28,27 @@ from scipy.interpolate import PPoly, make_interp_spline
 
 from .errors import SignalError
 from .symbols import ConstantSymbol, time
+
+
+@dataclass(frozen=True)
+class PiecewisePolynomial:
+    """A signal as polynomial pieces: on ``breaks[i] <= tau < breaks[i+1]`` the value is
+    ``sum_k coef[k, i] * (tau - breaks[i]) ** (degree - k)`` (highest power first, as
+    :class:`scipy.interpolate.PPoly`). ``outside`` says what happens beyond the breaks: ``"periodic"`` (``tau`` is
+    time wrapped into ``[breaks[0], breaks[-1])``), ``"hold"`` (the end values held, derivatives zero) or
+    ``"extend"`` (the end pieces continue)."""
+
+    breaks: np.ndarray  # (pieces + 1,) strictly increasing [s]
+    coef: np.ndarray  # (degree + 1, pieces)
+    outside: str
+
+    def derivative(self, order: int) -> np.ndarray:
+        """The coefficient table of the ``order``-th derivative (same layout; zeros beyond the degree)."""
+        c = np.asarray(self.coef, dtype=float)
+        for _ in range(order):
+            m = c.shape[0] - 1
+            c = c[:-1] * np.arange(m, 0, -1)[:, None] if m > 0 else np.zeros((1, c.shape[1]))
+        return c
 
 
 class Signal(abc.ABC):
@@ -47,6 +74,14 @@ class Signal(abc.ABC):
                 f"{self.max_order}, but order {order} was asked for")
         return self.evaluate(np.asarray(t, dtype=float), order)
 
+    def table(self) -> PiecewisePolynomial | None:
+        """The signal as polynomial pieces, or None when it has no such form (the default)."""
+        return None
+
+    def symbolic(self, arg) -> sp.Expr | None:
+        """The signal as a sympy expression of ``arg`` (its time argument), or None (the default)."""
+        return None
+
 
 class Constant(Signal):
     """A constant value (all derivatives zero)."""
@@ -57,6 +92,9 @@ class Constant(Signal):
 
     def evaluate(self, t, order):
         return np.full_like(t, self.value if order == 0 else 0.0, dtype=float)
+
+    def symbolic(self, arg):
+        return sp.Float(self.value)
 
 
 class ExpressionSignal(Signal):
@@ -77,6 +115,9 @@ class ExpressionSignal(Signal):
             f = sp.lambdify(time, sp.diff(self.expr, time, order), "numpy")
             self._fns[order] = f
         return np.broadcast_to(np.asarray(f(t), dtype=float), np.shape(t)).copy()
+
+    def symbolic(self, arg):
+        return self.expr.xreplace({time: arg})
 
 
 class PeriodicSpline(Signal):
@@ -117,6 +158,9 @@ class PeriodicSpline(Signal):
         self._coef_lists = [cc.T.tolist() for cc in self._coef]
         self.max_order = degree
         self.name = name
+
+    def table(self):
+        return PiecewisePolynomial(self._breaks.copy(), self._coef[0].copy(), "periodic")
 
     def evaluate(self, t, order):
         if np.ndim(t) == 0:
@@ -167,6 +211,9 @@ class SampledSignal(Signal):
         self.t, self.y = t, y
         self.slope = np.append(np.diff(y) / np.diff(t), 0.0)
         self._tl, self._yl, self._sl = t.tolist(), y.tolist(), self.slope.tolist()
+
+    def table(self):
+        return PiecewisePolynomial(self.t.copy(), np.vstack([self.slope[:-1], self.y[:-1]]), "hold")
 
     def evaluate(self, t, order):
         if np.ndim(t) == 0:
@@ -258,6 +305,11 @@ class FourierSeries(Signal):
         scale = (k * w) ** order
         y = (np.cos(arg + order * np.pi / 2) * (self.a * scale) + np.sin(arg + order * np.pi / 2) * (self.b * scale)).sum(-1)
         return y + (self.a0 if order == 0 else 0.0)
+
+    def symbolic(self, arg):
+        w = 2 * sp.pi / sp.Float(self.period)
+        return sp.Float(self.a0) + sum(sp.Float(a) * sp.cos((k + 1) * w * arg) + sp.Float(b) * sp.sin((k + 1) * w * arg)
+                                       for k, (a, b) in enumerate(zip(self.a.tolist(), self.b.tolist())))
 
 
 class SignalCall(sp.Function):

@@ -1,9 +1,17 @@
-"""Simulation: consistent initialisation, stiff integration with scipy, state events, algebraic models.
+"""Simulation: consistent initialisation, stiff integration, state events, algebraic models.
 
-The integrators are scipy's (``BDF``, ``Radau``, ``LSODA``, ``RK45``...), driven step by step so that a failure
-can be reported with the time, the step size and the variable, and so that events stop the step exactly at the
-zero crossing (located by Brent's method on the dense output). A model with no states after index reduction is
-evaluated algebraically at the output times.
+Two paths give the same answers (to the tolerances):
+
+* the **compiled path** (:mod:`acausal.compiled`, optional CasADi): the model's equations as CasADi expressions,
+  integrated by SUNDIALS CVODES (BDF, exact sparse Jacobian) with the step loop in compiled code, numeric inputs
+  looked up inside it. It runs models without state events whose state derivatives need no Newton block.
+* the **scipy path**: scipy's integrators (``BDF``, ``Radau``, ``LSODA``, ``RK45``...) driven step by step, so that a
+  failure is reported with the time, the step size and the variable, and events stop the step exactly at the zero
+  crossing (located by Brent's method on the dense output).
+
+``method="auto"`` (the default) takes the compiled path when the model and the run allow it and scipy's ``BDF``
+otherwise; :attr:`Result.solver <acausal.result.Result.solver>` says which ran and why. A model with no states
+after index reduction is evaluated algebraically at the output times.
 """
 from __future__ import annotations
 
@@ -17,24 +25,29 @@ from .errors import ModelError, SimulationError
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
 IMPLICIT = {"BDF", "Radau", "LSODA"}
+COMPILED = "CVODES"  # the compiled path's integrator (method="CVODES" asks for it explicitly)
+FALLBACK = "BDF"  # what method="auto" uses on the scipy path
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
-             starts: dict | None = None, method: str = "BDF", rtol: float = 1e-6, atol: float = 1e-9,
+             starts: dict | None = None, method: str = "auto", rtol: float = 1e-6, atol: float = 1e-9,
              t_eval=None, n_points: int = 501, max_step: float = np.inf, first_step: float | None = None,
              max_events: int = 10_000, dense_output: bool = True):
     """Simulate a :class:`~acausal.compiler.CompiledModel` and return a :class:`~acausal.result.Result`.
 
     ``params``: parameter overrides by name (no recompilation). ``inputs``: replacement :class:`Signal` s for
     numeric inputs by name. ``starts``: start values by variable name (fixed initial conditions).
-    ``t_eval``: output times (default ``n_points`` evenly spaced). ``method``: a scipy integrator name.
-    ``dense_output``: keep every step's interpolant so that :meth:`Result.energy` integrates to solver accuracy
-    (set False for the fastest runs; energies then use Simpson's rule on the output grid).
+    ``t_eval``: output times (default ``n_points`` evenly spaced). ``method``: ``"auto"`` (the compiled path when
+    the model allows it, else scipy's BDF), ``"CVODES"`` (the compiled path or a ModelError saying why not) or a
+    scipy integrator name. ``dense_output``: keep what :meth:`Result.energy` needs to integrate to solver
+    accuracy (every step's interpolant; on the compiled path the states at Gauss nodes); set False for the
+    fastest runs (energies then use Simpson's rule on the output grid).
     """
     from .result import Result
 
-    if method not in METHODS:
-        raise ModelError(f"unknown integration method {method!r}; choose one of {sorted(METHODS)}")
+    if method not in METHODS and method not in ("auto", COMPILED):
+        raise ModelError(f"unknown integration method {method!r}; choose 'auto', {COMPILED!r} or one of "
+                         f"{sorted(METHODS)}")
     t_start, t_end = _number(t_start, "t_start"), _number(t_end, "t_end")
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
@@ -67,6 +80,17 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
         initialize(cm, t_start, p, d, u, starts)  # no states, but fixed starts must still hold
         return Result(cm, t_out, X, p, u, d if d_arr is None else d_arr, events=[], exact_time_function=True)
     x0 = initialize(cm, t_start, p, d, u, starts)
+    if method in ("auto", COMPILED):
+        method, why = _choose_path(cm, method, u, rtol, atol)
+        if method == COMPILED:
+            try:
+                return _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step,
+                                          dense_output)
+            except SimulationError as exc:  # the scipy path names the time, the step and the variable
+                method, why = FALLBACK, str(exc)
+    else:
+        why = "asked for"
+    solver_label = f"{method} (scipy: {why})"
     d = _settle_modes(cm, t_start, x0, p, d, u)
     x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
     X = np.empty((n, t_out.size))
@@ -143,7 +167,47 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     if k_out < n_out:  # t_end itself
         X[:, k_out:] = solver.y[:, None]
         D[:, k_out:] = d[:, None]
-    return Result(cm, t_out, X, p, u, D, events=events, segments=segments)
+    return Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label)
+
+
+def _choose_path(cm, method, u, rtol, atol):
+    """``(method, reason)``: the compiled path when it is available and supports the run, else the scipy
+    fallback with the reason (``method == "CVODES"`` raises instead of falling back)."""
+    from .compiled import available
+    if not available():
+        why = 'the compiled path needs CasADi (pip install "acausal[fast]")'
+    else:
+        why = cm.compiled_path.unsupported(u, rtol, atol)
+        if why is None:
+            return COMPILED, ""
+    if method == COMPILED:
+        raise ModelError(f"simulate(method={COMPILED!r}): model {cm.flat.name} cannot take the compiled path: {why}")
+    return FALLBACK, why
+
+
+def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, dense_output):
+    """The run on the compiled path. With ``dense_output`` the energy integrals of the model's accounts are
+    integrated by CVODES beside the states (under its error control); the integral of anything else takes the
+    states at the Gauss nodes of the output intervals, integrated again when first asked for."""
+    from .energy import account_integrals
+    from .result import Result, gauss_nodes
+    path = cm.compiled_path
+    args = (rtol, atol, max_step, first_step)
+    nodes, integrals = None, {}
+    if dense_output and t_out.size > 1:
+        names = account_integrals(cm.accounts) if cm.accounts is not None else []
+        X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
+
+        def nodes():
+            tn, _, _ = gauss_nodes(t_out)
+            Xn, _ = path.integrate(t_start, x0, tn.ravel(), p, d, u, *args)
+            return t_out, Xn.reshape((len(x0),) + tn.shape)
+    else:
+        X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
+    if not np.all(np.isfinite(X)):
+        raise SimulationError("compiled path (CVODES): non-finite states")
+    return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals,
+                  solver=f"{COMPILED} (compiled path, CasADi)")
 
 
 def check_tolerances(rtol, atol, who: str) -> None:

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.interpolate import PPoly, make_lsq_spline
 
 from ..errors import DataError
-from ..signals import Signal
+from ..signals import PiecewisePolynomial, Signal
 
 DEFAULT_KNOT_SPACING = 0.025  # s
 
@@ -61,3 +61,8 @@ class SmoothingSpline(Signal):
 
     def evaluate(self, t, order):
         return self._pp[order](t)
+
+    def table(self):
+        pp = self._pp[0]
+        keep = np.diff(pp.x) > 0  # the repeated end knots give empty pieces
+        return PiecewisePolynomial(np.append(pp.x[:-1][keep], pp.x[-1]), pp.c[:, keep], "extend")

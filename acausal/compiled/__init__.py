@@ -1,0 +1,13 @@
+"""The compiled simulation path: a model's equations as CasADi expressions, integrated by SUNDIALS CVODES whose
+step loop runs in compiled code (see :mod:`acausal.compiled.path`). Optional: without CasADi installed
+(``pip install "acausal[fast]"``) every run takes the scipy path, with the same answers."""
+from __future__ import annotations
+
+
+def available() -> bool:
+    """Whether CasADi can be imported."""
+    try:
+        import casadi  # noqa: F401
+    except ImportError:
+        return False
+    return True

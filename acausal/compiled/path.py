@@ -1,0 +1,155 @@
+"""Integration on the compiled path: CasADi CVODES (BDF with Newton on CasADi's exact, sparse Jacobian).
+
+One :class:`CompiledPath` per compiled model builds, on first use, the right-hand side as a CasADi function of
+time, states, parameters, discrete modes and the data of the numeric inputs, and caches integrators by what fixes
+their structure (the inputs' layout and the normalised output grid). Time is scaled onto ``[0, 1]`` inside the
+integrator (``t = t0 + tau * span``), so runs over the same number of evenly spaced outputs (sweeps, protocol
+conditions, fits) share one integrator whatever their start and length, and only the numbers change per run.
+
+What the path cannot run (events, Newton blocks in the state derivatives, a signal without a closed form,
+per-state tolerances) is reported by :meth:`CompiledPath.unsupported` as a reason; the caller then takes the scipy
+path and says why.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SimulationError
+
+MAX_NUM_STEPS = 1_000_000
+
+
+class CompiledPath:
+    """The compiled simulation path of one :class:`~acausal.compiler.CompiledModel`."""
+
+    def __init__(self, cm):
+        self.cm = cm
+        self._reason: str | None = None
+        self._rhs: dict = {}  # signal layout -> (casadi rhs pieces) or Unsupported reason
+        self._integrators: dict = {}
+
+    # ------------------------------------------------------------------ support
+    def unsupported(self, u, rtol, atol) -> str | None:
+        """Why this run cannot take the compiled path (None: it can)."""
+        cm = self.cm
+        if not cm.state_names:
+            return "the model has no states (it is evaluated algebraically)"
+        if cm.event_zeros:
+            return (f"the model has {len(cm.event_zeros)} state event(s) (from "
+                    f"{', '.join(sorted({e.origin for e in cm.flat.events}))}), located on the scipy path")
+        if np.ndim(atol) or np.ndim(rtol):
+            return "tolerances given per state"
+        entry = self._rhs_entry(u)
+        return entry if isinstance(entry, str) else None
+
+    def _rhs_entry(self, u):
+        from .translate import Signals, Unsupported
+        try:
+            layout = Signals.layout(self.cm, u)
+        except Unsupported as exc:
+            return str(exc)
+        if layout not in self._rhs:
+            self._rhs[layout] = self._build_rhs(u)
+        return self._rhs[layout]
+
+    def _build_rhs(self, u):
+        import casadi as ca
+
+        from .translate import Signals, Unsupported, state_derivatives, translate
+        cm = self.cm
+        try:
+            sig = Signals(cm, u)
+            t = ca.SX.sym("t")
+            x = ca.SX.sym("x", len(cm.state_names))
+            p = ca.SX.sym("p", len(cm.param_names))
+            d = ca.SX.sym("d", len(cm.discrete_names))
+            f = translate(cm, state_derivatives(cm), sig, t, x, p, d)
+        except Unsupported as exc:
+            return str(exc)
+        return dict(t=t, x=x, p=p, d=d, pds=ca.vertcat(p, d), f=ca.vertcat(*f), signals=sig, quads={})
+
+    def _quadratures(self, entry, names):
+        """``(names integrated, their CasADi integrands)``: the names among ``names`` whose integrand
+        (:func:`acausal.energy.integrand_expr`) has a CasADi form."""
+        import casadi as ca
+
+        from ..energy import integrand_expr
+        from .translate import Unsupported, translate
+        done, exprs = [], []
+        for name in names:
+            q = entry["quads"].get(name)
+            if q is None:
+                expr = integrand_expr(self.cm, name)
+                try:
+                    q = translate(self.cm, [expr], entry["signals"], entry["t"], entry["x"], entry["p"],
+                                  entry["d"])[0] if expr is not None else False
+                except Unsupported:
+                    q = False
+                entry["quads"][name] = q
+            if q is not False:
+                done.append(name)
+                exprs.append(q)
+        return tuple(done), (ca.vertcat(*exprs) if exprs else None)
+
+    # ------------------------------------------------------------------ integration
+    def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=()):
+        """``(X, Q)``: states at the output times ``t_out`` (shape ``(n_states, len(t_out))``), integrated from
+        ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of each of
+        ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
+        compiled form, integrated by CVODES under the same error control as the states. Raises
+        :class:`SimulationError` when CVODES fails."""
+        entry = self._rhs_entry(u)
+        t_out = np.asarray(t_out, dtype=float)
+        t_end = float(t_out[-1]) if t_out.size else t_start
+        span = t_end - t_start
+        n = len(x0)
+        names, qexpr = self._quadratures(entry, integrals) if integrals else ((), None)
+        X = np.empty((n, t_out.size))
+        Q = np.zeros((len(names), t_out.size))
+        at_start = t_out <= t_start
+        X[:, at_start] = np.asarray(x0, dtype=float)[:, None]
+        later = t_out[~at_start]
+        if later.size:
+            grid, back = np.unique(later, return_inverse=True)  # CVODES takes strictly increasing output times
+            tau = (grid - t_start) / span
+            integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
+                                     None if first_step is None else first_step / span)
+            pds = np.concatenate([[t_start, span], p, d])
+            try:
+                out = integ(x0=x0, p=pds)
+            except RuntimeError as exc:
+                raise SimulationError(f"compiled path (CVODES): integration from t = {t_start:g} s to {t_end:g} s "
+                                      f"failed: {_first_line(exc)}") from None
+            X[:, ~at_start] = np.asarray(out["xf"]).reshape(n, -1)[:, back]
+            if names:
+                Q[:, ~at_start] = np.asarray(out["qf"]).reshape(len(names), -1)[:, back]
+        return X, dict(zip(names, Q))
+
+    def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step):
+        import casadi as ca
+        key = (id(entry), names, tau.tobytes(), rtol, atol, max_step, first_step)
+        integ = self._integrators.get(key)
+        if integ is None:
+            if len(self._integrators) > 32:
+                self._integrators.clear()
+            s = ca.SX.sym("tau")
+            t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
+            dae = {"x": entry["x"], "t": s, "p": ca.vertcat(t0, span, entry["pds"]),
+                   "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span)}
+            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS}
+            if qexpr is not None:
+                dae["quad"] = span * ca.substitute(qexpr, entry["t"], t0 + s * span)
+                opts["quad_err_con"] = True
+            if np.isfinite(max_step):
+                opts["max_step_size"] = max_step
+            if first_step is not None:
+                opts["step0"] = first_step
+            integ = ca.integrator("acausal", "cvodes", dae, 0.0, tau.tolist(), opts)
+            self._integrators[key] = integ
+        return integ
+
+
+def _first_line(exc) -> str:
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    useful = [ln for ln in lines if "CV_" in ln or "failed" in ln.lower()]
+    return (useful or lines or ["unknown error"])[-1]
