@@ -384,26 +384,9 @@ class CodeGenerator:
             if w not in self.params:
                 raise ModelError(f"sensitivity: {w!r} is no parameter of the model")
         n, q, m = len(self.states), len(wrt), len(outs)
-        bound = {k: e.xreplace({s: par_symbol(s.name) for s in e.free_symbols}) for k, e in bindings.items()}
-        memo: dict = {}
-
-        def total(name, j):  # d name / d wrt[j] through the binding chain
-            if (name, j) not in memo:
-                if name == wrt[j]:
-                    memo[name, j] = sp.Integer(1)
-                elif name in bound:
-                    e = bound[name]
-                    memo[name, j] = sp.Add(*[e.diff(s) * total(s.name, j) for s in e.free_symbols])
-                else:
-                    memo[name, j] = sp.Integer(0)
-            return memo[name, j]
-
         seeds = {var_symbol(s): {i: sp.Integer(1)} for i, s in enumerate(self.states)}
-        for name in self.params:
-            col = {n + j: total(name, j) for j in range(q)}
-            col = {c: e for c, e in col.items() if e != 0}
-            if col:
-                seeds[par_symbol(name)] = col
+        for name, col in binding_totals(self.params, wrt, bindings).items():
+            seeds[par_symbol(name)] = {n + j: e for j, e in col.items()}
         step_ids = list(range(len(self.steps))) if outputs is None else \
             self._slice({s for o in outs for s in o.free_symbols})
         for e in [e for k in step_ids for e in _step_exprs(self.steps[k])] + outs:
@@ -466,6 +449,36 @@ def pr_const(e):
 def _cse_symbols(prefix):
     for i in itertools.count():
         yield sp.Symbol(f"{prefix}{i}", real=True)
+
+
+def binding_totals(params, wrt, bindings) -> dict:
+    """``{parameter: {j: d parameter / d wrt[j]}}`` (sympy, nonzero entries only) through the chain of
+    ``bindings`` (parameter -> expression of other parameters); a parameter named in ``wrt`` is independent."""
+    from .symbols import par_symbol
+
+    wrt = tuple(wrt)
+    bound = {k: sp.sympify(e).xreplace({s: par_symbol(s.name) for s in sp.sympify(e).free_symbols})
+             for k, e in (bindings or {}).items() if k not in wrt}
+    memo: dict = {}
+
+    def total(name, j):
+        if (name, j) not in memo:
+            if name == wrt[j]:
+                memo[name, j] = sp.Integer(1)
+            elif name in bound:
+                e = bound[name]
+                memo[name, j] = sp.Add(*[e.diff(s) * total(s.name, j) for s in e.free_symbols])
+            else:
+                memo[name, j] = sp.Integer(0)
+        return memo[name, j]
+
+    out = {}
+    for name in params:
+        col = {j: total(name, j) for j in range(len(wrt))}
+        col = {j: e for j, e in col.items() if e != 0}
+        if col:
+            out[name] = col
+    return out
 
 
 def _step_vars(st):

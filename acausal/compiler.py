@@ -338,7 +338,7 @@ class CompiledModel:
         return picked
 
     def sensitivities(self, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
-                      *, t_start: float = 0.0, starts: dict | None = None, method: str = "BDF"):
+                      *, t_start: float = 0.0, starts: dict | None = None, method: str = "auto"):
         """Values and exact parameter sensitivities ``d name / d wrt[j]`` at times ``t``: ``(values, sens)`` with
         ``values[name]`` of shape ``(len(t),)`` and ``sens[name]`` of shape ``(len(wrt), len(t))``.
 

@@ -8,7 +8,7 @@ generated on the first request and cached; compilation is unaffected). Units: ``
 * A model without states is evaluated directly and vectorised at the output times (its discrete modes settled
   at each output time, as :func:`acausal.simulate.simulate` does).
 * A model with states integrates the states ``x`` and their sensitivities ``S = dx/dp`` (``n x q``) together,
-  ``dx/dt = f(t, x, p)``, ``dS/dt = f_x S + f_p``, with scipy's BDF; outputs follow from
+  ``dx/dt = f(t, x, p)``, ``dS/dt = f_x S + f_p``, on the compiled path (CVODES) or with scipy's BDF; outputs follow from
   ``dy/dp = y_x S + y_p``. The start values are taken as independent of the parameters (``S(t_start) = 0``),
   also where initialisation adjusts states to meet fixed starts of other variables.
 
@@ -29,15 +29,16 @@ from .symbols import der_name, var_symbol
 
 
 def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
-                  t_start: float = 0.0, starts: dict | None = None, method: str = "BDF"):
+                  t_start: float = 0.0, starts: dict | None = None, method: str = "auto"):
     """Values and parameter sensitivities of variables of the compiled model ``cm`` at times ``t``.
 
     ``wrt``: parameter names ``p_1..p_q``; ``names``: variables (aliases included; default every state and
     unknown); ``params``/``inputs``: overrides as for :meth:`CompiledModel.simulate`. ``rtol``/``atol``: the
     integrator's tolerances, applied to states and sensitivities alike (models with states only); states start at
     ``t_start`` (default 0 s, with ``starts`` as in ``simulate``) and ``t`` must be increasing and not before it.
-    ``method``: the implicit scipy integrator, ``"BDF"`` (default), ``"LSODA"`` (often several times faster) or
-    ``"Radau"``.
+    ``method``: ``"auto"`` (default: the compiled path, CVODES with CasADi's exact derivatives, when the model
+    allows it, else scipy's BDF), ``"CVODES"`` (the compiled path or a ModelError), or the implicit scipy integrator
+    ``"BDF"``, ``"LSODA"`` or ``"Radau"``.
 
     Returns ``(values, sens)``: ``values[name]`` of shape ``(N,)``, ``sens[name]`` of shape ``(q, N)`` with
     ``sens[name][j] = d name / d wrt[j]``.
@@ -74,8 +75,19 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
             raise ModelError("sensitivities of models with events and states are not supported")
         if N and (t[0] < t_start or np.any(np.diff(t) < 0)):
             raise ModelError(f"sensitivities: t must be increasing and not before t_start = {t_start}")
-        rhs_fn = gen.sensitivity_function(wrt, bindings, [var_symbol(der_name(s)) for s in cm.state_names])
-        X, S = _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method)
+        X, S = None, None
+        if method in ("auto", "CVODES"):
+            from .simulate import COMPILED, FALLBACK, _choose_path
+            method, _ = _choose_path(cm, method, u, rtol, atol)
+            if method == COMPILED:
+                x0 = initialize(cm, t_start, p, d, u, starts)
+                try:
+                    X, S = cm.compiled_path.sensitivities(t_start, x0, t, p, d, u, wrt, bindings, rtol, atol)
+                except SimulationError:  # the scipy path says where and why
+                    method = FALLBACK
+        if X is None:
+            rhs_fn = gen.sensitivity_function(wrt, bindings, [var_symbol(der_name(s)) for s in cm.state_names])
+            X, S = _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method)
         vals, dx, dp = out_fn(t, X, p, d, u)
         dy = np.einsum("mk...,kj...->mj...", dx, S) + dp  # y_x S + y_p
     values, sens = {}, {}
@@ -97,7 +109,7 @@ def _output_expr(cm, name):
 def _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method):
     """States ``X`` (n, N) and sensitivities ``S`` (n, q, N) at ``t``, integrated together from ``t_start``."""
     if method not in ("BDF", "LSODA", "Radau"):
-        raise ModelError(f"sensitivities: method must be 'BDF', 'LSODA' or 'Radau', got {method!r}")
+        raise ModelError(f"sensitivities: method must be 'auto', 'CVODES', 'BDF', 'LSODA' or 'Radau', got {method!r}")
     x0 = initialize(cm, t_start, p, d, u, starts)
     y0 = np.concatenate([x0, np.zeros(n * q)])
     pl, dl = p.tolist(), d.tolist()

@@ -198,10 +198,11 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
         names = account_integrals(cm.accounts) if cm.accounts is not None else []
         X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
 
-        def nodes():
+        def gauss_states():
             tn, _, _ = gauss_nodes(t_out)
             Xn, _ = path.integrate(t_start, x0, tn.ravel(), p, d, u, *args)
             return t_out, Xn.reshape((len(x0),) + tn.shape)
+        nodes = gauss_states
     else:
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
     if not np.all(np.isfinite(X)):

@@ -3,11 +3,9 @@ step loop runs in compiled code (see :mod:`acausal.compiled.path`). Optional: wi
 (``pip install "acausal[fast]"``) every run takes the scipy path, with the same answers."""
 from __future__ import annotations
 
+import importlib.util
+
 
 def available() -> bool:
-    """Whether CasADi can be imported."""
-    try:
-        import casadi  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    """Whether CasADi is installed."""
+    return importlib.util.find_spec("casadi") is not None

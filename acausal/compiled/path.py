@@ -149,6 +149,65 @@ class CompiledPath:
         return integ
 
 
+    # ------------------------------------------------------------------ sensitivities
+    def sensitivities(self, t_start, x0, t, p, d, u, wrt, bindings, rtol, atol):
+        """``(X, S)``: states ``(n, N)`` and their sensitivities ``S = dx / d wrt`` ``(n, q, N)`` at the times
+        ``t``, integrated together by CVODES from ``t_start`` (``S = 0`` there): ``dS/dt = f_x S + f_p B`` with
+        CasADi's exact derivatives, ``B`` the derivatives of the parameters with respect to ``wrt`` through
+        their ``bindings`` (:func:`acausal.codegen.binding_totals`)."""
+        entry = self._rhs_entry(u)
+        t = np.asarray(t, dtype=float)
+        n, q, N = len(x0), len(wrt), t.size
+        X = np.repeat(np.asarray(x0, dtype=float)[:, None], N, axis=1)
+        S = np.zeros((n, q, N))
+        later = t > t_start
+        if not later.any():
+            return X, S
+        span = float(t[-1]) - t_start
+        grid, back = np.unique(t[later], return_inverse=True)
+        key = ("sens", id(entry), tuple(wrt), frozenset((k, str(v)) for k, v in bindings.items()), (grid - t_start).tobytes(),
+               span, float(rtol), float(atol))
+        integ = self._integrators.get(key)
+        if integ is None:
+            integ = self._sens_integrator(entry, wrt, bindings, (grid - t_start) / span, float(rtol), float(atol))
+            self._integrators[key] = integ
+        try:
+            out = integ(x0=np.concatenate([x0, np.zeros(n * q)]), p=np.concatenate([[t_start, span], p, d]))
+        except RuntimeError as exc:
+            raise SimulationError(f"compiled path (CVODES): sensitivity integration from t = {t_start:g} s failed: "
+                                  f"{_first_line(exc)}") from None
+        Y = np.asarray(out["xf"]).reshape(n * (1 + q), -1)[:, back]
+        X[:, later] = Y[:n]
+        S[:, :, later] = Y[n:].reshape(q, n, -1).transpose(1, 0, 2)  # CasADi stacks S column by column
+        return X, S
+
+    def _sens_integrator(self, entry, wrt, bindings, tau, rtol, atol):
+        import casadi as ca
+
+        from ..codegen import binding_totals
+        from .translate import Converter
+        from ..symbols import par_symbol
+        cm = self.cm
+        n, q = len(cm.state_names), len(wrt)
+        env = {par_symbol(nm): entry["p"][i] for i, nm in enumerate(cm.param_names)}
+        conv = Converter(env, None)
+        B = ca.SX.zeros(len(cm.param_names), q)
+        for name, col in binding_totals(cm.param_names, wrt, bindings).items():
+            i = cm.param_index(name)
+            for j, e in col.items():
+                B[i, j] = conv(e)
+        f, x, p = entry["f"], entry["x"], entry["p"]
+        Ssym = ca.SX.sym("S", n * q)
+        Smat = ca.reshape(Ssym, n, q)
+        dS = ca.mtimes(ca.jacobian(f, x), Smat) + ca.mtimes(ca.jacobian(f, p), B)
+        s = ca.SX.sym("tau")
+        t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
+        ode = span * ca.substitute(ca.vertcat(f, ca.vec(dS)), entry["t"], t0 + s * span)
+        dae = {"x": ca.vertcat(x, Ssym), "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "ode": ode}
+        return ca.integrator("acausal_sens", "cvodes", dae, 0.0, tau.tolist(),
+                             {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS})
+
+
 def _first_line(exc) -> str:
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
     useful = [ln for ln in lines if "CV_" in ln or "failed" in ln.lower()]

@@ -82,7 +82,7 @@ class Converter:
         if isinstance(e, SignalCall):
             return self.signal(e.args[0].name, int(e.args[1]), self(e.args[2]))
         if isinstance(e, sp.Piecewise):
-            out = ca.nan
+            out = float("nan")
             for val, cond in reversed(args):
                 out = self(val) if cond is sp.true else ca.if_else(self(cond), self(val), out)
             return out

@@ -1,0 +1,248 @@
+"""The compiled simulation path (CasADi CVODES) against the scipy path: the same answers, exact energy
+integrals, every numeric signal's closed form, sensitivities, and a stated reason wherever it is not taken."""
+import pickle
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from acausal import Model, Start, compile_model, connect, time
+from acausal.errors import ModelError, SimulationError
+from acausal.identify.smoothing import SmoothingSpline
+from acausal.library.electrical import (Capacitor, ConstantVoltage, Ground, IdealDiode, Inductor, PrescribedVoltage,
+                                        Resistor)
+from acausal.signals import Constant, ExpressionSignal, FourierSeries, PeriodicSpline, SampledSignal, Signal
+
+from .drive_models import MotorGearLoad
+
+ca = pytest.importorskip("casadi", reason="the compiled path needs CasADi (pip install acausal[fast])")
+TIGHT = dict(rtol=1e-10, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def drive():
+    return compile_model(MotorGearLoad())
+
+
+def test_drive_takes_the_compiled_path_and_agrees_with_scipy(drive):
+    assert drive.simulation_path() == "compiled (CasADi CVODES)"
+    assert "simulation path: compiled" in drive.report()
+    fast = drive.simulate(1.0, n_points=201, **TIGHT)
+    ref = drive.simulate(1.0, n_points=201, method="BDF", **TIGHT)
+    assert fast.solver.startswith("CVODES") and ref.solver.startswith("BDF")
+    for name in ("L.i", "rotor.w", "load.phi", "gear.flange_b.tau"):
+        scale = np.max(np.abs(ref[name]))
+        assert np.max(np.abs(fast[name] - ref[name])) / scale < 1e-6, name
+
+
+def test_account_energies_are_integrated_with_the_states(drive):
+    """The source, loss and boundary energies come from CVODES quadratures (exact to its tolerance, even over
+    the 0.1 ms current transient between outputs); the balance closes like the scipy path's."""
+    fast = drive.simulate(1.0, n_points=51)
+    ref = drive.simulate(1.0, n_points=51, method="BDF", **TIGHT)
+    for name in ("src.p", "R.loss_power", "damper.loss_power"):
+        assert abs(fast.energy(name)[-1] - ref.energy(name)[-1]) <= 1e-5 * abs(ref.energy(name)[-1]), name
+    assert abs(fast.energy_balance().residual) < 1e-6
+    # anything else: Gauss nodes of the output intervals, integrated on first use
+    assert abs(fast.energy("L.p")[-1] - ref.energy("L.p")[-1]) < 1e-2 * abs(ref.energy("L.p")[-1])
+
+
+def test_without_dense_output_energies_use_the_output_grid(drive):
+    res = drive.simulate(1.0, n_points=2001, dense_output=False)
+    assert res.solver.startswith("CVODES")
+    assert abs(res.energy_balance().residual) < 1e-3
+
+
+def test_parameters_change_without_rebuilding(drive):
+    a = drive.simulate(1.0, params={"R.R": 0.5}, n_points=11)
+    b = drive.simulate(1.0, params={"R.R": 0.9}, n_points=11)
+    ref = drive.simulate(1.0, params={"R.R": 0.9}, n_points=11, method="BDF", **TIGHT)
+    assert not np.allclose(a["L.i"], b["L.i"])
+    assert np.allclose(b["L.i"], ref["L.i"], rtol=1e-5, atol=1e-6)
+
+
+def test_output_times_may_repeat_and_start_late(drive):
+    t = np.array([0.2, 0.2, 0.5, 1.0])
+    res = drive.simulate(1.0, t_eval=t)
+    ref = drive.simulate(1.0, t_eval=t, method="BDF", **TIGHT)
+    assert np.allclose(res["L.i"], ref["L.i"], rtol=1e-5, atol=1e-6)
+    assert res["L.i"][0] == res["L.i"][1]
+
+
+def test_pickled_model_rebuilds_its_compiled_path(drive):
+    drive.simulate(0.1, n_points=3)
+    clone = pickle.loads(pickle.dumps(drive))
+    assert clone._compiled_path is None
+    assert np.allclose(clone.simulate(0.1, n_points=3)["L.i"], drive.simulate(0.1, n_points=3)["L.i"])
+
+
+# ---------------------------------------------------------------------------------------------- signals
+def _driven(signal):
+    """A prescribed voltage following ``signal`` into R = 1 ohm and C = 0.1 F (one state)."""
+    class RC(Model):
+        def build(self):
+            self.src, self.R = PrescribedVoltage(v_ref=signal), Resistor(R=1.0)
+            self.C, self.gnd = Capacitor(C=0.1, v=Start(0.0)), Ground()
+            connect(self.src.p, self.R.p)
+            connect(self.R.n, self.C.p)
+            connect(self.C.n, self.src.n, self.gnd.p)
+    return compile_model(RC())
+
+
+rng = np.random.default_rng(7)
+_ts = np.sort(rng.uniform(0.0, 1.0, 40))
+SIGNALS = {
+    "periodic spline": PeriodicSpline(np.linspace(0, 0.5, 25, endpoint=False), np.sin(np.linspace(0, 2 * np.pi, 25,
+                                      endpoint=False)) + 0.3, period=0.5),
+    "sampled (hold outside)": SampledSignal(_ts + 0.5, np.cos(7 * _ts)),
+    "smoothing spline (end pieces continue)": SmoothingSpline(np.linspace(0.2, 1.8, 400),
+                                                               np.sin(3 * np.linspace(0.2, 1.8, 400)), knot_spacing=0.1),
+    "constant": Constant(2.5),
+    "expression": ExpressionSignal(sp.exp(-time) * sp.sin(9 * time)),
+    "Fourier series": FourierSeries(0.5, [0.2, -0.1], [0.3, 0.05], period=0.7),
+}
+
+
+@pytest.mark.parametrize("name", list(SIGNALS))
+def test_every_signal_form_is_evaluated_exactly_inside_the_compiled_path(name):
+    """The CasADi form of each numeric signal gives the signal's own values and derivatives (inside, outside
+    and at the breaks), and a run driven by it agrees with the scipy path."""
+    from acausal.compiled.translate import Signals
+    sig = SIGNALS[name]
+
+    class Fake:
+        input_names = ["s"]
+    signals = Signals(Fake, [sig])
+    t = ca.SX.sym("t")
+    times = np.concatenate([np.linspace(-0.3, 2.3, 157), [0.5, 1.0]])
+    top = min(2, sig.max_order if sig.max_order is not None else 2)
+    for order in range(top + 1):
+        f = ca.Function("f", [t], [signals("s", order, t)])
+        got = np.array([float(f(x)) for x in times])
+        want = np.array([float(sig(x, order)) for x in times])
+        scale = max(1.0, np.max(np.abs(want)))
+        # a sampled signal's slope jumps at its samples; compare away from them
+        ok = np.abs(got - want) <= 1e-9 * scale
+        if isinstance(sig, SampledSignal) and order == 1:
+            ok |= np.min(np.abs(times[:, None] - sig.t[None, :]), axis=1) < 1e-12
+        assert ok.all(), (name, order, times[~ok][:3], got[~ok][:3], want[~ok][:3])
+    cm = _driven(sig)
+    fast, ref = cm.simulate(2.0, n_points=41), cm.simulate(2.0, n_points=41, method="BDF", **TIGHT)
+    assert fast.solver.startswith("CVODES")
+    assert np.allclose(fast["C.v"], ref["C.v"], rtol=1e-5, atol=1e-7)
+
+
+class _Opaque(Signal):
+    name = "opaque"
+
+    def evaluate(self, t, order):
+        return np.sin(t) if order == 0 else np.cos(t)
+
+
+def test_a_signal_without_closed_form_stays_on_scipy_and_says_so():
+    cm = _driven(_Opaque())
+    res = cm.simulate(1.0, n_points=11)
+    assert res.solver.startswith("BDF") and "_Opaque" in res.solver and "src.v_ref" in res.solver
+    with pytest.raises(ModelError, match="neither a table nor a symbolic form"):
+        cm.simulate(1.0, method="CVODES")
+
+
+# ---------------------------------------------------------------------------------------------- fallbacks
+class HalfWave(Model):
+    def build(self):
+        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * 50 * time))
+        self.D, self.R, self.C = IdealDiode(), Resistor(R=10.0), Capacitor(C=1e-4, v=Start(0.0))
+        self.gnd = Ground()
+        connect(self.src.p, self.D.p)
+        connect(self.D.n, self.R.p, self.C.p)
+        connect(self.R.n, self.C.n, self.src.n, self.gnd.p)
+
+
+def test_models_with_events_fall_back_with_the_reason():
+    cm = compile_model(HalfWave())
+    res = cm.simulate(0.04, n_points=11)
+    assert res.solver.startswith("BDF") and "state event" in res.solver and "D" in res.solver
+    assert res.events
+    with pytest.raises(ModelError, match="cannot take the compiled path: the model has 1 state event"):
+        cm.simulate(0.04, method="CVODES")
+
+
+def test_without_casadi_every_run_takes_scipy(drive, monkeypatch):
+    import acausal.compiled
+    monkeypatch.setattr(acausal.compiled, "available", lambda: False)
+    res = drive.simulate(0.2, n_points=5)
+    assert res.solver.startswith("BDF") and "needs CasADi" in res.solver
+    assert "acausal[fast]" in drive.simulation_path()
+
+
+class Blowup(Model):
+    """``C dv/dt = v**2 / R0`` from v = 1: v = 1 / (1 - t) reaches infinity at t = 1 s."""
+
+    def build(self):
+        self.C = Capacitor(C=1.0, v=Start(1.0))
+        self.gnd = Ground()
+        from acausal.library.electrical import SignalCurrent
+        from acausal.library.blocks import Gain
+        self.I = SignalCurrent()
+        self.g = Gain(k=1.0)
+        connect(self.C.p, self.I.n)
+        connect(self.C.n, self.I.p, self.gnd.p)
+        self.extra = sp.Symbol("unused")
+
+
+def test_a_failing_compiled_run_is_reported_by_the_scipy_path():
+    class Quadratic(Model):
+        def build(self):
+            self.C = Capacitor(C=1.0, v=Start(1.0))
+            self.src = PrescribedVoltage(v_ref=0.0)
+            self.R = Resistor(R=1.0)
+            self.gnd = Ground()
+            connect(self.C.p, self.R.p)
+            connect(self.R.n, self.src.p)
+            connect(self.C.n, self.src.n, self.gnd.p)
+
+        def equations(self):
+            return []
+    cm = compile_model(Quadratic())
+    assert cm.simulate(0.5, n_points=3).solver.startswith("CVODES")
+    with pytest.raises(SimulationError):  # R = 0 inside its bounds? no: a negative time constant blows up
+        cm.simulate(2000.0, params={"C.C": 1e-300}, n_points=3, max_step=1e-3)
+
+
+# ---------------------------------------------------------------------------------------------- sensitivities
+def test_sensitivities_on_the_compiled_path_agree_with_scipy(drive):
+    t = np.linspace(0.0, 0.5, 26)
+    wrt = ["R.R", "emf.k", "load.J"]
+    v1, s1 = drive.sensitivities(t, wrt, names=["L.i", "rotor.w", "gear.flange_b.tau"])
+    v2, s2 = drive.sensitivities(t, wrt, names=["L.i", "rotor.w", "gear.flange_b.tau"], method="BDF")
+    for n in v1:
+        assert np.allclose(v1[n], v2[n], rtol=1e-6, atol=1e-9)
+        scale = np.max(np.abs(s2[n]), axis=1, keepdims=True) + 1e-300
+        assert np.all(np.abs(s1[n] - s2[n]) <= 1e-5 * scale), n
+    # against a central difference of the compiled path itself
+    h = 1e-6
+    up = drive.simulate(0.5, t_eval=t, params={"R.R": 0.7 + h}, **TIGHT)["L.i"]
+    dn = drive.simulate(0.5, t_eval=t, params={"R.R": 0.7 - h}, **TIGHT)["L.i"]
+    assert np.allclose(s1["L.i"][0], (up - dn) / (2 * h), rtol=1e-4, atol=1e-6)
+
+
+def test_sensitivities_follow_parameter_bindings():
+    class Bound(Model):
+        def build(self):
+            from acausal import Parameter  # noqa: F401
+            self.src, self.R = ConstantVoltage(V=10.0), Resistor(R=2.0)
+            self.L, self.gnd = Inductor(L=0.5, i=Start(0.0)), Ground()
+            self.R2 = Resistor(R=2 * self.R.R)
+            connect(self.src.p, self.R.p)
+            connect(self.R.n, self.R2.p)
+            connect(self.R2.n, self.L.p)
+            connect(self.L.n, self.src.n, self.gnd.p)
+    cm = compile_model(Bound())
+    t = np.linspace(0, 0.3, 7)
+    v1, s1 = cm.sensitivities(t, ["R.R"], names=["L.i"])
+    v2, s2 = cm.sensitivities(t, ["R.R"], names=["L.i"], method="BDF")
+    assert np.allclose(s1["L.i"], s2["L.i"], rtol=1e-6, atol=1e-9)
+    # the binding counts: i = 10/(3R) (1 - exp(-3R t/L)) depends on R through both resistors
+    R, L = 2.0, 0.5
+    exact = -10 / (3 * R**2) * (1 - np.exp(-3 * R * t / L)) + 10 / (3 * R) * np.exp(-3 * R * t / L) * 3 * t / L
+    assert np.allclose(s1["L.i"][0], exact, rtol=1e-6, atol=1e-9)
