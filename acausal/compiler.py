@@ -143,9 +143,6 @@ class CompiledModel:
         method, why = _choose_path(self, "auto", u, 1e-6, 1e-9)
         return "compiled (CasADi CVODES)" if not why else f"scipy {method}: {why}"
 
-    def __getstate__(self):
-        return {**self.__dict__, "_compiled_path": None}  # CasADi objects are rebuilt where they are used
-
     # ------------------------------------------------------------------ names and values
     @property
     def source(self) -> str:

@@ -96,7 +96,9 @@ class CompiledPath:
         """``(X, Q)``: states at the output times ``t_out`` (shape ``(n_states, len(t_out))``), integrated from
         ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of each of
         ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
-        compiled form, integrated by CVODES under the same error control as the states. Raises
+        compiled form, integrated by CVODES under the same error control as the states (relative to each
+        integral's own size: a port through which energy flows back and forth, netting little, is integrated to
+        the tolerance of that net). Raises
         :class:`SimulationError` when CVODES fails."""
         entry = self._rhs_entry(u)
         t_out = np.asarray(t_out, dtype=float)
@@ -138,8 +140,12 @@ class CompiledPath:
                    "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span)}
             opts = {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS}
             if qexpr is not None:
+                # the quadratures share the error test with the states; CVODES's test is a root mean square over
+                # all components, so the tolerances shrink by sqrt(states / all) to keep the states' own accuracy
                 dae["quad"] = span * ca.substitute(qexpr, entry["t"], t0 + s * span)
-                opts["quad_err_con"] = True
+                n, m = entry["x"].numel(), qexpr.numel()
+                shrink = float(np.sqrt(n / (n + m)))
+                opts.update(quad_err_con=True, abstol=atol * shrink, reltol=rtol * shrink)
             if np.isfinite(max_step):
                 opts["max_step_size"] = max_step
             if first_step is not None:

@@ -1,9 +1,10 @@
-"""Core speed benchmarks (pytest-benchmark). Goals (issue 3), reported in the README:
+"""Core speed benchmarks (pytest-benchmark). Goals, reported in the README:
 
-* compile time of motor_gear_load <= 0.5 s;
-* its 1-s simulation at rtol 1e-6 / atol 1e-9 <= 1.5x a hand-written solve_ivp of the same equations with the
-  same solver (LSODA), measured in the same run;
-* 100 runs with R swept over 0.5-0.9 ohm, no recompilation, <= 1.5x the hand-written loop.
+* compile time of motor_gear_load <= 0.5 s (issue 3);
+* its 1-s simulation at rtol 1e-6 / atol 1e-9 with the default ``simulate()`` (the compiled path) <= 0.5x a
+  hand-written solve_ivp of the same equations with LSODA, measured in the same run (issue 16); on the scipy path
+  (``method="LSODA"``) <= 1.5x (issue 3);
+* 100 runs with R swept over 0.5-0.9 ohm, no recompilation, <= 0.5x the hand-written loop (issue 16).
 
 Ratios are stored in ``extra_info`` (see ``--benchmark-json``) and printed. The only assertions are loose
 regression guards on *ratios* (3x the goal), never on absolute times.
@@ -18,7 +19,8 @@ from acausal import compile_model
 from ..drive_models import MotorGearLoad
 from . import handwritten
 
-SIM = dict(method="LSODA", rtol=1e-6, atol=1e-9, n_points=101, dense_output=False)
+SIM = dict(rtol=1e-6, atol=1e-9, n_points=101, dense_output=False)  # the default path: compiled when CasADi is there
+SCIPY = dict(SIM, method="LSODA")
 
 
 def _best_of(fn, rounds):
@@ -48,7 +50,7 @@ def test_compile_time(benchmark):
     assert t is None or t < 3 * 0.5  # regression guard only: goal is 0.5 s
 
 
-def _ratio(benchmark, ours, reference, rounds):
+def _ratio(benchmark, ours, reference, rounds, goal=1.5):
     ours()
     reference()
     ref = _best_of(reference, rounds)
@@ -57,9 +59,9 @@ def _ratio(benchmark, ours, reference, rounds):
     if t is None:
         return 1.0
     ratio = t / ref
-    benchmark.extra_info.update(reference_s=ref, ratio=ratio, goal_ratio=1.5)
+    benchmark.extra_info.update(reference_s=ref, ratio=ratio, goal_ratio=goal)
     print(f"\n{benchmark.name}: ours {t * 1e3:.2f} ms, hand-written {ref * 1e3:.2f} ms, "
-          f"ratio {ratio:.2f} (goal <= 1.5)")
+          f"ratio {ratio:.2f} (goal <= {goal})")
     return ratio
 
 
@@ -67,12 +69,18 @@ def test_simulate_vs_handwritten(benchmark, sim):
     res = sim.simulate(1.0, **SIM)
     ref = handwritten.simulate()
     assert np.allclose(res["L.i"], ref.y[0], rtol=1e-3, atol=1e-3)  # same answer within the tolerances
-    ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), lambda: handwritten.simulate(), rounds=30)
+    ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), lambda: handwritten.simulate(), rounds=30, goal=0.5)
+    assert ratio < 3 * 0.5 or not res.solver.startswith("CVODES")
+
+
+def test_simulate_scipy_path_vs_handwritten(benchmark, sim):
+    """The scipy path with the same integrator as the reference (what runs where CasADi is missing)."""
+    ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SCIPY), lambda: handwritten.simulate(), rounds=30)
     assert ratio < 3 * 1.5
 
 
 def test_simulate_dense_output_vs_handwritten(benchmark, sim):
-    """With every step's interpolant kept (the default, for exact energy integrals)."""
+    """With what exact energy integrals need kept (the default): CVODES quadratures of the energy accounts."""
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **{**SIM, "dense_output": True}),
                    lambda: handwritten.simulate(), rounds=30)
     assert ratio < 3 * 1.5
@@ -88,5 +96,5 @@ def test_parameter_sweep_vs_handwritten(benchmark, sim):
         return [handwritten.simulate(R=r).y[0, -1] for r in Rs]
 
     assert np.allclose(ours(), reference(), rtol=1e-4)
-    ratio = _ratio(benchmark, ours, reference, rounds=3)
+    ratio = _ratio(benchmark, ours, reference, rounds=3, goal=0.5)
     assert ratio < 3 * 1.5

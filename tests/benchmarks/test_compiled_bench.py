@@ -1,0 +1,69 @@
+"""The compiled path against the scipy path on the models the fits and diagnoses repeat (issue 16), both
+measured in the same run:
+
+* the Eq. 4 ankle actuator in closed loop (5 states, the gait spline and the planned moment-arm spline as inputs),
+  6 s of gait: the default ``simulate()`` vs scipy's BDF (the previous default);
+* the same model's exact sensitivities of the motor current and speed to three parameters over 2 s.
+
+Ratios go to ``extra_info`` and the README; the assertions are loose regression guards on ratios only.
+"""
+import time
+
+import numpy as np
+import pytest
+
+from acausal import compile_model
+from acausal.models.ankle.actuator import AnkleActuator
+
+pytest.importorskip("casadi", reason="the compiled path needs CasADi")
+
+
+def _best(fn, rounds):
+    best = np.inf
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+@pytest.fixture(scope="module")
+def eq4():
+    return compile_model(AnkleActuator.eq4(mode="closed_loop", effects=()))
+
+
+def _report(benchmark, what, ref):
+    if benchmark.disabled or benchmark.stats is None:
+        return None
+    t = benchmark.stats.stats.min
+    benchmark.extra_info.update(scipy_s=ref, ratio=t / ref)
+    print(f"\n{what}: compiled {t * 1e3:.1f} ms, scipy BDF {ref * 1e3:.1f} ms, ratio {t / ref:.3f}")
+    return t / ref
+
+
+def test_closed_loop_ankle_compiled_vs_scipy(benchmark, eq4):
+    run = dict(n_points=3001, rtol=1e-6, atol=1e-9)
+    fast = eq4.simulate(6.0, **run)
+    ref = eq4.simulate(6.0, method="BDF", **run)
+    assert fast.solver.startswith("CVODES")
+    assert np.max(np.abs(fast["motor.i"] - ref["motor.i"])) < 1e-3 * np.max(np.abs(ref["motor.i"]))
+    assert abs(fast.energy_balance().residual) < 1e-6
+    t_ref = _best(lambda: eq4.simulate(6.0, method="BDF", **run), 2)
+    benchmark.pedantic(lambda: eq4.simulate(6.0, **run), rounds=5, iterations=1)
+    ratio = _report(benchmark, "closed-loop Eq. 4 ankle, 6 s", t_ref)
+    assert ratio is None or ratio < 0.5  # regression guard (measured about 0.1)
+
+
+def test_closed_loop_ankle_sensitivities_compiled_vs_scipy(benchmark, eq4):
+    t = np.linspace(0.0, 2.0, 401)
+    wrt = ["motor.R", "motor.k", "link.k"]
+    args = dict(names=["motor.i", "motor.w"], rtol=1e-8, atol=1e-10)
+    v1, s1 = eq4.sensitivities(t, wrt, **args)
+    v2, s2 = eq4.sensitivities(t, wrt, method="BDF", **args)
+    for n in s1:
+        scale = np.max(np.abs(s2[n]), axis=1, keepdims=True) + 1e-300
+        assert np.all(np.abs(s1[n] - s2[n]) <= 1e-4 * scale), n
+    t_ref = _best(lambda: eq4.sensitivities(t, wrt, method="BDF", **args), 1)
+    benchmark.pedantic(lambda: eq4.sensitivities(t, wrt, **args), rounds=3, iterations=1)
+    ratio = _report(benchmark, "sensitivities to 3 parameters, 2 s", t_ref)
+    assert ratio is None or ratio < 0.5
