@@ -299,6 +299,12 @@ class CompiledModel:
         from .simulate import simulate
         return simulate(self, t_end, **kwargs)
 
+    def simulate_many(self, t_end: float, params, **kwargs) -> list:
+        """One result per parameter set in ``params`` (list of dicts), in one call where the compiled path allows
+        it (CVODES mapped over the sets on several threads); see :func:`acausal.batch.simulate_many`."""
+        from .batch import simulate_many
+        return simulate_many(self, t_end, params, **kwargs)
+
     def evaluate(self, t, x=None, params=None, inputs=None, discrete=None, names=None):
         """Every unknown at times ``t`` for given states ``x`` (shape ``(n_states, len(t))``), vectorised.
 

@@ -297,4 +297,5 @@ def integrate_cumulative(y, t):
 
 
 def _as_rows(vals, shape):
-    return [np.broadcast_to(np.asarray(v, dtype=float), shape) for v in vals]
+    return [v if type(v) is np.ndarray and v.shape == shape and v.dtype == float
+            else np.broadcast_to(np.asarray(v, dtype=float), shape) for v in vals]

@@ -45,34 +45,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     """
     from .result import Result
 
-    if method not in METHODS and method not in ("auto", COMPILED):
-        raise ModelError(f"unknown integration method {method!r}; choose 'auto', {COMPILED!r} or one of "
-                         f"{sorted(METHODS)}")
-    t_start, t_end = _number(t_start, "t_start"), _number(t_end, "t_end")
-    if not t_end > t_start:
-        raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
-    check_tolerances(rtol, atol, "simulate")
-    for what, step in (("max_step", max_step), ("first_step", first_step)):
-        if step is not None and not _number(step, what) > 0:
-            raise ModelError(f"simulate: {what} must be positive, got {step}")
-    if not isinstance(max_events, (int, np.integer)) or max_events < 0:
-        raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
+    t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
+                                       n_points)
     p = cm.param_vector(params)
     u = cm.input_tuple(inputs, p)
     d = cm.discrete_start()
-    if t_eval is None:
-        if not isinstance(n_points, (int, np.integer)) or n_points < 1:
-            raise ModelError(f"simulate: n_points must be a positive integer, got {n_points!r}")
-        t_out = np.linspace(t_start, t_end, n_points)
-    else:
-        try:
-            t_out = np.asarray(t_eval, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError("simulate: t_eval must be an array of times") from None
-        if t_out.ndim != 1:
-            raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
-    if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
-        raise ModelError("t_eval must be increasing and within [t_start, t_end]")
     n = len(cm.state_names)
     if n == 0:
         d_arr = algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else None
@@ -190,25 +167,51 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
     integrated by CVODES beside the states (under its error control); the integral of anything else takes the
     states at the Gauss nodes of the output intervals, integrated again when first asked for."""
     from .energy import account_integrals
-    from .result import Result, gauss_nodes
+    from .result import Result
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
     nodes, integrals = None, {}
     if dense_output and t_out.size > 1:
         names = account_integrals(cm.accounts) if cm.accounts is not None else []
         X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
-
-        def gauss_states():
-            tn, _, _ = gauss_nodes(t_out)
-            Xn, _ = path.integrate(t_start, x0, tn.ravel(), p, d, u, *args)
-            return t_out, Xn.reshape((len(x0),) + tn.shape)
-        nodes = gauss_states
+        nodes = path.gauss_states(t_start, x0, t_out, p, d, u, *args)
     else:
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
     if not np.all(np.isfinite(X)):
         raise SimulationError("compiled path (CVODES): non-finite states")
     return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals,
                   solver=f"{COMPILED} (compiled path, CasADi)")
+
+
+def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points):
+    """The checked run settings of :func:`simulate`: ``(t_start, t_end, output times)``; a ModelError naming the
+    setting at fault otherwise."""
+    if method not in METHODS and method not in ("auto", COMPILED):
+        raise ModelError(f"unknown integration method {method!r}; choose 'auto', {COMPILED!r} or one of "
+                         f"{sorted(METHODS)}")
+    t_start, t_end = _number(t_start, "t_start"), _number(t_end, "t_end")
+    if not t_end > t_start:
+        raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
+    check_tolerances(rtol, atol, "simulate")
+    for what, step in (("max_step", max_step), ("first_step", first_step)):
+        if step is not None and not _number(step, what) > 0:
+            raise ModelError(f"simulate: {what} must be positive, got {step}")
+    if not isinstance(max_events, (int, np.integer)) or max_events < 0:
+        raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
+    if t_eval is None:
+        if not isinstance(n_points, (int, np.integer)) or n_points < 1:
+            raise ModelError(f"simulate: n_points must be a positive integer, got {n_points!r}")
+        t_out = np.linspace(t_start, t_end, n_points)
+    else:
+        try:
+            t_out = np.asarray(t_eval, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError("simulate: t_eval must be an array of times") from None
+        if t_out.ndim != 1:
+            raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
+    if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
+        raise ModelError("t_eval must be increasing and within [t_start, t_end]")
+    return t_start, t_end, t_out
 
 
 def check_tolerances(rtol, atol, who: str) -> None:

@@ -242,3 +242,27 @@ def test_core_tests_pass_on_the_scipy_path_too():
                          cwd=here.parent, timeout=1200)
     assert "simulation path: scipy only" in out.stdout
     assert out.returncode == 0, out.stdout[-3000:]
+
+
+# ---------------------------------------------------------------------------------------------- batches
+def test_simulate_many_equals_one_run_per_set(drive):
+    sets = [{"R.R": r} for r in (0.5, 0.6, 0.7, 0.8, 0.9)]
+    many = drive.simulate_many(1.0, sets, n_points=21, threads=2)
+    assert len(many) == 5 and all("batch of 5 on 2 threads" in r.solver for r in many)
+    for s, r in zip(sets, many):
+        one = drive.simulate(1.0, params=s, n_points=21)
+        assert np.array_equal(r["L.i"], one["L.i"])  # the same computation, bit for bit
+        assert r.energy("src.p")[-1] == pytest.approx(one.energy("src.p")[-1], rel=1e-12)
+        assert r["R.R"][0] == s["R.R"]
+    assert drive.simulate_many(1.0, []) == []
+    with pytest.raises(ModelError, match="list of parameter dicts"):
+        drive.simulate_many(1.0, {"R.R": 0.5})
+
+
+def test_simulate_many_falls_back_set_by_set():
+    cm = compile_model(HalfWave())
+    runs = cm.simulate_many(0.02, [{"R.R": 10.0}, {"R.R": 20.0}], n_points=5)
+    assert all(r.solver.startswith("BDF") for r in runs)
+    assert runs[0]["C.v"][-1] != runs[1]["C.v"][-1]
+    with pytest.raises(ModelError, match="state event"):
+        cm.simulate_many(0.02, [{}], method="CVODES")

@@ -49,6 +49,9 @@ class CompiledPath:
         except Unsupported as exc:
             return str(exc)
         if layout not in self._rhs:
+            if len(self._rhs) > 256:  # input tables of many recordings: keep the memory bounded
+                self._rhs.clear()
+                self._integrators.clear()
             self._rhs[layout] = self._build_rhs(u)
         return self._rhs[layout]
 
@@ -98,41 +101,63 @@ class CompiledPath:
         ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
         compiled form, integrated by CVODES under the same error control as the states (relative to each
         integral's own size: a port through which energy flows back and forth, netting little, is integrated to
-        the tolerance of that net). Raises
-        :class:`SimulationError` when CVODES fails."""
+        the tolerance of that net). Raises :class:`SimulationError` when CVODES fails."""
+        return self.integrate_many(t_start, [x0], t_out, [p], d, u, rtol, atol, max_step, first_step, integrals)[0]
+
+    def integrate_many(self, t_start, x0s, t_out, ps, d, u, rtol, atol, max_step=np.inf, first_step=None,
+                       integrals=(), threads: int = 1) -> list:
+        """:meth:`integrate` for several start states ``x0s`` and parameter vectors ``ps`` (same inputs, modes
+        and output times) in one call: CasADi maps the integrator over them, on ``threads`` threads."""
         entry = self._rhs_entry(u)
         t_out = np.asarray(t_out, dtype=float)
         t_end = float(t_out[-1]) if t_out.size else t_start
         span = t_end - t_start
-        n = len(x0)
+        B, n = len(x0s), len(x0s[0])
         names, qexpr = self._quadratures(entry, integrals) if integrals else ((), None)
-        X = np.empty((n, t_out.size))
-        Q = np.zeros((len(names), t_out.size))
+        X = np.empty((B, n, t_out.size))
+        Q = np.zeros((B, len(names), t_out.size))
         at_start = t_out <= t_start
-        X[:, at_start] = np.asarray(x0, dtype=float)[:, None]
+        X[:, :, at_start] = np.asarray(x0s, dtype=float)[:, :, None]
         later = t_out[~at_start]
         if later.size:
             grid, back = np.unique(later, return_inverse=True)  # CVODES takes strictly increasing output times
             tau = (grid - t_start) / span
             integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
                                      None if first_step is None else first_step / span)
-            pds = np.concatenate([[t_start, span], p, d])
+            P = np.stack([np.concatenate([[t_start, span], p, d]) for p in ps], axis=1)
+            X0 = np.asarray(x0s, dtype=float).T
+            if B > 1:
+                key = ("map", id(integ), B, threads)
+                if key not in self._integrators:
+                    self._integrators[key] = integ.map(B, "thread", threads) if threads > 1 else integ.map(B)
+                integ = self._integrators[key]
             try:
-                out = integ(x0=x0, p=pds)
+                out = integ(x0=X0, p=P)
             except RuntimeError as exc:
                 raise SimulationError(f"compiled path (CVODES): integration from t = {t_start:g} s to {t_end:g} s "
                                       f"failed: {_first_line(exc)}") from None
-            X[:, ~at_start] = np.asarray(out["xf"]).reshape(n, -1)[:, back]
+            X[:, :, ~at_start] = np.asarray(out["xf"]).reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
-                Q[:, ~at_start] = np.asarray(out["qf"]).reshape(len(names), -1)[:, back]
-        return X, dict(zip(names, Q))
+                Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
+        return [(X[b], dict(zip(names, Q[b]))) for b in range(B)]
+
+    def gauss_states(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
+        """A function returning ``(t_out, states at the 5 Gauss-Legendre nodes of every output interval)``,
+        integrated when called (what :meth:`Result.energy <acausal.result.Result.energy>` needs for an integral
+        that is not one of the quadratures)."""
+        def states():
+            from ..result import gauss_nodes
+            tn, _, _ = gauss_nodes(t_out)
+            Xn, _ = self.integrate(t_start, x0, tn.ravel(), p, d, u, rtol, atol, max_step, first_step)
+            return t_out, Xn.reshape((len(x0),) + tn.shape)
+        return states
 
     def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step):
         import casadi as ca
         key = (id(entry), names, tau.tobytes(), rtol, atol, max_step, first_step)
         integ = self._integrators.get(key)
         if integ is None:
-            if len(self._integrators) > 32:
+            if len(self._integrators) > 256:
                 self._integrators.clear()
             s = ca.SX.sym("tau")
             t0, span = ca.SX.sym("t0"), ca.SX.sym("span")

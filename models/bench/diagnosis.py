@@ -87,7 +87,7 @@ def _sensitivity(cm, exp):
 
     def sens(values, names):
         vals, S = cm.sensitivities(t, list(names), names=list(cols.values()), params={**base, **values},
-                                   inputs=inputs, t_start=t[0], method="LSODA")
+                                   inputs=inputs, t_start=t[0])
         return ({c: np.asarray(vals[v]) for c, v in cols.items()}, {c: np.asarray(S[v]) for c, v in cols.items()})
     return sens
 

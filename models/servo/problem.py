@@ -107,11 +107,11 @@ def replay(job: tuple) -> tuple:
     cm = compiled(terms)
     u = inputs_from(t, columns)
     if not names:
-        res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=params, inputs=u, starts=x0, method="LSODA",
+        res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=params, inputs=u, starts=x0,
                           rtol=RTOL, atol=ATOL, dense_output=False)
         return np.asarray(res["pendulum.phi"]), None
     vals, S = cm.sensitivities(t, list(names), names=["pendulum.phi"], params=params, inputs=u, t_start=t[0],
-                               starts=x0, method="LSODA", rtol=RTOL, atol=ATOL)
+                               starts=x0, rtol=RTOL, atol=ATOL)
     return np.asarray(vals["pendulum.phi"]), np.asarray(S["pendulum.phi"])
 
 
@@ -220,7 +220,7 @@ class ServoProblem(Problem):
     def regressors(self, exp, values: dict) -> dict:
         cm = compiled(terms_of(exp.info["effects"]))
         v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params={**exp.info["params"], **values},
-                        inputs=exp.info["inputs"], starts=exp.info["start"], method="LSODA", rtol=RTOL, atol=ATOL,
+                        inputs=exp.info["inputs"], starts=exp.info["start"], rtol=RTOL, atol=ATOL,
                         dense_output=False)
         w = np.asarray(v["pendulum.w"])
         return {"speed": w, "sign(speed)": np.tanh(w / 0.05), "abs(motor torque)": np.abs(np.asarray(v["servo.friction.flange_a.tau"])),

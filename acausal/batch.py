@@ -1,0 +1,75 @@
+"""Many runs of one compiled model in one call: a parameter sweep without a Python loop around the integrator.
+
+On the compiled path the parameter sets are integrated by one CasADi call that maps CVODES over them (on several
+threads of this process, so nothing is pickled and nothing is compiled again); every run is the same computation
+as its own :func:`~acausal.simulate.simulate`, so the results are identical. A model or run the compiled path
+does not take is simulated set by set on the scipy path, with the reason in each result's ``solver``.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .errors import ModelError, SimulationError
+
+
+def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_start: float = 0.0,
+                  inputs: dict | None = None, starts: dict | None = None, method: str = "auto", rtol: float = 1e-6,
+                  atol: float = 1e-9, t_eval=None, n_points: int = 501, max_step: float = np.inf,
+                  first_step: float | None = None, dense_output: bool = True) -> list:
+    """One :class:`~acausal.result.Result` per parameter set in ``params`` (a list of dicts of overrides by name),
+    all with the same inputs, starts and output times; the other arguments are :func:`acausal.simulate.simulate`'s.
+    ``threads``: threads for the compiled path (default: the number of cores)."""
+    from .compiled import available
+    from .result import Result
+    from .simulate import COMPILED, FALLBACK, _check_run, _choose_path, initialize, simulate
+
+    if isinstance(params, dict) or not hasattr(params, "__iter__"):
+        raise ModelError("simulate_many: params must be a list of parameter dicts (one per run)")
+    sets = [dict(s or {}) for s in params]
+    if not sets:
+        return []
+    kwargs = dict(t_start=t_start, inputs=inputs, starts=starts, rtol=rtol, atol=atol, t_eval=t_eval,
+                  n_points=n_points, max_step=max_step, first_step=first_step, dense_output=dense_output)
+    t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points)
+    ps = [cm.param_vector(s) for s in sets]
+    us = [cm.input_tuple(inputs, p) for p in ps]
+    chosen = method
+    if method in ("auto", COMPILED) and cm.state_names and available():
+        from .compiled.translate import Signals, Unsupported
+        try:
+            same_inputs = len({Signals.layout(cm, u) for u in us}) == 1
+        except Unsupported:
+            same_inputs = True  # _choose_path below names the input
+        if same_inputs:
+            chosen, _ = _choose_path(cm, method, us[0], rtol, atol)
+    if chosen != COMPILED:
+        if method == COMPILED:
+            _choose_path(cm, method, us[0], rtol, atol)  # raises with the reason
+            raise ModelError("simulate_many(method='CVODES'): the parameter sets give inputs of different "
+                             "shapes (parametric signals); run them one by one")
+        return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
+    d = cm.discrete_start()
+    x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
+    names = []
+    if dense_output and t_out.size > 1 and cm.accounts is not None:
+        from .energy import account_integrals
+        names = account_integrals(cm.accounts)
+    n_threads = max(1, min(len(sets), threads or os.cpu_count() or 1))
+    try:
+        runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, ps, d, us[0], rtol, atol, max_step, first_step,
+                                               names, threads=n_threads)
+    except SimulationError:  # one member failed: each on its own, so the failing one is reported as simulate does
+        return [simulate(cm, t_end, params=s, method=FALLBACK if method == "auto" else method, **kwargs)
+                for s in sets]
+    out = []
+    for (X, Q), p, u, x0 in zip(runs, ps, us, x0s):
+        if not np.all(np.isfinite(X)):
+            raise SimulationError("compiled path (CVODES): non-finite states in a batch member")
+        nodes = cm.compiled_path.gauss_states(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
+            if dense_output and t_out.size > 1 else None
+        out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q,
+                          solver=f"{COMPILED} (compiled path, CasADi; batch of {len(sets)} on {n_threads} threads)"))
+    return out
+
