@@ -23,7 +23,7 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     ``threads``: threads for the compiled path (default: the number of cores)."""
     from .compiled import available
     from .result import Result
-    from .simulate import COMPILED, FALLBACK, _check_run, _choose_path, initialize, simulate
+    from .simulate import COMPILED, _check_run, _choose_path, _fallback, initialize, simulate
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
         raise ModelError("simulate_many: params must be a list of parameter dicts (one per run)")
@@ -35,20 +35,18 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points)
     ps = [cm.param_vector(s) for s in sets]
     us = [cm.input_tuple(inputs, p) for p in ps]
-    chosen = method
-    if method in ("auto", COMPILED) and cm.state_names and available():
+    batched = False
+    if method in ("auto", COMPILED) and cm.state_names and not cm.event_zeros and available():
         from .compiled.translate import Signals, Unsupported
         try:
             same_inputs = len({Signals.layout(cm, u) for u in us}) == 1
         except Unsupported:
             same_inputs = True  # _choose_path below names the input
-        if same_inputs:
-            chosen, _ = _choose_path(cm, method, us[0], rtol, atol)
-    if chosen != COMPILED:
-        if method == COMPILED:
-            _choose_path(cm, method, us[0], rtol, atol)  # raises with the reason
-            raise ModelError("simulate_many(method='CVODES'): the parameter sets give inputs of different "
-                             "shapes (parametric signals); run them one by one")
+        if not same_inputs and method == COMPILED:
+            raise ModelError("simulate_many(method='CVODES'): the parameter sets give inputs of different shapes "
+                             "(parametric signals); run them one by one")
+        batched = same_inputs and _choose_path(cm, method, us[0], rtol, atol)[0] == COMPILED
+    if not batched:  # one run per set (a model with events restarts each run at its own crossings)
         return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
     d = cm.discrete_start()
     x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
@@ -61,7 +59,7 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, ps, d, us[0], rtol, atol, max_step, first_step,
                                                names, threads=n_threads)
     except SimulationError:  # one member failed: each on its own, so the failing one is reported as simulate does
-        return [simulate(cm, t_end, params=s, method=FALLBACK if method == "auto" else method, **kwargs)
+        return [simulate(cm, t_end, params=s, method=_fallback(cm) if method == "auto" else method, **kwargs)
                 for s in sets]
     out = []
     for (X, Q), p, u, x0 in zip(runs, ps, us, x0s):

@@ -11,7 +11,8 @@ Two paths give the same answers (to the tolerances):
 
 ``method="auto"`` (the default) takes the compiled path when the model and the run allow it and scipy's ``LSODA``
 otherwise (it switches between Adams and BDF by itself and was the fastest of scipy's integrators at the same
-accuracy on every model measured: 5x BDF on the reference drive, 1.2x on the paper's actuator);
+accuracy: 5x BDF on the reference drive), ``BDF`` for a model with state events (LSODA's switching stumbles at an
+ideal diode's switch: convergence failures and events found twice);
 :attr:`Result.solver <acausal.result.Result.solver>` says which ran and why. A model with no states
 after index reduction is evaluated algebraically at the output times.
 """
@@ -28,7 +29,8 @@ METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LS
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
 IMPLICIT = {"BDF", "Radau", "LSODA"}
 COMPILED = "CVODES"  # the compiled path's integrator (method="CVODES" asks for it explicitly)
-FALLBACK = "LSODA"  # what method="auto" uses on the scipy path
+FALLBACK = "LSODA"  # what method="auto" uses on the scipy path (FALLBACK_EVENTS for a model with state events)
+FALLBACK_EVENTS = "BDF"
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
@@ -63,10 +65,14 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
         method, why = _choose_path(cm, method, u, rtol, atol)
         if method == COMPILED:
             try:
+                if cm.event_zeros:
+                    from .compiled.events import simulate_with_events
+                    return simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step,
+                                                max_events, dense_output, starts)
                 return _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step,
                                           dense_output)
             except SimulationError as exc:  # the scipy path names the time, the step and the variable
-                method, why = FALLBACK, str(exc)
+                method, why = _fallback(cm), str(exc)
     else:
         why = "asked for"
     solver_label = f"{method} (scipy: {why})"
@@ -156,12 +162,17 @@ def _choose_path(cm, method, u, rtol, atol):
     if not available():
         why = 'the compiled path needs CasADi (pip install "acausal[fast]")'
     else:
-        why = cm.compiled_path.unsupported(u, rtol, atol)
+        why = cm.compiled_path.unsupported(u, rtol, atol, explicit=method == COMPILED)
         if why is None:
             return COMPILED, ""
     if method == COMPILED:
         raise ModelError(f"simulate(method={COMPILED!r}): model {cm.flat.name} cannot take the compiled path: {why}")
-    return FALLBACK, why
+    return _fallback(cm), why
+
+
+def _fallback(cm) -> str:
+    """The scipy integrator ``method="auto"`` uses when the compiled path is not taken."""
+    return FALLBACK_EVENTS if cm.event_zeros else FALLBACK
 
 
 def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, dense_output):

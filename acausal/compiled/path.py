@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import SimulationError
 
 MAX_NUM_STEPS = 1_000_000
+VARIATION_SCALE = 1e-250  # the zero functions' variations enter CVODES's error test with no weight (see integrate)
 
 
 class CompiledPath:
@@ -29,18 +30,41 @@ class CompiledPath:
         self._integrators: dict = {}
 
     # ------------------------------------------------------------------ support
-    def unsupported(self, u, rtol, atol) -> str | None:
-        """Why this run cannot take the compiled path (None: it can)."""
+    def unsupported(self, u, rtol, atol, explicit: bool = False) -> str | None:
+        """Why this run cannot take the compiled path (None: it can). A model with state events takes it only
+        when ``explicit`` (``method="CVODES"``): see :mod:`acausal.compiled.events` for what is left."""
         cm = self.cm
         if not cm.state_names:
             return "the model has no states (it is evaluated algebraically)"
-        if cm.event_zeros:
-            return (f"the model has {len(cm.event_zeros)} state event(s) (from "
-                    f"{', '.join(sorted({e.origin for e in cm.flat.events}))}), located on the scipy path")
         if np.ndim(atol) or np.ndim(rtol):
             return "tolerances given per state"
         entry = self._rhs_entry(u)
-        return entry if isinstance(entry, str) else None
+        if isinstance(entry, str):
+            return entry
+        if cm.event_zeros:
+            if isinstance(self._zero_functions(entry), str):
+                return self._zero_functions(entry)
+            if not explicit:
+                return (f"the model has {len(cm.event_zeros)} state event(s) (from "
+                        f"{', '.join(sorted({e.origin for e in cm.flat.events}))}); the compiled path locates them "
+                        "only when asked (method='CVODES'), the scipy path by default")
+        return None
+
+    def _zero_functions(self, entry):
+        """The event zero functions and their time derivatives along the solution (CasADi), or the reason they
+        have no CasADi form."""
+        if "zeros" not in entry:
+            import casadi as ca
+
+            from .translate import Unsupported, translate
+            try:
+                z = ca.vertcat(*translate(self.cm, self.cm.event_zeros, entry["signals"], entry["t"], entry["x"],
+                                          entry["p"], entry["d"]))
+                dz = ca.mtimes(ca.jacobian(z, entry["x"]), entry["f"]) + ca.jacobian(z, entry["t"])
+                entry["zeros"] = (z, dz)
+            except Unsupported as exc:
+                entry["zeros"] = f"an event's zero function: {exc}"
+        return entry["zeros"]
 
     def _rhs_entry(self, u):
         from .translate import Signals, Unsupported
@@ -71,9 +95,10 @@ class CompiledPath:
             return str(exc)
         return dict(t=t, x=x, p=p, d=d, pds=ca.vertcat(p, d), f=ca.vertcat(*f), signals=sig, quads={})
 
-    def _quadratures(self, entry, names):
+    def _quadratures(self, entry, names, variation=False):
         """``(names integrated, their CasADi integrands)``: the names among ``names`` whose integrand
-        (:func:`acausal.energy.integrand_expr`) has a CasADi form."""
+        (:func:`acausal.energy.integrand_expr`) has a CasADi form; with ``variation``, then the total variation
+        of every event zero function (``("variation", i)``: the integral of ``|dz_i/dt|``)."""
         import casadi as ca
 
         from ..energy import integrand_expr
@@ -92,20 +117,29 @@ class CompiledPath:
             if q is not False:
                 done.append(name)
                 exprs.append(q)
+        if variation:  # scaled far below any tolerance: integrated on the states' steps, never steering them
+            _, dz = self._zero_functions(entry)
+            for i in range(dz.numel()):
+                done.append(("variation", i))
+                exprs.append(VARIATION_SCALE * ca.fabs(dz[i]))
         return tuple(done), (ca.vertcat(*exprs) if exprs else None)
 
     # ------------------------------------------------------------------ integration
-    def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=()):
+    def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=(),
+                  variation=False):
         """``(X, Q)``: states at the output times ``t_out`` (shape ``(n_states, len(t_out))``), integrated from
         ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of each of
         ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
         compiled form, integrated by CVODES under the same error control as the states (relative to each
         integral's own size: a port through which energy flows back and forth, netting little, is integrated to
-        the tolerance of that net). Raises :class:`SimulationError` when CVODES fails."""
-        return self.integrate_many(t_start, [x0], t_out, [p], d, u, rtol, atol, max_step, first_step, integrals)[0]
+        the tolerance of that net). With ``variation``, ``Q[("variation", i)]`` is the total variation of event
+        zero function ``i`` (what a crossing hidden between two output times needs). Raises
+        :class:`SimulationError` when CVODES fails."""
+        return self.integrate_many(t_start, [x0], t_out, [p], d, u, rtol, atol, max_step, first_step, integrals,
+                                   variation=variation)[0]
 
     def integrate_many(self, t_start, x0s, t_out, ps, d, u, rtol, atol, max_step=np.inf, first_step=None,
-                       integrals=(), threads: int = 1) -> list:
+                       integrals=(), threads: int = 1, variation=False) -> list:
         """:meth:`integrate` for several start states ``x0s`` and parameter vectors ``ps`` (same inputs, modes
         and output times) in one call: CasADi maps the integrator over them, on ``threads`` threads."""
         entry = self._rhs_entry(u)
@@ -113,7 +147,7 @@ class CompiledPath:
         t_end = float(t_out[-1]) if t_out.size else t_start
         span = t_end - t_start
         B, n = len(x0s), len(x0s[0])
-        names, qexpr = self._quadratures(entry, integrals) if integrals else ((), None)
+        names, qexpr = self._quadratures(entry, integrals, variation) if integrals or variation else ((), None)
         X = np.empty((B, n, t_out.size))
         Q = np.zeros((B, len(names), t_out.size))
         at_start = t_out <= t_start
@@ -139,7 +173,8 @@ class CompiledPath:
             X[:, :, ~at_start] = np.asarray(out["xf"]).reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
                 Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
-        return [(X[b], dict(zip(names, Q[b]))) for b in range(B)]
+        scale = np.array([1 / VARIATION_SCALE if isinstance(k, tuple) else 1.0 for k in names])
+        return [(X[b], dict(zip(names, Q[b] * scale[:, None]))) for b in range(B)]
 
     def gauss_states(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
         """A function returning ``(t_out, states at the 5 Gauss-Legendre nodes of every output interval)``,
@@ -159,15 +194,11 @@ class CompiledPath:
         if integ is None:
             if len(self._integrators) > 256:
                 self._integrators.clear()
-            s = ca.SX.sym("tau")
-            t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
-            dae = {"x": entry["x"], "t": s, "p": ca.vertcat(t0, span, entry["pds"]),
-                   "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span)}
+            dae = self._dae(entry, names, qexpr)
             opts = {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS}
             if qexpr is not None:
                 # the quadratures share the error test with the states; CVODES's test is a root mean square over
                 # all components, so the tolerances shrink by sqrt(states / all) to keep the states' own accuracy
-                dae["quad"] = span * ca.substitute(qexpr, entry["t"], t0 + s * span)
                 n, m = entry["x"].numel(), qexpr.numel()
                 shrink = float(np.sqrt(n / (n + m)))
                 opts.update(quad_err_con=True, abstol=atol * shrink, reltol=rtol * shrink)
@@ -179,6 +210,21 @@ class CompiledPath:
             self._integrators[key] = integ
         return integ
 
+
+    def _dae(self, entry, names, qexpr):
+        """The right-hand side (and quadratures) in scaled time as one CasADi function, built once per set of
+        quadratures: integrators for new output grids are then built from it in about a millisecond."""
+        import casadi as ca
+        key = ("dae", names)
+        if key not in entry["quads"]:
+            s = ca.SX.sym("tau")
+            t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
+            scaled = {"x": entry["x"], "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "z": ca.SX(0, 1),
+                      "u": ca.SX(0, 1), "alg": ca.SX(0, 1), "zero": ca.SX(0, 1),
+                      "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span),
+                      "quad": ca.SX(0, 1) if qexpr is None else span * ca.substitute(qexpr, entry["t"], t0 + s * span)}
+            entry["quads"][key] = ca.Function("dae", scaled, ca.dyn_in(), ca.dyn_out())
+        return entry["quads"][key]
 
     # ------------------------------------------------------------------ sensitivities
     def sensitivities(self, t_start, x0, t, p, d, u, wrt, bindings, rtol, atol):
