@@ -77,14 +77,14 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
             raise ModelError(f"sensitivities: t must be increasing and not before t_start = {t_start}")
         X, S = None, None
         if method in ("auto", "CVODES"):
-            from .simulate import COMPILED, _choose_path, _fallback
+            from .simulate import COMPILED, ROBUST, _choose_path
             method, _ = _choose_path(cm, method, u, rtol, atol)
             if method == COMPILED:
                 x0 = initialize(cm, t_start, p, d, u, starts)
                 try:
                     X, S = cm.compiled_path.sensitivities(t_start, x0, t, p, d, u, wrt, bindings, rtol, atol)
                 except SimulationError:  # the scipy path says where and why
-                    method = _fallback(cm)
+                    method = ROBUST
         if X is None:
             rhs_fn = gen.sensitivity_function(wrt, bindings, [var_symbol(der_name(s)) for s in cm.state_names])
             X, S = _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method)

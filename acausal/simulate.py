@@ -29,8 +29,8 @@ METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LS
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
 IMPLICIT = {"BDF", "Radau", "LSODA"}
 COMPILED = "CVODES"  # the compiled path's integrator (method="CVODES" asks for it explicitly)
-FALLBACK = "LSODA"  # what method="auto" uses on the scipy path (FALLBACK_EVENTS for a model with state events)
-FALLBACK_EVENTS = "BDF"
+FALLBACK = "LSODA"  # what method="auto" uses on the scipy path (ROBUST for a model with state events)
+ROBUST = "BDF"  # models with events, and a failed compiled run run again (its failure report names the step)
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
@@ -72,7 +72,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                 return _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step,
                                           dense_output)
             except SimulationError as exc:  # the scipy path names the time, the step and the variable
-                method, why = _fallback(cm), str(exc)
+                method, why = ROBUST, str(exc)
     else:
         why = "asked for"
     solver_label = f"{method} (scipy: {why})"
@@ -172,7 +172,7 @@ def _choose_path(cm, method, u, rtol, atol):
 
 def _fallback(cm) -> str:
     """The scipy integrator ``method="auto"`` uses when the compiled path is not taken."""
-    return FALLBACK_EVENTS if cm.event_zeros else FALLBACK
+    return ROBUST if cm.event_zeros else FALLBACK
 
 
 def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, dense_output):

@@ -10,9 +10,13 @@ located by Brent's method on ``z`` along the solution (each trial a short CVODES
 then the event's assignments, the cascade of mode changes and the restart follow the scipy path's own functions
 (:mod:`acausal.simulate`), so both paths switch the same way.
 
-Taken only on request (``method="CVODES"``): CVODES continuing past a crossing in the old mode can run into
-steps it cannot take (on the paper's actuator), and the run then falls back to the scipy path after the time
-spent. Windows that shrink near a crossing, or CVODES's own root finding, would make it the default.
+Each run covers a window of output times that restarts at one output after an event and doubles while nothing
+happens: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
+(capped at :data:`WINDOW_STEPS` steps) is retried on half the window. Taken only on request
+(``method="CVODES"``): on the paper's actuator it gives the scipy path's switches and energies but no speed-up
+(restarts, Brent trials as CVODES runs), on the direct drive it falls back, and an ill-conditioned zero function
+may be switched early and straight back (see the users' guide, Simulation paths), so the scipy path stays the
+default for models with events.
 """
 from __future__ import annotations
 
@@ -22,7 +26,8 @@ from ..errors import SimulationError
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
-WINDOW = 64  # output times per CVODES run: an event restarts the run, so the work after it is not thrown away
+WINDOW = 64  # output times per CVODES run at most: an event restarts the run, so the work after it is not thrown away
+WINDOW_STEPS = 4_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
 
 
 def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
@@ -41,7 +46,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     X, D = np.empty((n, N)), np.empty((len(d), N))
     Q = {name: np.zeros(N) for name in names}
     events = []
-    t, x, k_out = t_start, np.asarray(x0, dtype=float), 0
+    t, x, k_out, window = t_start, np.asarray(x0, dtype=float), 0, WINDOW
     done = {name: 0.0 for name in names}  # integral from t_start to t
     while True:
         while k_out < N and t_out[k_out] <= t:  # outputs at the restart time itself
@@ -51,8 +56,15 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             k_out += 1
         if k_out == N:
             break
-        grid = t_out[k_out:k_out + WINDOW]
-        Xs, Qs = path.integrate(t, x, grid, p, d, u, *args, integrals=names, variation=True)
+        grid = t_out[k_out:k_out + window]
+        try:
+            Xs, Qs = path.integrate(t, x, grid, p, d, u, *args, integrals=names, variation=True,
+                                    max_num_steps=WINDOW_STEPS)
+        except SimulationError:
+            if window == 1:
+                raise
+            window //= 2  # the old mode may not go on far past a crossing: look closer
+            continue
         hit = _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, _crossings, _apply_event)
         if hit is None:
             X[:, k_out:k_out + grid.size], D[:, k_out:k_out + grid.size] = Xs, d[:, None]
@@ -61,6 +73,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + Qs[name][-1] for name in names}
             k_out += grid.size
             t, x = float(grid[-1]), Xs[:, -1].copy()
+            window = min(2 * window, WINDOW)
             continue
         t_e, x_e, hits, d_new = hit
         upto = np.searchsorted(grid, t_e, side="right")  # outputs before the event keep this segment's values
@@ -78,6 +91,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
                                   f"{cm.flat.events[hits[-1][1]].origin}): the model chatters")
         d = _cascade(cm, t_e, x_e, p, d, d_new, u)
         t, x = t_e, x_e
+        window = 1  # events come in groups: start close after one
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q,
                   solver=f"{COMPILED} (compiled path, CasADi; events located between CVODES runs)")
 
@@ -100,7 +114,7 @@ def _scan(cm, path, times, states, var, p, d, u, args, crossings, apply_event, z
             continue
         za, zb = z[:, k], z[:, k + 1]
         xa = states[:, k]
-        strict = np.any((za < 0) & (zb >= 0) | (za > 0) & (zb <= 0))
+        strict = np.any(((za < 0) & (zb >= 0)) | ((za > 0) & (zb <= 0)))
         leaving = np.any((za == 0) & (zb != 0))  # from an exact zero (at rest): the direction right after a decides
         if leaving and not strict and depth < MAX_DEPTH:
             hit = _refine(cm, path, a, b, xa, p, d, u, args, crossings, apply_event, zf, depth)
@@ -108,7 +122,7 @@ def _scan(cm, path, times, states, var, p, d, u, args, crossings, apply_event, z
                 return hit
             continue
         if strict or leaving:
-            hit = _locate(cm, path, a, b, xa, za, zb, p, d, u, args, crossings, apply_event)
+            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args, crossings, apply_event)
             if hit is not None:
                 return hit
             continue
@@ -129,24 +143,46 @@ def _refine(cm, path, a, b, xa, p, d, u, args, crossings, apply_event, zf, depth
     return _scan(cm, path, sub, sub_states, sub_var, p, d, u, args, crossings, apply_event, zf, depth + 1)
 
 
-def _locate(cm, path, a, b, xa, za, zb, p, d, u, args, crossings, apply_event):
-    """The crossing(s) in ``(a, b]`` by Brent's method along the solution from ``(a, xa)``; None when they change
-    no mode."""
+def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, crossings, apply_event):
+    """The crossing(s) in ``(a, b]`` by Brent's method (the scipy path's :func:`~acausal.simulate._crossings`);
+    None when they change no mode.
+
+    Every trial state comes from a CVODES run from ``a`` to ``b`` with the trial time as an extra output: CVODES's
+    steps do not depend on the output times, so all trials read one and the same dense solution, and the root,
+    the nudge past it and the state the new mode starts from are consistent (runs ending at the trial times would
+    each carry their own tolerance-level error, enough to put a gentle crossing on the wrong side). If that
+    solution no longer shows the sign change that the window's run showed at ``b``, the crossing is at ``b``
+    within the tolerance and the window's state there, on the far side, is taken.
+    """
+    zf = cm.funcs["zeros"]
+    xb_run = path.integrate(a, xa, np.array([b]), p, d, u, *args)[0][:, 0]
+    zb_run = np.asarray([float(v) for v in zf(b, xb_run, p, d, u)])
+
     def sol(tt):
         tt = float(tt)
         if tt <= a:
             return xa
-        X, _ = path.integrate(a, xa, np.array([tt]), p, d, u, *args)
-        return X[:, 0]
+        if tt >= b:
+            return xb_run
+        return path.integrate(a, xa, np.array([tt, b]), p, d, u, *args)[0][:, 0]
 
-    hits = crossings(cm, sol, a, b, za, zb, p, d, u)
+    if np.any(_crossed(za, zb_run)):
+        hits = crossings(cm, sol, a, b, za, zb_run, p, d, u)
+        t_e = hits[0][0] if hits else b
+        x_e = sol(t_e)
+    else:
+        hits = [(b, i, bool(za[i] < 0) if za[i] != 0 else bool(zb[i] > 0)) for i in np.flatnonzero(_crossed(za, zb))]
+        t_e, x_e = b, xb
     if not hits:
         return None
-    t_e = hits[0][0]
-    x_e = sol(t_e)
     d_new = d
     for _, i_ev, rising in hits:
         d_new = apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
     if np.array_equal(d_new, d):  # a crossing that changes no mode needs no restart
         return None
     return t_e, x_e, hits, d_new
+
+
+def _crossed(za, zb):
+    """Which zero functions cross between two values: a sign change, leaving an exact zero or reaching one."""
+    return ((za < 0) & (zb >= 0)) | ((za > 0) & (zb <= 0)) | ((za == 0) & (zb != 0))

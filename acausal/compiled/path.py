@@ -126,7 +126,7 @@ class CompiledPath:
 
     # ------------------------------------------------------------------ integration
     def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=(),
-                  variation=False):
+                  variation=False, max_num_steps=MAX_NUM_STEPS):
         """``(X, Q)``: states at the output times ``t_out`` (shape ``(n_states, len(t_out))``), integrated from
         ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of each of
         ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
@@ -136,10 +136,10 @@ class CompiledPath:
         zero function ``i`` (what a crossing hidden between two output times needs). Raises
         :class:`SimulationError` when CVODES fails."""
         return self.integrate_many(t_start, [x0], t_out, [p], d, u, rtol, atol, max_step, first_step, integrals,
-                                   variation=variation)[0]
+                                   variation=variation, max_num_steps=max_num_steps)[0]
 
     def integrate_many(self, t_start, x0s, t_out, ps, d, u, rtol, atol, max_step=np.inf, first_step=None,
-                       integrals=(), threads: int = 1, variation=False) -> list:
+                       integrals=(), threads: int = 1, variation=False, max_num_steps=MAX_NUM_STEPS) -> list:
         """:meth:`integrate` for several start states ``x0s`` and parameter vectors ``ps`` (same inputs, modes
         and output times) in one call: CasADi maps the integrator over them, on ``threads`` threads."""
         entry = self._rhs_entry(u)
@@ -157,7 +157,7 @@ class CompiledPath:
             grid, back = np.unique(later, return_inverse=True)  # CVODES takes strictly increasing output times
             tau = (grid - t_start) / span
             integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
-                                     None if first_step is None else first_step / span)
+                                     None if first_step is None else first_step / span, int(max_num_steps))
             P = np.stack([np.concatenate([[t_start, span], p, d]) for p in ps], axis=1)
             X0 = np.asarray(x0s, dtype=float).T
             if B > 1:
@@ -187,15 +187,15 @@ class CompiledPath:
             return t_out, Xn.reshape((len(x0),) + tn.shape)
         return states
 
-    def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step):
+    def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step, max_num_steps=MAX_NUM_STEPS):
         import casadi as ca
-        key = (id(entry), names, tau.tobytes(), rtol, atol, max_step, first_step)
+        key = (id(entry), names, tau.tobytes(), rtol, atol, max_step, first_step, max_num_steps)
         integ = self._integrators.get(key)
         if integ is None:
             if len(self._integrators) > 256:
                 self._integrators.clear()
             dae = self._dae(entry, names, qexpr)
-            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS}
+            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": max_num_steps, "disable_internal_warnings": True}
             if qexpr is not None:
                 # the quadratures share the error test with the states; CVODES's test is a root mean square over
                 # all components, so the tolerances shrink by sqrt(states / all) to keep the states' own accuracy
