@@ -138,11 +138,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                     D[:, k_out:k_end] = d[:, None]
                     k_out = k_end
             if hit:
-                for _, i_ev, rising in hit:
-                    events.append((t_e, i_ev, "rising" if rising else "falling"))
-                if len(events) > max_events:
-                    raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
-                                          f"{cm.flat.events[hit[-1][1]].origin}): the model chatters")
+                record_events(cm, events, hit, t_e, max_events)
                 d = _cascade(cm, t_e, x_e, p, d, d_new, u)
                 t, x = t_e, x_e
                 restarted = True
@@ -332,6 +328,16 @@ def _crossings(cm, sol, t0, t1, z0, z1, p, d, u):
     together = [f for f in found if f[0] <= t_first + tol]
     t_e = max(f[0] for f in together)
     return [(t_e, i, rising) for _, i, rising in together]
+
+
+def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
+    """Append the crossings ``hits`` at ``t_e`` to ``events`` as ``(time, event index, "rising"|"falling")``; a
+    SimulationError naming the last event's origin when there are more than ``max_events``."""
+    for _, i_ev, rising in hits:
+        events.append((t_e, i_ev, "rising" if rising else "falling"))
+    if len(events) > max_events:
+        raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
+                              f"{cm.flat.events[hits[-1][1]].origin}): the model chatters")
 
 
 def _apply_event(cm, i, rising, t, x, p, d, u):

@@ -35,7 +35,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     """The run of a model with state events on the compiled path; returns the Result."""
     from ..energy import account_integrals
     from ..result import Result
-    from ..simulate import COMPILED, _apply_event, _cascade, _crossings, _settle_modes, initialize
+    from ..simulate import COMPILED, _apply_event, _cascade, _crossings, _settle_modes, initialize, record_events
 
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
@@ -84,11 +84,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             _, q_e = path.integrate(t, x, np.array([t_e]), p, d, u, *args, integrals=names)
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
-        for _, i_ev, rising in hits:
-            events.append((t_e, i_ev, "rising" if rising else "falling"))
-        if len(events) > max_events:
-            raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
-                                  f"{cm.flat.events[hits[-1][1]].origin}): the model chatters")
+        record_events(cm, events, hits, t_e, max_events)
         d = _cascade(cm, t_e, x_e, p, d, d_new, u)
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one

@@ -7,24 +7,15 @@ measured in the same run:
 
 Ratios go to ``extra_info`` and the README; the assertions are loose regression guards on ratios only.
 """
-import time
 
 import numpy as np
 import pytest
 
 from acausal import compile_model
 from acausal.models.ankle.actuator import AnkleActuator
+from .timing import best_of
 
 pytest.importorskip("casadi", reason="the compiled path needs CasADi")
-
-
-def _best(fn, rounds):
-    best = np.inf
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +39,7 @@ def test_closed_loop_ankle_compiled_vs_scipy(benchmark, eq4):
     assert fast.solver.startswith("CVODES")
     assert np.max(np.abs(fast["motor.i"] - ref["motor.i"])) < 1e-3 * np.max(np.abs(ref["motor.i"]))
     assert abs(fast.energy_balance().residual) < 1e-6
-    t_ref = _best(lambda: eq4.simulate(6.0, method="BDF", **run), 2)
+    t_ref = best_of(lambda: eq4.simulate(6.0, method="BDF", **run), 2)
     benchmark.pedantic(lambda: eq4.simulate(6.0, **run), rounds=5, iterations=1)
     ratio = _report(benchmark, "closed-loop Eq. 4 ankle, 6 s", t_ref)
     assert ratio is None or ratio < 0.5  # regression guard (measured about 0.1)
@@ -63,7 +54,7 @@ def test_closed_loop_ankle_sensitivities_compiled_vs_scipy(benchmark, eq4):
     for n in s1:
         scale = np.max(np.abs(s2[n]), axis=1, keepdims=True) + 1e-300
         assert np.all(np.abs(s1[n] - s2[n]) <= 1e-4 * scale), n
-    t_ref = _best(lambda: eq4.sensitivities(t, wrt, method="BDF", **args), 1)
+    t_ref = best_of(lambda: eq4.sensitivities(t, wrt, method="BDF", **args), 1)
     benchmark.pedantic(lambda: eq4.sensitivities(t, wrt, **args), rounds=3, iterations=1)
     ratio = _report(benchmark, "sensitivities to 3 parameters, 2 s", t_ref)
     assert ratio is None or ratio < 0.5

@@ -9,7 +9,6 @@
 Ratios are stored in ``extra_info`` (see ``--benchmark-json``) and printed. The only assertions are loose
 regression guards on *ratios* (3x the goal), never on absolute times.
 """
-import time
 
 import numpy as np
 import pytest
@@ -18,18 +17,10 @@ from acausal import compile_model
 
 from ..drive_models import MotorGearLoad
 from . import handwritten
+from .timing import best_of, min_time
 
 SIM = dict(rtol=1e-6, atol=1e-9, n_points=101, dense_output=False)  # the default path: compiled when CasADi is there
 SCIPY = dict(SIM, method="LSODA")
-
-
-def _best_of(fn, rounds):
-    best = np.inf
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 @pytest.fixture(scope="module")
@@ -37,25 +28,20 @@ def sim():
     return compile_model(MotorGearLoad())
 
 
-def _min_time(benchmark):
-    """Fastest round, or None when benchmarks are disabled (--benchmark-disable runs each once)."""
-    return None if benchmark.disabled or benchmark.stats is None else benchmark.stats.stats.min
-
-
 def test_compile_time(benchmark):
     cm = benchmark.pedantic(lambda: compile_model(MotorGearLoad()), rounds=5, iterations=1)
     benchmark.extra_info["goal_s"] = 0.5
     assert cm.state_names
-    t = _min_time(benchmark)
+    t = min_time(benchmark)
     assert t is None or t < 3 * 0.5  # regression guard only: goal is 0.5 s
 
 
 def _ratio(benchmark, ours, reference, rounds, goal=1.5):
     ours()
     reference()
-    ref = _best_of(reference, rounds)
+    ref = best_of(reference, rounds)
     benchmark.pedantic(ours, rounds=rounds, iterations=1)
-    t = _min_time(benchmark)
+    t = min_time(benchmark)
     if t is None:
         return 1.0
     ratio = t / ref

@@ -1,7 +1,6 @@
 """Benchmarks of issue 6: the Fig. 16 design map (>= 300 designs, goal < 5 s on 2 cores, and <= 2x a
 hand-vectorised numpy evaluation of the same replay equations in the same run) and calibration over 36
 recordings (goal < 60 s). Assertions on time are loose regression guards (3x the goal); correctness is asserted."""
-import time
 
 import numpy as np
 import pytest
@@ -10,19 +9,7 @@ from acausal.models.bench import calibration, design
 from acausal.models.bench.virtual import default_conditions, run_bench
 
 from . import handwritten_design
-
-
-def _best_of(fn, rounds):
-    best = np.inf
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
-def _min_time(benchmark):
-    return None if benchmark.disabled or benchmark.stats is None else benchmark.stats.stats.min
+from .timing import best_of, min_time
 
 
 def test_fig16_map(benchmark):
@@ -31,7 +18,7 @@ def test_fig16_map(benchmark):
     assert n >= 300
     assert np.isfinite(dmap.values["efficiency"]).sum() >= 300
     benchmark.extra_info.update(designs=n, goal_s=5.0)
-    t = _min_time(benchmark)
+    t = min_time(benchmark)
     assert t is None or t < 3 * 5.0
 
 
@@ -44,9 +31,9 @@ def test_design_map_vs_numpy(benchmark):
         return design.evaluate_designs(ks, Ps, 1.2, hw.PRESET, hw.OVERRIDES)["efficiency"]
 
     np.testing.assert_allclose(ours(), hw.evaluate_designs(ks, Ps, 1.2), rtol=1e-9)  # the same equations
-    t_ref = _best_of(lambda: hw.evaluate_designs(ks, Ps, 1.2), 3)
+    t_ref = best_of(lambda: hw.evaluate_designs(ks, Ps, 1.2), 3)
     benchmark.pedantic(ours, rounds=3, iterations=1)
-    t = _min_time(benchmark)
+    t = min_time(benchmark)
     if t is None:
         return
     ratio = t / t_ref
@@ -67,5 +54,5 @@ def test_calibration_36_recordings(benchmark, bench36):
     assert len(exps) == 36
     assert abs(cal.values["motor.R"] / 0.7 - 1) < 0.05
     benchmark.extra_info["goal_s"] = 60.0
-    t = _min_time(benchmark)
+    t = min_time(benchmark)
     assert t is None or t < 3 * 60.0
