@@ -90,15 +90,25 @@ class Split:
         return self.knot_spacing or stride_time / KNOTS_PER_STRIDE
 
 
-def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = None) -> Experiment:
-    """A recording as a replay :class:`Experiment` of the model with ``effects``."""
+def replay_inputs(rec, split: Split = Split()) -> dict:
+    """The replay's prescribed motions: the recording's ankle and moment-arm angles, smoothed (quintic
+    least-squares splines, knots ``split.knots(stride time)`` apart). Smoothing a long recording is the costly part
+    of building an experiment: a diagnosis builds them once per recording and shares them between candidates."""
+    h = split.knots(rec.meta["stride_time_s"])
+    return {"ankle.phi_ref": SmoothingSpline(rec.t, rec["ankle_angle_rad"], h, name=f"{rec.name}: ankle angle"),
+            "arm_target.signal": SmoothingSpline(rec.t, rec["moment_arm_angle_rad"], h,
+                                                 name=f"{rec.name}: moment-arm angle")}
+
+
+def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = None,
+               inputs: dict | None = None) -> Experiment:
+    """A recording as a replay :class:`Experiment` of the model with ``effects`` (``inputs``: the recording's
+    :func:`replay_inputs`, made here when not given)."""
     sim = replay_model(effects)
     t = rec.t
     T = rec.meta["stride_time_s"]
     h = split.knots(T)
-    theta = SmoothingSpline(t, rec["ankle_angle_rad"], h, name=f"{rec.name}: ankle angle")
-    phi = SmoothingSpline(t, rec["moment_arm_angle_rad"], h, name=f"{rec.name}: moment-arm angle")
-    inputs = {"ankle.phi_ref": theta, "arm_target.signal": phi}
+    inputs = replay_inputs(rec, split) if inputs is None else inputs
     base = {**model_params(rec.meta), **(fixed or {})}
     stride = np.floor((t - t[0]) / T + 1e-9).astype(int)
     m = edge_margin(h)

@@ -19,7 +19,7 @@ import numpy as np
 from acausal.identify import load_recordings
 from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
-from .calibration import Split, experiment, free_parameter, replay_model
+from .calibration import Split, experiment, free_parameter, replay_inputs, replay_model
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS
 
@@ -47,11 +47,14 @@ class AnkleProblem(Problem):
         self.baseline = list(baseline)
         self.exact = exact
         self._cache: dict = {}
+        self._inputs = None  # the recordings' smoothed motions, made on first use
 
     def experiments(self, effects: tuple) -> list:
         key = tuple(sorted(effects))
         if key not in self._cache:
-            exps = [experiment(r, key, self.split) for r in self.recordings]
+            if self._inputs is None:  # smoothed once per recording, shared by every candidate
+                self._inputs = [replay_inputs(r, self.split) for r in self.recordings]
+            exps = [experiment(r, key, self.split, inputs=u) for r, u in zip(self.recordings, self._inputs)]
             if self.exact:
                 cm = replay_model(key)
                 for e in exps:
