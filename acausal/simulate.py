@@ -199,6 +199,9 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
         raise ModelError(f"unknown integration method {method!r}; choose 'auto', {COMPILED!r} or one of "
                          f"{sorted(METHODS)}")
     t_start, t_end = _number(t_start, "t_start"), _number(t_end, "t_end")
+    for what, value in (("t_start", t_start), ("t_end", t_end)):
+        if not np.isfinite(value):  # an infinite span never ends (and has no output grid)
+            raise ModelError(f"simulate: {what} must be a finite time, got {value}")
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
     check_tolerances(rtol, atol, "simulate")

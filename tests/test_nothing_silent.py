@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pytest
 
-from acausal import DataError
+from acausal import DataError, ModelError
 from acausal.cli import main
 from acausal.fileio import atomic_write_text
 from acausal.identify import MANIFEST, load_recordings
@@ -234,3 +234,16 @@ def test_compare_csv_is_byte_identical_across_hash_seeds(tmp_path):
         assert proc.returncode == 0, proc.stderr
         out[seed] = (folder / "compare.csv").read_bytes()
     assert out["1"] == out["2"]
+
+
+@pytest.mark.parametrize("t_end", [float("inf"), float("nan"), -float("inf")])
+def test_an_infinite_or_undefined_end_time_is_refused(t_end):
+    """An infinite or NaN time span is a ModelError naming the setting (it has no output grid and never ends)."""
+    from acausal import compile_model
+
+    from .drive_models import MotorGearLoad
+    cm = compile_model(MotorGearLoad())
+    with pytest.raises(ModelError, match="t_end must be a finite time"):
+        cm.simulate(t_end)
+    with pytest.raises(ModelError, match="t_start must be a finite time"):
+        cm.simulate(1.0, t_start=-float("inf"))
