@@ -141,7 +141,7 @@ class CompiledModel:
         if not self.state_names:
             return "algebraic (no states: evaluated at the output times)"
         method, why = _choose_path(self, "auto", u, 1e-6, 1e-9)
-        return "compiled (CasADi CVODES)" if not why else f"scipy {method}: {why}"
+        return f"compiled (CasADi {self.compiled_path.integrator_name(u)})" if not why else f"scipy {method}: {why}"
 
     # ------------------------------------------------------------------ names and values
     @property

@@ -189,7 +189,7 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
     if not np.all(np.isfinite(X)):
         raise SimulationError("compiled path (CVODES): non-finite states")
     return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals,
-                  solver=f"{COMPILED} (compiled path, CasADi)")
+                  solver=f"{path.integrator_name(u)} (compiled path, CasADi)")
 
 
 def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points):

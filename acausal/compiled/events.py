@@ -35,7 +35,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     """The run of a model with state events on the compiled path; returns the Result."""
     from ..energy import account_integrals
     from ..result import Result
-    from ..simulate import COMPILED, _apply_event, _cascade, _crossings, _settle_modes, initialize, record_events
+    from ..simulate import _apply_event, _cascade, _crossings, _settle_modes, initialize, record_events
 
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
@@ -89,7 +89,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q,
-                  solver=f"{COMPILED} (compiled path, CasADi; events located between CVODES runs)")
+                  solver=f"{path.integrator_name(u)} (compiled path, CasADi; events located between its runs)")
 
 
 def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, crossings, apply_event):

@@ -50,6 +50,11 @@ class CompiledPath:
                         "only when asked (method='CVODES'), the scipy path by default")
         return None
 
+    def integrator_name(self, u) -> str:
+        """``"CVODES"``, or ``"IDAS"`` for a model whose Newton blocks are integrated as algebraic variables."""
+        entry = self._rhs_entry(u)
+        return "IDAS" if not isinstance(entry, str) and entry["z"].numel() else "CVODES"
+
     def _zero_functions(self, entry):
         """The event zero functions and their time derivatives along the solution (CasADi), or the reason they
         have no CasADi form."""
@@ -59,9 +64,8 @@ class CompiledPath:
             from .translate import Unsupported, translate
             try:
                 z = ca.vertcat(*translate(self.cm, self.cm.event_zeros, entry["signals"], entry["t"], entry["x"],
-                                          entry["p"], entry["d"]))
-                dz = ca.mtimes(ca.jacobian(z, entry["x"]), entry["f"]) + ca.jacobian(z, entry["t"])
-                entry["zeros"] = (z, dz)
+                                          entry["p"], entry["d"], given=entry["given"]))
+                entry["zeros"] = (z, _rate(z, entry))
             except Unsupported as exc:
                 entry["zeros"] = f"an event's zero function: {exc}"
         return entry["zeros"]
@@ -90,10 +94,18 @@ class CompiledPath:
             x = ca.SX.sym("x", len(cm.state_names))
             p = ca.SX.sym("p", len(cm.param_names))
             d = ca.SX.sym("d", len(cm.discrete_names))
-            f = translate(cm, state_derivatives(cm), sig, t, x, p, d)
+            algebraic = []
+            f = translate(cm, state_derivatives(cm), sig, t, x, p, d, algebraic=algebraic)
         except Unsupported as exc:
             return str(exc)
-        return dict(t=t, x=x, p=p, d=d, pds=ca.vertcat(p, d), f=ca.vertcat(*f), signals=sig, quads={})
+        from ..symbols import var_symbol
+        names = [n for names, _, _ in algebraic for n in names]
+        zs = [z for _, block, _ in algebraic for z in block]
+        return dict(t=t, x=x, p=p, d=d, pds=ca.vertcat(p, d), f=ca.vertcat(*f), signals=sig, quads={},
+                    z=ca.vertcat(*zs) if zs else ca.SX(0, 1),
+                    alg=ca.vertcat(*[r for _, _, res in algebraic for r in res]) if zs else ca.SX(0, 1),
+                    z_index=[cm.unknown_names.index(n) for n in names],
+                    given={var_symbol(n): z for n, z in zip(names, zs)})
 
     def _quadratures(self, entry, names, variation=False):
         """``(names integrated, their CasADi integrands)``: the names among ``names`` whose integrand
@@ -110,7 +122,7 @@ class CompiledPath:
                 expr = integrand_expr(self.cm, name)
                 try:
                     q = translate(self.cm, [expr], entry["signals"], entry["t"], entry["x"], entry["p"],
-                                  entry["d"])[0] if expr is not None else False
+                                  entry["d"], given=entry["given"])[0] if expr is not None else False
                 except Unsupported:
                     q = False
                 entry["quads"][name] = q
@@ -160,13 +172,17 @@ class CompiledPath:
                                      None if first_step is None else first_step / span, int(max_num_steps))
             P = np.stack([np.concatenate([[t_start, span], p, d]) for p in ps], axis=1)
             X0 = np.asarray(x0s, dtype=float).T
+            call = {"x0": X0, "p": P}
+            if entry["z_index"]:  # the algebraic variables' start: the Python Newton iteration's values there
+                call["z0"] = np.stack([self._algebraic_start(entry, t_start, x0, p, d, u)
+                                       for x0, p in zip(x0s, ps)], axis=1)
             if B > 1:
                 key = ("map", id(integ), B, threads)
                 if key not in self._integrators:
                     self._integrators[key] = integ.map(B, "thread", threads) if threads > 1 else integ.map(B)
                 integ = self._integrators[key]
             try:
-                out = integ(x0=X0, p=P)
+                out = integ(**call)
             except RuntimeError as exc:
                 raise SimulationError(f"compiled path (CVODES): integration from t = {t_start:g} s to {t_end:g} s "
                                       f"failed: {_first_line(exc)}") from None
@@ -175,6 +191,10 @@ class CompiledPath:
                 Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
         scale = np.array([1 / VARIATION_SCALE if isinstance(k, tuple) else 1.0 for k in names])
         return [(X[b], dict(zip(names, Q[b] * scale[:, None]))) for b in range(B)]
+
+    def _algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
+        vals = self.cm.funcs["all_values"](t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u)
+        return np.array([float(vals[i]) for i in entry["z_index"]])
 
     def gauss_states(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
         """A function returning ``(t_out, states at the 5 Gauss-Legendre nodes of every output interval)``,
@@ -206,7 +226,10 @@ class CompiledPath:
                 opts["max_step_size"] = max_step
             if first_step is not None:
                 opts["step0"] = first_step
-            integ = ca.integrator("acausal", "cvodes", dae, 0.0, tau.tolist(), opts)
+            plugin = "idas" if entry["z"].numel() else "cvodes"  # Newton blocks: a DAE, their variables algebraic
+            if plugin == "idas":  # the error test on the states only: the algebraic variables follow from them
+                opts["suppress_algebraic"] = True
+            integ = ca.integrator("acausal", plugin, dae, 0.0, tau.tolist(), opts)
             self._integrators[key] = integ
         return integ
 
@@ -219,9 +242,9 @@ class CompiledPath:
         if key not in entry["quads"]:
             s = ca.SX.sym("tau")
             t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
-            scaled = {"x": entry["x"], "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "z": ca.SX(0, 1),
-                      "u": ca.SX(0, 1), "alg": ca.SX(0, 1), "zero": ca.SX(0, 1),
-                      "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span),
+            scaled = {"x": entry["x"], "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "z": entry["z"],
+                      "u": ca.SX(0, 1), "alg": ca.substitute(entry["alg"], entry["t"], t0 + s * span),
+                      "zero": ca.SX(0, 1), "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span),
                       "quad": ca.SX(0, 1) if qexpr is None else span * ca.substitute(qexpr, entry["t"], t0 + s * span)}
             entry["quads"][key] = ca.Function("dae", scaled, ca.dyn_in(), ca.dyn_out())
         return entry["quads"][key]
@@ -233,6 +256,8 @@ class CompiledPath:
         CasADi's exact derivatives, ``B`` the derivatives of the parameters with respect to ``wrt`` through
         their ``bindings`` (:func:`acausal.codegen.binding_totals`)."""
         entry = self._rhs_entry(u)
+        if entry["z_index"]:
+            raise SimulationError("compiled path: sensitivities of a model with a Newton block run on the scipy path")
         t = np.asarray(t, dtype=float)
         n, q, N = len(x0), len(wrt), t.size
         X = np.repeat(np.asarray(x0, dtype=float)[:, None], N, axis=1)
@@ -289,3 +314,15 @@ def _first_line(exc) -> str:
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
     useful = [ln for ln in lines if "CV_" in ln or "failed" in ln.lower()]
     return (useful or lines or ["unknown error"])[-1]
+
+
+def _rate(expr, entry):
+    """The time derivative of ``expr`` along the solution: through the states, time, and the algebraic variables
+    (whose rate follows from their residuals, ``dz/dt = -(dr/dz)^-1 (dr/dx f + dr/dt)``)."""
+    import casadi as ca
+    x, t, f, z, r = entry["x"], entry["t"], entry["f"], entry["z"], entry["alg"]
+    rate = ca.mtimes(ca.jacobian(expr, x), f) + ca.jacobian(expr, t)
+    if z.numel():
+        dz = -ca.solve(ca.jacobian(r, z), ca.mtimes(ca.jacobian(r, x), f) + ca.jacobian(r, t))
+        rate = rate + ca.mtimes(ca.jacobian(expr, z), dz)
+    return rate

@@ -214,9 +214,14 @@ def _form(name, sig):
 
 
 # ---------------------------------------------------------------------------------------------- steps
-def translate(cm, exprs, signals: Signals, t, x, p, d):
+def translate(cm, exprs, signals: Signals, t, x, p, d, given: dict | None = None, algebraic: list | None = None):
     """CasADi values of the sympy expressions ``exprs`` (in the variables, parameters, modes and time of ``cm``) at
-    SX time ``t``, states ``x``, parameters ``p`` and modes ``d``: the steps they need are translated in order."""
+    SX time ``t``, states ``x``, parameters ``p`` and modes ``d``: the steps they need are translated in order.
+
+    A Newton block has no closed form: with ``algebraic`` (a list), its tear variables become new SX symbols and
+    ``(names, symbols, residuals)`` is appended, so that the caller integrates them as the algebraic variables of
+    a DAE (IDAS); without it the block raises :class:`Unsupported`. ``given`` maps variable symbols to values
+    already known (those algebraic variables, when translating more expressions of the same model)."""
     gen = cm.generator
     env = {time: t}
     for i, n in enumerate(cm.state_names):
@@ -225,6 +230,7 @@ def translate(cm, exprs, signals: Signals, t, x, p, d):
         env[par_symbol(n)] = p[i]
     for i, n in enumerate(cm.discrete_names):
         env[par_symbol(n)] = d[i]
+    env.update(given or {})
     conv = Converter(env, signals)
     exprs = [sp.sympify(e) for e in exprs]
     for k in gen._slice({s for e in exprs for s in e.free_symbols}):
@@ -236,6 +242,13 @@ def translate(cm, exprs, signals: Signals, t, x, p, d):
             y = ca.solve(A, ca.vertcat(*[conv(e) for e in st.b]))
             for i, v in enumerate(st.vars):
                 env[var_symbol(v)] = y[i]
+        elif all(var_symbol(v) in env for v in st.vars):
+            continue
+        elif algebraic is not None:
+            zs = [ca.SX.sym(f"z{len(algebraic)}_{i}") for i in range(len(st.vars))]
+            for v, z in zip(st.vars, zs):
+                env[var_symbol(v)] = z
+            algebraic.append((list(st.vars), zs, [conv(r) for r in st.residuals]))
         else:
             raise Unsupported(f"the nonlinear block of {', '.join(map(repr, st.vars))} is solved by Newton's method "
                               "in Python")
