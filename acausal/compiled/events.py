@@ -13,10 +13,9 @@ then the event's assignments, the cascade of mode changes and the restart follow
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
 (capped at :data:`WINDOW_STEPS` steps) is retried on half the window. Taken only on request
-(``method="CVODES"``): on the paper's actuator it gives the scipy path's switches and energies but no speed-up
-(restarts, Brent trials as CVODES runs), on the direct drive it falls back, and an ill-conditioned zero function
-may be switched early and straight back (see the users' guide, Simulation paths), so the scipy path stays the
-default for models with events.
+(``method="CVODES"``): on the paper's actuator it gives the scipy path's switches and results, but the whole
+``acausal paper`` takes longer (restarts, Brent trials as integrator runs), so the scipy path stays the default for
+models with events (see the users' guide, Simulation paths).
 """
 from __future__ import annotations
 
@@ -162,21 +161,27 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, crossings, apply_even
             return xb_run
         return path.integrate(a, xa, np.array([tt, b]), p, d, u, *args)[0][:, 0]
 
-    if np.any(_crossed(za, zb_run)):
-        hits = crossings(cm, sol, a, b, za, zb_run, p, d, u)
-        t_e = hits[0][0] if hits else b
-        x_e = sol(t_e)
-    else:
-        hits = [(b, i, bool(za[i] < 0) if za[i] != 0 else bool(zb[i] > 0)) for i in np.flatnonzero(_crossed(za, zb))]
-        t_e, x_e = b, xb
-    if not hits:
-        return None
-    d_new = d
-    for _, i_ev, rising in hits:
-        d_new = apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
-    if np.array_equal(d_new, d):  # a crossing that changes no mode needs no restart
-        return None
-    return t_e, x_e, hits, d_new
+    handled: set = set()  # crossings that changed no mode: a later one in the same interval may
+    while True:
+        za_m, zr_m, zb_m = za.copy(), zb_run.copy(), np.asarray(zb, dtype=float).copy()
+        for i in handled:  # the same nonzero value at both ends: no crossing
+            za_m[i] = zr_m[i] = zb_m[i] = 1.0
+        if np.any(_crossed(za_m, zr_m)):
+            hits = crossings(cm, sol, a, b, za_m, zr_m, p, d, u)
+            t_e = hits[0][0] if hits else b
+            x_e = sol(t_e)
+        else:
+            hits = [(b, i, bool(za_m[i] < 0) if za_m[i] != 0 else bool(zb_m[i] > 0))
+                    for i in np.flatnonzero(_crossed(za_m, zb_m))]
+            t_e, x_e = b, xb
+        if not hits:
+            return None
+        d_new = d
+        for _, i_ev, rising in hits:
+            d_new = apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
+        if not np.array_equal(d_new, d):
+            return t_e, x_e, hits, d_new
+        handled |= {i for _, i, _ in hits}  # a crossing that changes no mode needs no restart
 
 
 def _crossed(za, zb):
