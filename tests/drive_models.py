@@ -6,7 +6,7 @@ import sympy as sp
 from acausal import Model, Start, compile_model, connect, time
 from acausal.library.blocks import InverseBlockConstraint
 from acausal.library.electrical import EMF, ConstantVoltage, Ground, Inductor, Resistor, SignalVoltage
-from acausal.library.rotational import AngleSensor, Damper, Fixed, IdealGear, Inertia, Position
+from acausal.library.rotational import AngleSensor, Damper, Fixed, IdealGear, Inertia, LossyGear, Position
 
 V, R, L, K = 24.0, 0.7, 6.53e-5, 0.0273
 J_ROTOR, D_ROTOR, N, J_LOAD, D_LOAD = 5.68e-6, 1.3e-4, 860.0, 0.05, 2.0
@@ -15,6 +15,9 @@ J_ROTOR, D_ROTOR, N, J_LOAD, D_LOAD = 5.68e-6, 1.3e-4, 860.0, 0.05, 2.0
 class MotorGearLoad(Model):
     """24 V source, R, L, EMF, rotor inertia + damper, ideal gear 860, load inertia + damper."""
 
+    def make_gear(self):
+        return IdealGear(ratio=N)
+
     def build(self):
         self.src = ConstantVoltage(V=V)
         self.R = Resistor(R=R)
@@ -22,7 +25,7 @@ class MotorGearLoad(Model):
         self.emf = EMF(k=K)
         self.rotor = Inertia(J=J_ROTOR)
         self.damper = Damper(d=D_ROTOR)
-        self.gear = IdealGear(ratio=N)
+        self.gear = self.make_gear()
         self.load = Inertia(J=J_LOAD)
         self.load_damper = Damper(d=D_LOAD)
         self.fixed = Fixed()
@@ -36,6 +39,14 @@ class MotorGearLoad(Model):
         connect(self.damper.flange_a, self.fixed.flange, self.load_damper.flange_a)
         connect(self.gear.flange_b, self.load.flange_a)
         connect(self.load.flange_b, self.load_damper.flange_b)
+
+
+class MotorLossyGearLoad(MotorGearLoad):
+    """The same drive with a lossy gear (smooth law, efficiency 0.8): its power-flow-dependent efficiency between
+    two inertias makes a nonlinear algebraic loop (a Newton block)."""
+
+    def make_gear(self):
+        return LossyGear(ratio=N, eta=0.8, law="smooth")
 
 
 class MotorGearLoadInverse(MotorGearLoad):

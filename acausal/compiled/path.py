@@ -215,7 +215,8 @@ class CompiledPath:
             if len(self._integrators) > 256:
                 self._integrators.clear()
             dae = self._dae(entry, names, qexpr)
-            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": max_num_steps, "disable_internal_warnings": True}
+            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": max_num_steps, "disable_internal_warnings": True,
+                    "show_eval_warnings": False}  # a failed run is reported (and run again on the scipy path)
             if qexpr is not None:
                 # the quadratures share the error test with the states; CVODES's test is a root mean square over
                 # all components, so the tolerances shrink by sqrt(states / all) to keep the states' own accuracy
@@ -307,7 +308,8 @@ class CompiledPath:
         ode = span * ca.substitute(ca.vertcat(f, ca.vec(dS)), entry["t"], t0 + s * span)
         dae = {"x": ca.vertcat(x, Ssym), "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "ode": ode}
         return ca.integrator("acausal_sens", "cvodes", dae, 0.0, tau.tolist(),
-                             {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS})
+                             {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS,
+                              "disable_internal_warnings": True, "show_eval_warnings": False})
 
 
 def _first_line(exc) -> str:

@@ -58,3 +58,18 @@ def test_closed_loop_ankle_sensitivities_compiled_vs_scipy(benchmark, eq4):
     benchmark.pedantic(lambda: eq4.sensitivities(t, wrt, **args), rounds=3, iterations=1)
     ratio = _report(benchmark, "sensitivities to 3 parameters, 2 s", t_ref)
     assert ratio is None or ratio < 0.5
+
+
+def test_lossy_gear_drive_on_idas_vs_scipy(benchmark):
+    """The reference drive with a lossy gear (a Newton block on the scipy path; algebraic variables of IDAS on the
+    compiled path), 0.3 s."""
+    from ..drive_models import MotorLossyGearLoad
+    cm = compile_model(MotorLossyGearLoad())
+    run = dict(n_points=301, rtol=1e-6, atol=1e-9)
+    fast, ref = cm.simulate(0.3, **run), cm.simulate(0.3, method="BDF", **run)
+    assert fast.solver.startswith("IDAS")
+    assert np.max(np.abs(fast["load.w"] - ref["load.w"])) < 1e-4 * np.max(np.abs(ref["load.w"]))
+    t_ref = best_of(lambda: cm.simulate(0.3, method="BDF", **run), 3)
+    benchmark.pedantic(lambda: cm.simulate(0.3, **run), rounds=5, iterations=1)
+    ratio = _report(benchmark, "drive with a lossy gear, 0.3 s", t_ref)
+    assert ratio is None or ratio < 0.5
