@@ -1,13 +1,13 @@
 """State events on the compiled path: CVODES integrates between events, the crossings are found and handled as
 on the scipy path.
 
-Each segment (constant discrete modes) is integrated by CVODES over the remaining output times in one call,
-together with the *total variation* of every event zero function (the integral of ``|dz/dt|``). A crossing shows
-as a sign change of ``z`` between two output times; one that enters and leaves between them (a diode conducting
-for a moment) cannot hide: the interval's variation is then at least ``|z(a)| + |z(b)|``, and such an interval is
+Each segment (constant discrete modes) is integrated over a window of output times in one call, together with
+the *total variation* of every event zero function (the integral of ``|dz/dt|``). A crossing shows as a sign
+change of ``z`` between two output times; one that enters and leaves between them (a diode conducting for a
+moment) cannot hide: the interval's variation is then at least ``|z(a)| + |z(b)|``, and such an interval is
 integrated again on a finer grid, recursively, until the crossing is seen or shown not to exist. A crossing is
-located by Brent's method on ``z`` along the solution (each trial a short CVODES run from the interval's start),
-then the event's assignments, the cascade of mode changes and the restart follow the scipy path's own functions
+located by Brent's method on ``z`` along one integrator solution of its interval (see :func:`_locate`), then the
+event's assignments, the cascade of mode changes and the restart follow the scipy path's own functions
 (:mod:`acausal.simulate`), so both paths switch the same way.
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
