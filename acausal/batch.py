@@ -23,7 +23,7 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     ``threads``: threads for the compiled path (default: the number of cores)."""
     from .compiled import available
     from .result import Result
-    from .simulate import COMPILED, _check_run, _choose_path, _fallback, initialize, simulate
+    from .simulate import COMPILED, _check_run, _choose_path, initialize, simulate
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
         raise ModelError("simulate_many: params must be a list of parameter dicts (one per run)")
@@ -59,12 +59,11 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, ps, d, us[0], rtol, atol, max_step, first_step,
                                                names, threads=n_threads)
     except SimulationError:  # one member failed: each on its own, so the failing one is reported as simulate does
-        return [simulate(cm, t_end, params=s, method=_fallback(cm) if method == "auto" else method, **kwargs)
-                for s in sets]
+        return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
     out = []
     for (X, Q), p, u, x0 in zip(runs, ps, us, x0s):
         if not np.all(np.isfinite(X)):
-            raise SimulationError("compiled path (CVODES): non-finite states in a batch member")
+            raise SimulationError("compiled path: non-finite states in a batch member")
         nodes = cm.compiled_path.gauss_states(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
             if dense_output and t_out.size > 1 else None
         out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q,

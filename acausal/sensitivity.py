@@ -8,8 +8,8 @@ generated on the first request and cached; compilation is unaffected). Units: ``
 * A model without states is evaluated directly and vectorised at the output times (its discrete modes settled
   at each output time, as :func:`acausal.simulate.simulate` does).
 * A model with states integrates the states ``x`` and their sensitivities ``S = dx/dp`` (``n x q``) together,
-  ``dx/dt = f(t, x, p)``, ``dS/dt = f_x S + f_p``, on the compiled path (CVODES) or with scipy's LSODA; outputs follow from
-  ``dy/dp = y_x S + y_p``. The start values are taken as independent of the parameters (``S(t_start) = 0``),
+  ``dx/dt = f(t, x, p)``, ``dS/dt = f_x S + f_p``, on the compiled path (CVODES) or with scipy; outputs follow
+  from ``dy/dp = y_x S + y_p``. The start values are taken as independent of the parameters (``S(t_start) = 0``),
   also where initialisation adjusts states to meet fixed starts of other variables.
 
 A parameter bound to an expression of others (e.g. ``winding.C = 1/winding_heating``) follows its binding: the
@@ -24,7 +24,8 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .errors import ModelError, SimulationError
-from .simulate import algebraic_modes, check_tolerances, initialize
+from .modes import algebraic_modes
+from .simulate import check_tolerances, initialize
 from .symbols import der_name, var_symbol
 
 

@@ -149,18 +149,14 @@ class PeriodicSpline(Signal):
         keep = (pp.x[:-1] >= tt[0]) & (pp.x[1:] <= tt[-1]) & (np.diff(pp.x) > 0)
         self._breaks = np.append(pp.x[:-1][keep], tt[-1])
         self._bl = self._breaks.tolist()
-        c = pp.c[:, keep]  # highest power first
-        self._coef = [c]
-        for _ in range(degree):  # coefficients of each derivative order
-            prev = self._coef[-1]
-            m = prev.shape[0] - 1
-            self._coef.append(prev[:-1] * np.arange(m, 0, -1)[:, None] if m > 0 else np.zeros((1, prev.shape[1])))
+        self._table = PiecewisePolynomial(self._breaks, pp.c[:, keep], "periodic")  # highest power first
+        self._coef = [self._table.derivative(order) for order in range(degree + 1)]  # each derivative's
         self._coef_lists = [cc.T.tolist() for cc in self._coef]
         self.max_order = degree
         self.name = name
 
     def table(self):
-        return PiecewisePolynomial(self._breaks.copy(), self._coef[0].copy(), "periodic")
+        return self._table
 
     def evaluate(self, t, order):
         if np.ndim(t) == 0:

@@ -21,9 +21,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from scipy import integrate, optimize
+from scipy import integrate
 
 from .errors import ModelError, SimulationError
+from .modes import algebraic_modes, apply_event, cascade, crossings, record_events, settle_modes, zeros
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -76,7 +77,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     else:
         why = "asked for"
     solver_label = f"{method} (scipy: {why})"
-    d = _settle_modes(cm, t_start, x0, p, d, u)
+    d = settle_modes(cm, t_start, x0, p, d, u)
     x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
     X = np.empty((n, t_out.size))
     D = np.empty((len(d), t_out.size))
@@ -98,7 +99,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             solver = solver_cls(fun, t, x, t_end, **opts)  # evaluates the model to choose its first step
         except _NonFinite as exc:
             raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
-        z_old = _zeros(cm, t, x, p, d, u) if has_events else None
+        z_old = zeros(cm, t, x, p, d, u) if has_events else None
         restarted = False
         while solver.status == "running":
             t_prev = solver.t
@@ -117,15 +118,15 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             sol = solver.dense_output() if (need_out or has_events or dense_output) else None
             hit = None
             if has_events:
-                z_new = _zeros(cm, t_new, solver.y, p, d, u)
-                hits = _crossings(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
+                z_new = zeros(cm, t_new, solver.y, p, d, u)
+                hits = crossings(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
                 z_old = z_new
                 if hits:
                     t_e = hits[0][0]
                     x_e = sol(t_e)
                     d_new = d
                     for _, i_ev, rising in hits:
-                        d_new = _apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
+                        d_new = apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
                     if not np.array_equal(d_new, d):  # a crossing that changes no mode needs no restart
                         hit = hits
             t_stop = hit[0][0] if hit else t_new
@@ -139,7 +140,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                     k_out = k_end
             if hit:
                 record_events(cm, events, hit, t_e, max_events)
-                d = _cascade(cm, t_e, x_e, p, d, d_new, u)
+                d = cascade(cm, t_e, x_e, p, d, d_new, u)
                 t, x = t_e, x_e
                 restarted = True
                 break
@@ -187,7 +188,7 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
     else:
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
     if not np.all(np.isfinite(X)):
-        raise SimulationError("compiled path (CVODES): non-finite states")
+        raise SimulationError("compiled path: non-finite states")
     return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi)")
 
@@ -298,122 +299,6 @@ def _find_non_finite(cm, solver, t_prev, p, d, u):
                     and all(np.all(np.isfinite(v)) for v in vals)):
                 return _non_finite_error(cm, t, x, p, d, u)
     return None
-
-
-def _zeros(cm, t, x, p, d, u):
-    return np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
-
-
-def _crossings(cm, sol, t0, t1, z0, z1, p, d, u):
-    """The earliest zero crossing(s) in (t0, t1] as a list of (time, event index, rising?), all at (nearly) the
-    same time: zero functions that cross together (e.g. the speeds of two gear stages) are handled together."""
-    found = []
-    for i in range(len(z0)):
-        a, b = z0[i], z1[i]
-        if a == 0 and b != 0:  # leaving an exact zero (e.g. starting at rest): decide by the direction now
-            found.append((t0, i, b > 0))
-            continue
-        if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
-            g = lambda tt, i=i: float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i])
-            try:
-                te = optimize.brentq(g, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
-            except ValueError:
-                te = t1
-            # stop just past the crossing so the new mode starts on the correct side
-            g_te = g(te)
-            if (a < 0 and g_te < 0) or (a > 0 and g_te > 0):
-                te = min(t1, te + 1e-12 * max(1.0, abs(te)))
-            found.append((te, i, a < 0))
-    if not found:
-        return []
-    t_first = min(f[0] for f in found)
-    tol = 1e-9 * max(1.0, abs(t_first))
-    together = [f for f in found if f[0] <= t_first + tol]
-    t_e = max(f[0] for f in together)
-    return [(t_e, i, rising) for _, i, rising in together]
-
-
-def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
-    """Append the crossings ``hits`` at ``t_e`` to ``events`` as ``(time, event index, "rising"|"falling")``; a
-    SimulationError naming the last event's origin when there are more than ``max_events``."""
-    for _, i_ev, rising in hits:
-        events.append((t_e, i_ev, "rising" if rising else "falling"))
-    if len(events) > max_events:
-        raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
-                              f"{cm.flat.events[hits[-1][1]].origin}): the model chatters")
-
-
-def _apply_event(cm, i, rising, t, x, p, d, u):
-    table = cm.event_assignments(i, rising)
-    if not table:
-        return d
-    values = _values_at(cm, t, x, p, d, u)
-    new = d.copy()
-    for name, expr in table:
-        new[cm.discrete_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
-    return new
-
-
-def _values_at(cm, t, x, p, d, u) -> dict:
-    """Every unknown, state, parameter and mode by name at one time, as Python floats."""
-    vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
-    vals.update(zip(cm.state_names, x))
-    vals.update(zip(cm.param_names, p))
-    vals.update(zip(cm.discrete_names, d))
-    return {k: float(np.asarray(v)) for k, v in vals.items()}
-
-
-def _settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
-    """Apply the rising/falling assignments of every event by the sign of its zero until modes stop changing."""
-    if not cm.event_zeros:
-        return d
-    for _ in range(max_iter):
-        z = _zeros(cm, t, x, p, d, u)
-        new = d.copy()
-        for i, zi in enumerate(z):
-            if zi > 0:
-                new = _apply_event(cm, i, True, t, x, p, new, u)
-            elif zi < 0:
-                new = _apply_event(cm, i, False, t, x, p, new, u)
-        if np.array_equal(new, d):
-            return d
-        d = new
-    raise SimulationError(f"discrete modes do not settle at t = {t:.6g} s: "
-                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
-
-
-def _cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20):
-    """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
-    those events' assignments, and repeat, until nothing flips."""
-    z_prev = _zeros(cm, t, x, p, d_old, u)
-    d = d_new
-    for _ in range(max_iter):
-        z = _zeros(cm, t, x, p, d, u)
-        flipped = [i for i in range(len(z)) if z[i] != 0 and np.sign(z[i]) != np.sign(z_prev[i])
-                   and z_prev[i] != 0]
-        if not flipped:
-            return d
-        new = d
-        for i in flipped:
-            new = _apply_event(cm, i, z[i] > 0, t, x, p, new, u)
-        if np.array_equal(new, d):
-            return d
-        z_prev, d = z, new
-    raise SimulationError(f"discrete modes do not settle after an event at t = {t:.6g} s: "
-                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
-
-
-def algebraic_modes(cm, t, p, d, u):
-    """Modes of a model without states at each time of ``t`` [s] (shape ``(n_modes, len(t))``): from the modes
-    ``d``, every event's assignment applied by the sign of its zero function until nothing changes, sample by
-    sample (each sample starting from the previous one's modes)."""
-    out = np.empty((len(d), t.size))
-    x = np.zeros(0)
-    cur = d
-    for k, tk in enumerate(t):
-        cur = _settle_modes(cm, tk, x, p, cur, u)
-        out[:, k] = cur
-    return out
 
 
 # ---------------------------------------------------------------------------------------------- initial values

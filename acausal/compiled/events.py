@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
+from ..modes import apply_event, cascade, crossings, record_events, settle_modes, zeros
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -34,12 +35,12 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     """The run of a model with state events on the compiled path; returns the Result."""
     from ..energy import account_integrals
     from ..result import Result
-    from ..simulate import _apply_event, _cascade, _crossings, _settle_modes, initialize, record_events
+    from ..simulate import initialize
 
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
     names = account_integrals(cm.accounts) if dense_output and cm.accounts is not None else []
-    d = _settle_modes(cm, t_start, x0, p, d, u)
+    d = settle_modes(cm, t_start, x0, p, d, u)
     x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
@@ -64,7 +65,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
                 raise
             window //= 2  # the old mode may not go on far past a crossing: look closer
             continue
-        hit = _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, _crossings, _apply_event)
+        hit = _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args)
         if hit is None:
             X[:, k_out:k_out + grid.size], D[:, k_out:k_out + grid.size] = Xs, d[:, None]
             for name in names:
@@ -84,62 +85,66 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
         record_events(cm, events, hits, t_e, max_events)
-        d = _cascade(cm, t_e, x_e, p, d, d_new, u)
+        d = cascade(cm, t_e, x_e, p, d, d_new, u)
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi; events located between its runs)")
 
 
-def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, crossings, apply_event):
+def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args):
     """The first crossing after ``t`` that changes a mode: ``(t_e, x_e, hits, new modes)``, or None. ``Xs``, ``Qs``:
     states and integrals (with the zero functions' variations) at ``grid``, integrated from ``(t, x)``."""
-    zf = cm.funcs["zeros"]
     times = np.concatenate([[t], grid])
     states = np.concatenate([x[:, None], Xs], axis=1)
-    var = np.array([np.concatenate([[0.0], Qs[("variation", i)]]) for i in range(len(cm.event_zeros))])
-    return _scan(cm, path, times, states, var, p, d, u, args, crossings, apply_event, zf, depth=0)
+    return _scan(cm, path, times, states, _variations(cm, Qs), p, d, u, args, depth=0)
 
 
-def _scan(cm, path, times, states, var, p, d, u, args, crossings, apply_event, zf, depth):
-    z = np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape) for v in zf(times, states, p, d, u)])
+def _scan(cm, path, times, states, var, p, d, u, args, depth):
+    z = _zero_values(cm, times, states, p, d, u)
     for k in range(times.size - 1):
         a, b = times[k], times[k + 1]
         if b <= a:
             continue
         za, zb = z[:, k], z[:, k + 1]
         xa = states[:, k]
-        strict = np.any(((za < 0) & (zb >= 0)) | ((za > 0) & (zb <= 0)))
-        leaving = np.any((za == 0) & (zb != 0))  # from an exact zero (at rest): the direction right after a decides
-        if leaving and not strict and depth < MAX_DEPTH:
-            hit = _refine(cm, path, a, b, xa, p, d, u, args, crossings, apply_event, zf, depth)
-            if hit is not None:
-                return hit
-            continue
-        if strict or leaving:
-            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args, crossings, apply_event)
-            if hit is not None:
-                return hit
-            continue
-        hidden = (var[:, k + 1] - var[:, k]) >= (np.abs(za) + np.abs(zb)) * (1 - 1e-9)
-        if np.any(hidden & (za != 0)) and depth < MAX_DEPTH:
-            hit = _refine(cm, path, a, b, xa, p, d, u, args, crossings, apply_event, zf, depth)
-            if hit is not None:
-                return hit
+        crossed = _crossed(za, zb)
+        leaving = crossed & (za == 0)  # from an exact zero (at rest): the direction right after a decides
+        if np.any(leaving) and not np.any(crossed & ~leaving) and depth < MAX_DEPTH:
+            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth)
+        elif np.any(crossed):
+            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args)
+        elif np.any((var[:, k + 1] - var[:, k] >= (np.abs(za) + np.abs(zb)) * (1 - 1e-9)) & (za != 0)) \
+                and depth < MAX_DEPTH:  # the variation could have gone to zero and back
+            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth)
+        else:
+            hit = None
+        if hit is not None:
+            return hit
     return None
 
 
-def _refine(cm, path, a, b, xa, p, d, u, args, crossings, apply_event, zf, depth):
+def _refine(cm, path, a, b, xa, p, d, u, args, depth):
     """:func:`_scan` of ``[a, b]`` on :data:`REFINE` sub-intervals, integrated again from ``(a, xa)``."""
     sub = np.linspace(a, b, REFINE + 1)
     Xs, Qs = path.integrate(a, xa, sub[1:], p, d, u, *args, variation=True)
-    sub_states = np.concatenate([xa[:, None], Xs], axis=1)
-    sub_var = np.array([np.concatenate([[0.0], Qs[("variation", i)]]) for i in range(len(cm.event_zeros))])
-    return _scan(cm, path, sub, sub_states, sub_var, p, d, u, args, crossings, apply_event, zf, depth + 1)
+    return _scan(cm, path, sub, np.concatenate([xa[:, None], Xs], axis=1), _variations(cm, Qs), p, d, u, args,
+                 depth + 1)
 
 
-def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, crossings, apply_event):
-    """The crossing(s) in ``(a, b]`` by Brent's method (the scipy path's :func:`~acausal.simulate._crossings`);
+def _variations(cm, Qs) -> np.ndarray:
+    """The zero functions' total variations from the run's start, one row each, with the start's zero first."""
+    return np.array([np.concatenate([[0.0], Qs[("variation", i)]]) for i in range(len(cm.event_zeros))])
+
+
+def _zero_values(cm, times, states, p, d, u) -> np.ndarray:
+    """The zero functions at the columns of ``states`` (times ``times``), one row each."""
+    return np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape)
+                     for v in cm.funcs["zeros"](times, states, p, d, u)])
+
+
+def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args):
+    """The crossing(s) in ``(a, b]`` by Brent's method (:func:`acausal.modes.crossings`, the scipy path's own);
     None when they change no mode.
 
     Every trial state comes from a CVODES run from ``a`` to ``b`` with the trial time as an extra output: CVODES's
@@ -149,9 +154,8 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, crossings, apply_even
     solution no longer shows the sign change that the window's run showed at ``b``, the crossing is at ``b``
     within the tolerance and the window's state there, on the far side, is taken.
     """
-    zf = cm.funcs["zeros"]
     xb_run = path.integrate(a, xa, np.array([b]), p, d, u, *args)[0][:, 0]
-    zb_run = np.asarray([float(v) for v in zf(b, xb_run, p, d, u)])
+    zb_run = zeros(cm, b, xb_run, p, d, u)
 
     def sol(tt):
         tt = float(tt)

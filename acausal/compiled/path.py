@@ -1,14 +1,15 @@
-"""Integration on the compiled path: CasADi CVODES (BDF with Newton on CasADi's exact, sparse Jacobian).
+"""Integration on the compiled path: CasADi CVODES (BDF with Newton on CasADi's exact, sparse Jacobian), or IDAS
+when Newton blocks are integrated as algebraic variables.
 
 One :class:`CompiledPath` per compiled model builds, on first use, the right-hand side as a CasADi function of
-time, states, parameters, discrete modes and the data of the numeric inputs, and caches integrators by what fixes
-their structure (the inputs' layout and the normalised output grid). Time is scaled onto ``[0, 1]`` inside the
-integrator (``t = t0 + tau * span``), so runs over the same number of evenly spaced outputs (sweeps, protocol
-conditions, fits) share one integrator whatever their start and length, and only the numbers change per run.
+time, states, parameters and discrete modes (the numeric inputs' tables inside it), and caches integrators by
+what fixes their structure (the inputs, the quadratures and the normalised output grid). Time is scaled onto
+``[0, 1]`` inside the integrator (``t = t0 + tau * span``), so runs over the same number of evenly spaced outputs
+(sweeps, protocol conditions, fits) share one integrator whatever their start and length, and only the numbers
+change per run.
 
-What the path cannot run (events, Newton blocks in the state derivatives, a signal without a closed form,
-per-state tolerances) is reported by :meth:`CompiledPath.unsupported` as a reason; the caller then takes the scipy
-path and says why.
+What the path cannot run (a signal without a closed form, per-state tolerances, state events unless asked for)
+is reported by :meth:`CompiledPath.unsupported` as a reason; the caller then takes the scipy path and says why.
 """
 from __future__ import annotations
 
@@ -25,7 +26,6 @@ class CompiledPath:
 
     def __init__(self, cm):
         self.cm = cm
-        self._reason: str | None = None
         self._rhs: dict = {}  # signal layout -> (casadi rhs pieces) or Unsupported reason
         self._integrators: dict = {}
 
@@ -101,7 +101,8 @@ class CompiledPath:
         from ..symbols import var_symbol
         names = [n for names, _, _ in algebraic for n in names]
         zs = [z for _, block, _ in algebraic for z in block]
-        return dict(t=t, x=x, p=p, d=d, pds=ca.vertcat(p, d), f=ca.vertcat(*f), signals=sig, quads={},
+        # cache: integrand by name, quadrature sets ("set", names, variation), DAE functions ("dae", names)
+        return dict(t=t, x=x, p=p, d=d, pds=ca.vertcat(p, d), f=ca.vertcat(*f), signals=sig, cache={},
                     z=ca.vertcat(*zs) if zs else ca.SX(0, 1),
                     alg=ca.vertcat(*[r for _, _, res in algebraic for r in res]) if zs else ca.SX(0, 1),
                     z_index=[cm.unknown_names.index(n) for n in names],
@@ -115,9 +116,12 @@ class CompiledPath:
 
         from ..energy import integrand_expr
         from .translate import Unsupported, translate
+        key = ("set", tuple(names), variation)  # the integrator calls this per run: build each set once
+        if key in entry["cache"]:
+            return entry["cache"][key]
         done, exprs = [], []
         for name in names:
-            q = entry["quads"].get(name)
+            q = entry["cache"].get(name)
             if q is None:
                 expr = integrand_expr(self.cm, name)
                 try:
@@ -125,7 +129,7 @@ class CompiledPath:
                                   entry["d"], given=entry["given"])[0] if expr is not None else False
                 except Unsupported:
                     q = False
-                entry["quads"][name] = q
+                entry["cache"][name] = q
             if q is not False:
                 done.append(name)
                 exprs.append(q)
@@ -134,7 +138,8 @@ class CompiledPath:
             for i in range(dz.numel()):
                 done.append(("variation", i))
                 exprs.append(VARIATION_SCALE * ca.fabs(dz[i]))
-        return tuple(done), (ca.vertcat(*exprs) if exprs else None)
+        entry["cache"][key] = (tuple(done), ca.vertcat(*exprs) if exprs else None)
+        return entry["cache"][key]
 
     # ------------------------------------------------------------------ integration
     def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=(),
@@ -184,8 +189,8 @@ class CompiledPath:
             try:
                 out = integ(**call)
             except RuntimeError as exc:
-                raise SimulationError(f"compiled path (CVODES): integration from t = {t_start:g} s to {t_end:g} s "
-                                      f"failed: {_first_line(exc)}") from None
+                raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
+                                      f"{t_start:g} s to {t_end:g} s failed: {_first_line(exc)}") from None
             X[:, :, ~at_start] = np.asarray(out["xf"]).reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
                 Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
@@ -240,15 +245,13 @@ class CompiledPath:
         quadratures: integrators for new output grids are then built from it in about a millisecond."""
         import casadi as ca
         key = ("dae", names)
-        if key not in entry["quads"]:
-            s = ca.SX.sym("tau")
-            t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
-            scaled = {"x": entry["x"], "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "z": entry["z"],
-                      "u": ca.SX(0, 1), "alg": ca.substitute(entry["alg"], entry["t"], t0 + s * span),
-                      "zero": ca.SX(0, 1), "ode": span * ca.substitute(entry["f"], entry["t"], t0 + s * span),
-                      "quad": ca.SX(0, 1) if qexpr is None else span * ca.substitute(qexpr, entry["t"], t0 + s * span)}
-            entry["quads"][key] = ca.Function("dae", scaled, ca.dyn_in(), ca.dyn_out())
-        return entry["quads"][key]
+        if key not in entry["cache"]:
+            s, params, scaled = _scaled_time(entry)
+            dae = {"x": entry["x"], "t": s, "p": params, "z": entry["z"], "u": ca.SX(0, 1), "zero": ca.SX(0, 1),
+                   "alg": scaled(entry["alg"], rate=False), "ode": scaled(entry["f"]),
+                   "quad": ca.SX(0, 1) if qexpr is None else scaled(qexpr)}
+            entry["cache"][key] = ca.Function("dae", dae, ca.dyn_in(), ca.dyn_out())
+        return entry["cache"][key]
 
     # ------------------------------------------------------------------ sensitivities
     def sensitivities(self, t_start, x0, t, p, d, u, wrt, bindings, rtol, atol):
@@ -268,8 +271,8 @@ class CompiledPath:
             return X, S
         span = float(t[-1]) - t_start
         grid, back = np.unique(t[later], return_inverse=True)
-        key = ("sens", id(entry), tuple(wrt), frozenset((k, str(v)) for k, v in bindings.items()), (grid - t_start).tobytes(),
-               span, float(rtol), float(atol))
+        key = ("sens", id(entry), tuple(wrt), frozenset((k, str(v)) for k, v in bindings.items()),
+               (grid - t_start).tobytes(), span, float(rtol), float(atol))
         integ = self._integrators.get(key)
         if integ is None:
             integ = self._sens_integrator(entry, wrt, bindings, (grid - t_start) / span, float(rtol), float(atol))
@@ -303,18 +306,29 @@ class CompiledPath:
         Ssym = ca.SX.sym("S", n * q)
         Smat = ca.reshape(Ssym, n, q)
         dS = ca.mtimes(ca.jacobian(f, x), Smat) + ca.mtimes(ca.jacobian(f, p), B)
-        s = ca.SX.sym("tau")
-        t0, span = ca.SX.sym("t0"), ca.SX.sym("span")
-        ode = span * ca.substitute(ca.vertcat(f, ca.vec(dS)), entry["t"], t0 + s * span)
-        dae = {"x": ca.vertcat(x, Ssym), "t": s, "p": ca.vertcat(t0, span, entry["pds"]), "ode": ode}
+        s, params, scaled = _scaled_time(entry)
+        dae = {"x": ca.vertcat(x, Ssym), "t": s, "p": params, "ode": scaled(ca.vertcat(f, ca.vec(dS)))}
         return ca.integrator("acausal_sens", "cvodes", dae, 0.0, tau.tolist(),
                              {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS,
                               "disable_internal_warnings": True, "show_eval_warnings": False})
 
 
+def _scaled_time(entry):
+    """``(tau, parameters, scaled)``: the scaled time symbol, the integrator's parameter vector ``(t0, span, p, d)``
+    and a function that rewrites an expression of ``t`` in ``tau`` (``t = t0 + tau span``); a ``rate`` (a time
+    derivative or an integrand) is also multiplied by ``span``."""
+    import casadi as ca
+    s, t0, span = ca.SX.sym("tau"), ca.SX.sym("t0"), ca.SX.sym("span")
+
+    def scaled(expr, rate=True):
+        out = ca.substitute(expr, entry["t"], t0 + s * span)
+        return span * out if rate else out
+    return s, ca.vertcat(t0, span, entry["pds"]), scaled
+
+
 def _first_line(exc) -> str:
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
-    useful = [ln for ln in lines if "CV_" in ln or "failed" in ln.lower()]
+    useful = [ln for ln in lines if "CV_" in ln or "IDA_" in ln or "failed" in ln.lower()]
     return (useful or lines or ["unknown error"])[-1]
 
 

@@ -4,8 +4,9 @@ The steps a :class:`~acausal.compiler.CompiledModel` evaluates in Python (assign
 translated one sympy node at a time; shared subexpressions stay shared (the translation is memoised per node), so
 the CasADi graph is as compact as the generated Python code. Numeric input signals enter through their closed
 forms (:meth:`Signal.table <acausal.signals.Signal.table>`: polynomial pieces looked up by CasADi interpolants
-whose tables are run-time data; :meth:`Signal.symbolic <acausal.signals.Signal.symbolic>`: an expression). What
-has no CasADi form raises :class:`Unsupported` with the reason, and the caller stays on the scipy path.
+with the numbers inside; :meth:`Signal.symbolic <acausal.signals.Signal.symbolic>`: an expression). A Newton
+block becomes algebraic variables with their residuals (a DAE for IDAS). What has no CasADi form raises
+:class:`Unsupported` with the reason, and the caller stays on the scipy path.
 """
 from __future__ import annotations
 

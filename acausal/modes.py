@@ -1,0 +1,127 @@
+"""Discrete modes and state events, shared by both simulation paths: the zero functions' values, the crossings
+between two points of a solution (Brent's method on it), the assignments an event makes, settling the modes at a
+start and the cascade of mode changes after an event. The scipy path (:mod:`acausal.simulate`) and the compiled
+path (:mod:`acausal.compiled.events`) call the same functions, so both switch the same way.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize
+
+from .errors import SimulationError
+
+
+def zeros(cm, t, x, p, d, u):
+    return np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
+
+
+def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
+    """The earliest zero crossing(s) in (t0, t1] as a list of (time, event index, rising?), all at (nearly) the
+    same time: zero functions that cross together (e.g. the speeds of two gear stages) are handled together."""
+    found = []
+    for i in range(len(z0)):
+        a, b = z0[i], z1[i]
+        if a == 0 and b != 0:  # leaving an exact zero (e.g. starting at rest): decide by the direction now
+            found.append((t0, i, b > 0))
+            continue
+        if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
+            g = lambda tt, i=i: float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i])
+            try:
+                te = optimize.brentq(g, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+            except ValueError:
+                te = t1
+            # stop just past the crossing so the new mode starts on the correct side
+            g_te = g(te)
+            if (a < 0 and g_te < 0) or (a > 0 and g_te > 0):
+                te = min(t1, te + 1e-12 * max(1.0, abs(te)))
+            found.append((te, i, a < 0))
+    if not found:
+        return []
+    t_first = min(f[0] for f in found)
+    tol = 1e-9 * max(1.0, abs(t_first))
+    together = [f for f in found if f[0] <= t_first + tol]
+    t_e = max(f[0] for f in together)
+    return [(t_e, i, rising) for _, i, rising in together]
+
+
+def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
+    """Append the crossings ``hits`` at ``t_e`` to ``events`` as ``(time, event index, "rising"|"falling")``; a
+    SimulationError naming the last event's origin when there are more than ``max_events``."""
+    for _, i_ev, rising in hits:
+        events.append((t_e, i_ev, "rising" if rising else "falling"))
+    if len(events) > max_events:
+        raise SimulationError(f"more than {max_events} events by t = {t_e:.6g} s (last from "
+                              f"{cm.flat.events[hits[-1][1]].origin}): the model chatters")
+
+
+def apply_event(cm, i, rising, t, x, p, d, u):
+    table = cm.event_assignments(i, rising)
+    if not table:
+        return d
+    values = values_at(cm, t, x, p, d, u)
+    new = d.copy()
+    for name, expr in table:
+        new[cm.discrete_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
+    return new
+
+
+def values_at(cm, t, x, p, d, u) -> dict:
+    """Every unknown, state, parameter and mode by name at one time, as Python floats."""
+    vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
+    vals.update(zip(cm.state_names, x))
+    vals.update(zip(cm.param_names, p))
+    vals.update(zip(cm.discrete_names, d))
+    return {k: float(np.asarray(v)) for k, v in vals.items()}
+
+
+def settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
+    """Apply the rising/falling assignments of every event by the sign of its zero until modes stop changing."""
+    if not cm.event_zeros:
+        return d
+    for _ in range(max_iter):
+        z = zeros(cm, t, x, p, d, u)
+        new = d.copy()
+        for i, zi in enumerate(z):
+            if zi > 0:
+                new = apply_event(cm, i, True, t, x, p, new, u)
+            elif zi < 0:
+                new = apply_event(cm, i, False, t, x, p, new, u)
+        if np.array_equal(new, d):
+            return d
+        d = new
+    raise SimulationError(f"discrete modes do not settle at t = {t:.6g} s: "
+                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
+
+
+def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20):
+    """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
+    those events' assignments, and repeat, until nothing flips."""
+    z_prev = zeros(cm, t, x, p, d_old, u)
+    d = d_new
+    for _ in range(max_iter):
+        z = zeros(cm, t, x, p, d, u)
+        flipped = [i for i in range(len(z)) if z[i] != 0 and np.sign(z[i]) != np.sign(z_prev[i])
+                   and z_prev[i] != 0]
+        if not flipped:
+            return d
+        new = d
+        for i in flipped:
+            new = apply_event(cm, i, z[i] > 0, t, x, p, new, u)
+        if np.array_equal(new, d):
+            return d
+        z_prev, d = z, new
+    raise SimulationError(f"discrete modes do not settle after an event at t = {t:.6g} s: "
+                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
+
+
+def algebraic_modes(cm, t, p, d, u):
+    """Modes of a model without states at each time of ``t`` [s] (shape ``(n_modes, len(t))``): from the modes
+    ``d``, every event's assignment applied by the sign of its zero function until nothing changes, sample by
+    sample (each sample starting from the previous one's modes)."""
+    out = np.empty((len(d), t.size))
+    x = np.zeros(0)
+    cur = d
+    for k, tk in enumerate(t):
+        cur = settle_modes(cm, tk, x, p, cur, u)
+        out[:, k] = cur
+    return out
