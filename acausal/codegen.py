@@ -457,8 +457,8 @@ def binding_totals(params, wrt, bindings) -> dict:
     from .symbols import par_symbol
 
     wrt = tuple(wrt)
-    bound = {k: sp.sympify(e).xreplace({s: par_symbol(s.name) for s in sp.sympify(e).free_symbols})
-             for k, e in (bindings or {}).items() if k not in wrt}
+    exprs = {k: sp.sympify(e) for k, e in (bindings or {}).items() if k not in wrt}
+    bound = {k: e.xreplace({s: par_symbol(s.name) for s in e.free_symbols}) for k, e in exprs.items()}
     memo: dict = {}
 
     def total(name, j):
