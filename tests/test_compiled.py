@@ -151,11 +151,15 @@ class HalfWave(Model):
         connect(self.R.n, self.C.n, self.src.n, self.gnd.p)
 
 
-def test_models_with_events_stay_on_scipy_by_default_with_the_reason():
+def test_models_with_events_take_the_compiled_path_by_default():
+    """Events no longer send a model to the scipy path: the default run locates them on the compiled path, and
+    ``method="BDF"`` still gives the scipy path's run, with the same switches."""
     cm = compile_model(HalfWave())
     res = cm.simulate(0.04, n_points=11)
-    assert res.solver.startswith("BDF") and "state event" in res.solver and "method='CVODES'" in res.solver
-    assert res.events
+    assert res.solver.startswith("CVODES") and "events located" in res.solver
+    assert "compiled" in cm.simulation_path()
+    ref = cm.simulate(0.04, n_points=11, method="BDF")
+    assert ref.solver.startswith("BDF") and [e[1:] for e in res.events][-2:] == [e[1:] for e in ref.events][-2:]
 
 
 @pytest.mark.parametrize("n_points", [11, 201])
@@ -165,7 +169,10 @@ def test_events_on_the_compiled_path_when_asked(n_points):
     interval: found through the zero function's variation), the trajectory and the modes at the outputs agree and
     the energy balance closes. The diode's zero function (its current through a 1e-5 ohm on-resistance) crosses
     gently and is ill-conditioned: the compiled path may switch off a few microseconds early and straight back on,
-    an extra pair at one instant that the trajectory does not feel; anything else would fail here."""
+    an extra pair at one instant that the trajectory does not feel; anything else would fail here. The turn-off
+    time itself is conditioned by the tolerance: at atol 1e-10 V on the capacitor the current is known to 1e-5 A,
+    and it approaches zero slowly, so a switch up to 2e-5 s from the tight reference (rtol 1e-12: 0.0090311 s) is
+    as good as the tolerance allows (the scipy path's lands 1e-7 s from it, the compiled path's 1.4e-5 s)."""
     cm = compile_model(HalfWave())
     tight = dict(rtol=1e-8, atol=1e-10, n_points=n_points)
     fast, ref = cm.simulate(0.1, method="CVODES", **tight), cm.simulate(0.1, method="BDF", **tight)
@@ -180,7 +187,7 @@ def test_events_on_the_compiled_path_when_asked(n_points):
         events.append(e)
         k += 1
     assert [e[1:] for e in events] == [e[1:] for e in ref.events]
-    assert np.allclose([e[0] for e in events], [e[0] for e in ref.events], atol=1e-5)
+    assert np.allclose([e[0] for e in events], [e[0] for e in ref.events], atol=2e-5)
     assert np.max(np.abs(fast["C.v"] - ref["C.v"])) < 1e-5
     assert np.array_equal(fast.modes, ref.modes)
     assert abs(fast.energy_balance().residual) < 1e-6
@@ -288,7 +295,9 @@ def test_simulate_many_equals_one_run_per_set(drive):
 def test_simulate_many_falls_back_set_by_set():
     cm = compile_model(HalfWave())
     runs = cm.simulate_many(0.02, [{"R.R": 10.0}, {"R.R": 20.0}], n_points=5)
-    assert all(r.solver.startswith("BDF") for r in runs)
+    assert all("events located" in r.solver and "batch" not in r.solver for r in runs)  # events: one set at a time
+    one = cm.simulate(0.02, params={"R.R": 20.0}, n_points=5)
+    assert np.array_equal(runs[1]["C.v"], one["C.v"])
     assert runs[0]["C.v"][-1] != runs[1]["C.v"][-1]
     runs = cm.simulate_many(0.02, [{"R.R": 10.0}], n_points=5, method="CVODES")
     assert runs[0].solver.startswith("CVODES") and runs[0].events

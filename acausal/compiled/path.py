@@ -30,9 +30,8 @@ class CompiledPath:
         self._integrators: dict = {}
 
     # ------------------------------------------------------------------ support
-    def unsupported(self, u, rtol, atol, explicit: bool = False) -> str | None:
-        """Why this run cannot take the compiled path (None: it can). A model with state events takes it only
-        when ``explicit`` (``method="CVODES"``): see :mod:`acausal.compiled.events` for what is left."""
+    def unsupported(self, u, rtol, atol) -> str | None:
+        """Why this run cannot take the compiled path (None: it can)."""
         cm = self.cm
         if not cm.state_names:
             return "the model has no states (it is evaluated algebraically)"
@@ -41,13 +40,8 @@ class CompiledPath:
         entry = self._rhs_entry(u)
         if isinstance(entry, str):
             return entry
-        if cm.event_zeros:
-            if isinstance(self._zero_functions(entry), str):
-                return self._zero_functions(entry)
-            if not explicit:
-                return (f"the model has {len(cm.event_zeros)} state event(s) (from "
-                        f"{', '.join(sorted({e.origin for e in cm.flat.events}))}); the compiled path locates them "
-                        "only when asked (method='CVODES'), the scipy path by default")
+        if cm.event_zeros and isinstance(self._zero_functions(entry), str):
+            return self._zero_functions(entry)
         return None
 
     def integrator_name(self, u) -> str:
@@ -223,11 +217,9 @@ class CompiledPath:
             opts = {"abstol": atol, "reltol": rtol, "max_num_steps": max_num_steps, "disable_internal_warnings": True,
                     "show_eval_warnings": False}  # a failed run is reported (and run again on the scipy path)
             if qexpr is not None:
-                # the quadratures share the error test with the states; CVODES's test is a root mean square over
-                # all components, so the tolerances shrink by sqrt(states / all) to keep the states' own accuracy
-                n, m = entry["x"].numel(), qexpr.numel()
-                shrink = float(np.sqrt(n / (n + m)))
-                opts.update(quad_err_con=True, abstol=atol * shrink, reltol=rtol * shrink)
+                # the quadratures under the same tolerances as the states: CVODES's error test takes the larger of
+                # the two weighted norms (states', quadratures'), so the states keep exactly their own accuracy
+                opts["quad_err_con"] = True
             if np.isfinite(max_step):
                 opts["max_step_size"] = max_step
             if first_step is not None:
