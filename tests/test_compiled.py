@@ -151,15 +151,11 @@ class HalfWave(Model):
         connect(self.R.n, self.C.n, self.src.n, self.gnd.p)
 
 
-def test_models_with_events_take_the_compiled_path_by_default():
-    """Events no longer send a model to the scipy path: the default run locates them on the compiled path, and
-    ``method="BDF"`` still gives the scipy path's run, with the same switches."""
+def test_models_with_events_stay_on_scipy_by_default_with_the_reason():
     cm = compile_model(HalfWave())
     res = cm.simulate(0.04, n_points=11)
-    assert res.solver.startswith("CVODES") and "events located" in res.solver
-    assert "compiled" in cm.simulation_path()
-    ref = cm.simulate(0.04, n_points=11, method="BDF")
-    assert ref.solver.startswith("BDF") and [e[1:] for e in res.events][-2:] == [e[1:] for e in ref.events][-2:]
+    assert res.solver.startswith("BDF") and "state event" in res.solver and "method='CVODES'" in res.solver
+    assert res.events
 
 
 @pytest.mark.parametrize("n_points", [11, 201])
@@ -295,9 +291,7 @@ def test_simulate_many_equals_one_run_per_set(drive):
 def test_simulate_many_falls_back_set_by_set():
     cm = compile_model(HalfWave())
     runs = cm.simulate_many(0.02, [{"R.R": 10.0}, {"R.R": 20.0}], n_points=5)
-    assert all("events located" in r.solver and "batch" not in r.solver for r in runs)  # events: one set at a time
-    one = cm.simulate(0.02, params={"R.R": 20.0}, n_points=5)
-    assert np.array_equal(runs[1]["C.v"], one["C.v"])
+    assert all(r.solver.startswith("BDF") for r in runs)
     assert runs[0]["C.v"][-1] != runs[1]["C.v"][-1]
     runs = cm.simulate_many(0.02, [{"R.R": 10.0}], n_points=5, method="CVODES")
     assert runs[0].solver.startswith("CVODES") and runs[0].events
@@ -343,3 +337,24 @@ def test_events_of_the_paper_actuator_on_the_compiled_path_match_the_scipy_path(
     for sensor in cm.accounts.sensors:
         e_ref, e_fast = ref.energy(sensor)[-1], fast.energy(sensor)[-1]
         assert abs(e_fast - e_ref) <= 1e-5 * abs(e_ref), sensor
+
+
+@pytest.mark.xfail(strict=True, reason="compiled-path events: a same-instant off/on pair of the rectifier diode "
+                   "(its voltage leaves zero by a round-off blip) is followed by no turn-off, so the diode conducts "
+                   "for 0.05 s too long (issue 16, why events stay opt-in)")
+def test_compiled_events_of_a_gently_switching_diode_match_a_tight_reference():
+    """Table 2's 'optimized total (arm side)' replay at rtol 1e-9: the source energy over the run within 1e-6 of a
+    tight reference (scipy BDF at rtol 1e-11: 36.55312 J; scipy BDF at rtol 1e-9: 36.55316 J). The compiled path
+    gives 36.5107 J (0.12 % low)."""
+    from acausal.models.ankle import protocol
+    from acausal.models.ankle.presets import preset
+    from acausal.models.ankle.registry import spec
+    cm = protocol.compiled("replay").sim
+    params = {k: v for k, v in preset("paper_optimized_total_arm_side").items() if cm.has_parameter(k)}
+    params.update({"stride_time": 2.0, "P_nominal": 0.008})
+    inputs = spec("replay").condition_inputs(dict(zip(cm.param_names, cm.param_vector(params))))
+    kw = dict(t_start=-0.5, params=params, inputs=inputs, n_points=251)
+    ref = cm.simulate(2.0, method="BDF", rtol=1e-11, atol=1e-13, **kw)
+    fast = cm.simulate(2.0, method="CVODES", rtol=1e-9, atol=1e-11, **kw)
+    e_ref, e_fast = ref.energy("P_source.P")[-1], fast.energy("P_source.P")[-1]
+    assert abs(e_fast - e_ref) <= 1e-6 * abs(e_ref)

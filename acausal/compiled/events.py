@@ -15,8 +15,9 @@ happens: CVODES continuing past a crossing in the old mode can run into steps it
 (capped at :data:`WINDOW_STEPS` steps) is retried on half the window. A crossing costs one more run, over its output
 interval with :data:`DENSE` output times: Brent's trials read a Hermite interpolant of those states, not runs of
 their own (every run restarts CVODES cold, at order one and a tiny step, so trial runs were what made events
-expensive). On the paper's actuator this is about twice as fast as the scipy path's BDF, and closer to a tight
-reference (the scipy path's energy balance residual there is 5e-6 of the source energy, this path's 7e-9).
+expensive). Taken only on request (``method="CVODES"``): on the paper's actuator it is about twice as fast as the
+scipy path's BDF, but a zero function leaving zero by a round-off blip can still be switched wrongly (see the users'
+guide, Simulation paths), so the scipy path stays the default for models with events.
 
 CasADi's own zero-crossing support (3.7+) was tried and is not used: it watches only downward crossings, triggers
 each function at most once per output interval, and zeroes in on a crossing with solver interpolation that fails
