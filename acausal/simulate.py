@@ -159,7 +159,7 @@ def _choose_path(cm, method, u, rtol, atol):
     if not available():
         why = 'the compiled path needs CasADi (pip install "acausal[fast]")'
     else:
-        why = cm.compiled_path.unsupported(u, rtol, atol, explicit=method == COMPILED)
+        why = cm.compiled_path.unsupported(u, rtol, atol)
         if why is None:
             return COMPILED, ""
     if method == COMPILED:

@@ -13,11 +13,12 @@ event's assignments, the cascade of mode changes and the restart follow the scip
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
 (capped at :data:`WINDOW_STEPS` steps) is retried on half the window. A crossing costs one more run, over its output
-interval with :data:`DENSE` output times: Brent's trials read a Hermite interpolant of those states, not runs of
-their own (every run restarts CVODES cold, at order one and a tiny step, so trial runs were what made events
-expensive). Taken only on request (``method="CVODES"``): on the paper's actuator it is about twice as fast as the
-scipy path's BDF, but a zero function leaving zero by a round-off blip can still be switched wrongly (see the users'
-guide, Simulation paths), so the scipy path stays the default for models with events.
+interval with :data:`DENSE` output times, its tolerances :data:`LOCATE_TOL` times the window's: Brent's
+trials read a Hermite interpolant of those states, not runs of their own (every run restarts CVODES cold, at order
+one and a tiny step, so trial runs were what made events expensive), and the tighter run locates a gently crossing,
+ill-conditioned zero function (an ideal diode's current through its small on-resistance) where the tolerance of
+the states alone would leave it uncertain by more than the switch can bear. On the paper's actuator this is
+about twice as fast as the scipy path's BDF, and closer to a tight reference.
 
 CasADi's own zero-crossing support (3.7+) was tried and is not used: it watches only downward crossings, triggers
 each function at most once per output interval, and zeroes in on a crossing with solver interpolation that fails
@@ -34,6 +35,7 @@ REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
 WINDOW = 64  # output times per CVODES run at most: an event restarts the run, so the work after it is not thrown away
 WINDOW_STEPS = 4_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
+LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tighter than the window's
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
 
 
@@ -190,15 +192,16 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args):
 
 
 class _Dense:
-    """One CVODES solution from ``(a, xa)`` to ``b`` read at any time in between: its states at :data:`DENSE`
-    output times (``nodes``: the solver's own interpolating polynomials there; extra output times do not add
-    steps) and a cubic Hermite interpolant (states and their derivatives) between two of them."""
+    """One CVODES solution from ``(a, xa)`` to ``b`` (tolerances :data:`LOCATE_TOL` times the run's ``args``), read
+    at any time in between: its states at :data:`DENSE` output times (``nodes``: the solver's own interpolating
+    polynomials there; extra output times do not add steps) and a cubic Hermite interpolant (states and their
+    derivatives) between two of them."""
 
     def __init__(self, cm, path, a, b, xa, p, d, u, args):
         self.cm, self.a, self.b, self.xa, self.p, self.d, self.u = cm, a, b, xa, p, d, u
         self.nodes = np.linspace(a, b, DENSE + 1)
         self.nodes[-1] = b
-        X, _ = path.integrate(a, xa, self.nodes[1:], p, d, u, *args)
+        X, _ = path.integrate(a, xa, self.nodes[1:], p, d, u, args[0] * LOCATE_TOL, args[1] * LOCATE_TOL, *args[2:])
         self.states = np.concatenate([xa[:, None], X], axis=1)
         self.rates = {}
 

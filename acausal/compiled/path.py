@@ -30,9 +30,8 @@ class CompiledPath:
         self._integrators: dict = {}
 
     # ------------------------------------------------------------------ support
-    def unsupported(self, u, rtol, atol, explicit: bool = False) -> str | None:
-        """Why this run cannot take the compiled path (None: it can). A model with state events takes it only
-        when ``explicit`` (``method="CVODES"``): see :mod:`acausal.compiled.events` for why."""
+    def unsupported(self, u, rtol, atol) -> str | None:
+        """Why this run cannot take the compiled path (None: it can)."""
         cm = self.cm
         if not cm.state_names:
             return "the model has no states (it is evaluated algebraically)"
@@ -41,13 +40,8 @@ class CompiledPath:
         entry = self._rhs_entry(u)
         if isinstance(entry, str):
             return entry
-        if cm.event_zeros:
-            if isinstance(self._zero_functions(entry), str):
-                return self._zero_functions(entry)
-            if not explicit:
-                return (f"the model has {len(cm.event_zeros)} state event(s) (from "
-                        f"{', '.join(sorted({e.origin for e in cm.flat.events}))}); the compiled path locates them "
-                        "only when asked (method='CVODES'), the scipy path by default")
+        if cm.event_zeros and isinstance(self._zero_functions(entry), str):
+            return self._zero_functions(entry)
         return None
 
     def integrator_name(self, u) -> str:

@@ -257,6 +257,10 @@ def _uncertainty(problem: Problem, jac: np.ndarray, x: np.ndarray):
     return sd, identified, [float(v) for v in s]
 
 
+#: the finite-difference step of the fit's Jacobian, in each unknown's scaled range [0, 1]
+FD_STEP = 1e-3
+
+
 def fit(unknowns=UNKNOWNS, targets=TARGETS, fixed: dict | None = None, start: dict | None = None,
         executor=None, reduce_grid: bool = True, max_nfev: int = 15, targets_paper: dict | None = None,
         progress: Callable | None = None) -> Fit:
@@ -274,15 +278,32 @@ def fit(unknowns=UNKNOWNS, targets=TARGETS, fixed: dict | None = None, start: di
         keep |= {k for t in problem.targets if t.keys != GRID for k in t.keys}
         problem.keys = sorted(k for k in problem.keys if k not in GRID or k in keep)
 
+    last = {}
+
     def fun(x):
         r = problem(x)
+        last.update(x=np.array(x, dtype=float), r=r)
         if progress:
             progress(len(problem.history), problem.values(x), float(r @ r))
         return r
 
+    def jac(x):
+        # forward differences with an absolute step of 1e-3 of each unknown's range, inward at a bound (scipy's
+        # diff_step is relative to x: at an unknown starting on its bound, such as a friction torque at 0, the step
+        # would be 1e-13 of the range and the difference all integration noise)
+        x = np.asarray(x, dtype=float)
+        r0 = last["r"] if "x" in last and np.array_equal(last["x"], x) else problem(x)
+        J = np.empty((r0.size, x.size))
+        for i in range(x.size):
+            h = FD_STEP if x[i] + FD_STEP <= 1.0 else -FD_STEP
+            xi = x.copy()
+            xi[i] += h
+            J[:, i] = (problem(xi) - r0) / h
+        return J
+
     # max_nfev counts steps, not the Jacobian's finite differences (one evaluation per unknown each)
-    sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale=1.0, diff_step=1e-3, max_nfev=max_nfev,
-                        xtol=1e-4, ftol=1e-5)
+    sol = least_squares(fun, x0, jac=jac, bounds=(0.0, 1.0), x_scale=1.0, max_nfev=max_nfev, xtol=1e-4,
+                        ftol=1e-5)
     values = problem.values(sol.x)
     sd, identified, sv = _uncertainty(problem, sol.jac, sol.x)
     check_keys = sorted({k for t in problem.targets for k in t.keys})  # the whole grid again
