@@ -85,7 +85,10 @@ def test_protocol_csv_one_row_per_condition(out):
     for preset in ("paper_fit", "library"):
         replay = [r for r in rows if r["model"] == "replay" and r["preset"] == preset]
         assert len(replay) == 9  # quick grid: 3 precompressions x 3 stride times
-        assert max(abs(float(r["balance_residual"])) for r in rows if r["preset"] == preset) < 1e-6
+    # every condition's energy balance closes, the Table 2 presets' included (the scipy path's BDF left 5e-6 on the
+    # datasheet preset; the compiled path, the default, 2e-8)
+    worst = max(rows, key=lambda r: abs(float(r["balance_residual"])))
+    assert abs(float(worst["balance_residual"])) < 1e-6, (worst["model"], worst["preset"], worst["P_mm"])
     assert {r["model"] for r in rows} == {"replay", "closed_loop", "direct_drive"}
     assert all(r["preset"] for r in rows)
 
