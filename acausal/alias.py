@@ -124,7 +124,9 @@ def eliminate_aliases(flat: FlatModel) -> None:
         for n, expr in subs.items():
             flat.aliases[n] = expr
         for n in subs:
-            variables.pop(n, None)
+            eliminated = variables.pop(n, None)
+            if eliminated is not None:  # its unit and doc stay known (results, reports)
+                flat.alias_info[n] = eliminated
         root_names = [n for n in list(root)]
         for n in root_names:
             root.pop(n)

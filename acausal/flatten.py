@@ -85,6 +85,7 @@ class FlatModel:
     events: list = field(default_factory=list)
     components: dict = field(default_factory=dict)  # path -> class name
     aliases: dict = field(default_factory=dict)  # name -> expression in kept variables / parameters
+    alias_info: dict = field(default_factory=dict)  # eliminated name -> its variable's info (unit, doc)
     # eliminated variables with a fixed start whose alias class is a constant (an expression of parameters, e.g.
     # a capacitor voltage clamped by a source): name -> fixed start, checked at initialisation
     fixed_constants: dict = field(default_factory=dict)

@@ -251,26 +251,76 @@ class Result:
             for k in range(self.t.size):
                 w.writerow([repr(float(self.t[k]))] + [repr(float(c[k])) for c in cols])
 
-    def plot(self, *names, ax=None, **kwargs):
-        """Plot variables over time with matplotlib; returns the axes."""
+    def plot(self, *names, ax=None, label=None, **kwargs):
+        """Plot variables over time with matplotlib; returns the axes.
+
+        One y axis per unit: the first unit on ``ax`` (labelled with it), a second one on a twin axis at the right
+        (``ax.twin``); a third unit and more share the second axis, with a warning naming them. ``label``: a string
+        (one name), a list (one per name) or a dict (name -> label); by default each curve is labelled with its name
+        and unit. Other keywords go to matplotlib's ``plot``. Outside a notebook call ``matplotlib.pyplot.show()``
+        to see the figure (or save it: ``ax.figure.savefig(path)``)."""
+        import warnings
+
         import matplotlib
+        if not names:
+            raise ModelError("plot: name at least one variable, e.g. res.plot('L.i')")
+        labels = self._plot_labels(names, label)
+        values = [self[n] for n in names]  # an unknown name fails here, before any figure is made
         if ax is None:
             matplotlib.use(matplotlib.get_backend())
             import matplotlib.pyplot as plt
             _, ax = plt.subplots()
-        for n in names:
+        units = list(dict.fromkeys(self._unit(n) for n in names))
+        if len(units) > 2:
+            warnings.warn(f"plot: {len(units)} units ({', '.join(u or 'no unit' for u in units)}); the curves in "
+                          f"{', '.join(u or 'no unit' for u in units[1:])} share the right-hand axis", stacklevel=2)
+        axes = {units[0]: ax}
+        if len(units) > 1:
+            ax.twin = getattr(ax, "twin", None) or ax.twinx()
+            for unit in units[1:]:
+                axes[unit] = ax.twin
+        colors = iter(matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", [None]) * len(names))
+        for n, v, text in zip(names, values, labels):
             unit = self._unit(n)
-            ax.plot(self.t, self[n], label=f"{n} [{unit}]" if unit else n, **kwargs)
+            style = dict(kwargs)
+            if "color" not in style and "c" not in style:
+                style["color"] = next(colors)  # one color cycle over both axes
+            axes[unit].plot(self.t, v, label=text, **style)
+        ax.set_ylabel(f"[{units[0]}]" if units[0] else "")
+        if len(units) > 1:
+            ax.twin.set_ylabel(", ".join(f"[{u}]" if u else "(no unit)" for u in units[1:]))
         ax.set_xlabel("time [s]")
-        ax.legend()
+        handles = [h for a in dict.fromkeys(axes.values()) for h in a.get_lines()]
+        ax.legend(handles, [h.get_label() for h in handles])
         ax.grid(True, alpha=0.3)
         return ax
+
+    def _plot_labels(self, names, label) -> list:
+        if label is None:
+            return [f"{n} [{self._unit(n)}]" if self._unit(n) else n for n in names]
+        if isinstance(label, str):
+            if len(names) != 1:
+                raise ModelError(f"plot: label={label!r} is one string for {len(names)} variables; give a list "
+                                 "(one per name) or a dict (name -> label)")
+            return [label]
+        if isinstance(label, dict):
+            unknown = [k for k in label if k not in names]
+            if unknown:
+                raise ModelError(f"plot: label names {unknown} that are not plotted (plotted: {list(names)})")
+            default = self._plot_labels(names, None)
+            return [label.get(n, d) for n, d in zip(names, default)]
+        labels = list(label)
+        if len(labels) != len(names):
+            raise ModelError(f"plot: {len(labels)} labels for {len(names)} variables {list(names)}")
+        return [str(x) for x in labels]
 
     def _unit(self, name):
         flat = self.model.flat
         base = split_der(name)[0]
         if base in flat.variables:
             return flat.variables[base].unit
+        if base in flat.alias_info:
+            return flat.alias_info[base].unit
         if base in flat.parameters:
             return flat.parameters[base].unit
         return ""

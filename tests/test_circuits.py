@@ -75,5 +75,5 @@ def test_result_csv_plot_and_energy(tmp_path):
     assert np.allclose(data["Cv"], res["C.v"])
     import matplotlib
     matplotlib.use("Agg")
-    ax = res.plot("C.v", "R.i")
-    assert len(ax.get_lines()) == 2 and ax.get_xlabel() == "time [s]"
+    ax = res.plot("C.v", "R.i")  # volts on the left axis, amperes on a twin at the right
+    assert len(ax.get_lines()) == 1 and len(ax.twin.get_lines()) == 1 and ax.get_xlabel() == "time [s]"
