@@ -120,6 +120,8 @@ class CompiledModel:
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
         self._param_plan = _param_plan(flat)
+        # parameters bound to an expression of others: not overridable (they would disagree with the others)
+        self._bound = {name: binding for name, _, binding, _ in self._param_plan if binding is not None}
         self._event_assign = _event_assignment_table(flat)
         self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
         self._compiled_path = None
@@ -234,7 +236,8 @@ class CompiledModel:
         """Numeric parameter vector (in :attr:`param_names` order) with ``params`` overriding defaults.
 
         A parameter bound to an expression of others (``Resistor(R=2 * self.R0)``) is evaluated from their
-        values in this run, unless overridden itself; the expressions are compiled once per model. Every value
+        values in this run; overriding it is a :class:`ModelError` naming what it is bound to (it would disagree
+        with them); the expressions are compiled once per model. Every value
         is checked against its parameter's bounds (:class:`ModelError` naming the parameter and its owner).
         A value may be an array (a batch of parameter sets): the vector then has dtype object entries that
         broadcast in the generated code; use :meth:`param_batch` for the usual case.
@@ -243,6 +246,8 @@ class CompiledModel:
         for k in params:
             if k not in self._param_index:
                 raise self.unknown_name_error(k, "parameter", self.param_names)
+            if k in self._bound:
+                raise ModelError(self._bound_message(k))
         values: dict = {}
         batch = False
         for name, info, binding, default in self._param_plan:
@@ -260,6 +265,14 @@ class CompiledModel:
                 out[i] = values[n]
             return out
         return np.array([values[n] for n in self.param_names], dtype=float)
+
+    def _bound_message(self, name: str) -> str:
+        binding = self._bound[name]
+        free = sorted(str(s) for s in getattr(binding, "free_symbols", ()))
+        owner = self.flat.parameters[name].owner if name in self.flat.parameters else ""
+        return (f"parameter {name!r}{f' of {owner}' if owner else ''} is bound to {binding} in the model: set "
+                f"{', '.join(repr(f) for f in free) or 'the parameters it depends on'} instead (an override of "
+                f"{name!r} alone would disagree with them)")
 
     def param_batch(self, sets: list) -> np.ndarray:
         """Parameter array of shape ``(n_params, B, 1)`` for ``B`` parameter sets: generated functions evaluated

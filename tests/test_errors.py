@@ -404,3 +404,21 @@ def test_fixed_start_contradicting_a_source_is_reported():
     assert "C.v" in msg and "inconsistent initial conditions" in msg
     res = sim.simulate(0.1, params={"V.V": 1.0})  # consistent when the source agrees
     assert res["C.v"][0] == pytest.approx(1.0)
+
+
+def test_overriding_a_bound_parameter_names_what_it_is_bound_to():
+    """A gearbox's inner mesh ratio follows the gearbox's ratio; overriding it alone would make the two disagree
+    (issue 22): the error names the binding and the parameter to set."""
+    from acausal.library.rotational import Gearbox
+
+    class Drive(Model):
+        def build(self):
+            self.motor, self.box, self.load = Inertia(J=1e-3), Gearbox(ratio=10.0), Inertia(J=1.0)
+            connect(self.motor.flange_b, self.box.flange_a)
+            connect(self.box.flange_b, self.load.flange_a)
+
+    cm = compile_model(Drive())
+    with pytest.raises(ModelError, match=r"'box.mesh.ratio' of box.mesh is bound to box.ratio.*set 'box.ratio'"):
+        cm.simulate(0.1, params={"box.mesh.ratio": 20.0})
+    res = cm.simulate(0.1, params={"box.ratio": 20.0})  # the one to set: the mesh follows it
+    assert res["box.mesh.ratio"][0] == 20.0
