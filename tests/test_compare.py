@@ -115,6 +115,11 @@ def test_cli_lists_models(capsys):
     (["replay", "--precompression", "25", "--out", "x"], "in mm \\(0-18\\)"),
     (["replay"], "--out DIR is required"),
     ([], "name at least one model"),
+    (["battery", "--set", "motor.R", "--out", "x"], "expected \\[MODEL:\\]NAME=VALUE"),
+    (["battery", "--set", "motor.R=abc", "--out", "x"], "'abc' is not a number"),
+    (["battery", "--set", "motor.RR=0.5", "--out", "x"], "unknown parameter 'motor.RR'.*did you mean 'motor.R'"),
+    (["battery", "--set", "replay:motor.R=0.5", "--out", "x"], "model 'replay' is not among the compared"),
+    (["battery", "--set", "motor.R=-1", "--out", "x"], "motor.R.*minimum"),
 ])
 def test_cli_errors(argv, message, capsys, tmp_path):
     args = parser().parse_args(argv)
@@ -133,3 +138,17 @@ def test_cli_end_to_end(tmp_path, capsys):
     assert [(r["model"], float(r["stride_time_s"]), float(r["P_mm"])) for r in rows] == [("battery", 2.0, 8.0),
                                                                                         ("battery", 3.0, 8.0)]
     assert (out / "sankey_battery.png").exists() and "compare.md" in capsys.readouterr().out
+
+
+def test_cli_sets_a_parameter(tmp_path, capsys):
+    """``--set NAME=VALUE`` (SI units) reaches the simulation: a larger winding resistance loses more in the motor."""
+    rows = {}
+    for label, extra in (("datasheet", []), ("hot", ["--set", "motor.R=0.6"])):
+        out = tmp_path / label
+        args = parser().parse_args(["battery", "--stride-time", "2", "--precompression", "8", "--out", str(out),
+                                    "--jobs", "1", "--no-progress", *extra])
+        assert args.run(args) == 0
+        with open(out / "compare.csv") as f:
+            rows[label] = next(csv.DictReader(f))
+    loss = {k: float(r["E_driver_J"]) - float(r["E_motor_J"]) for k, r in rows.items()}
+    assert loss["hot"] > 1.2 * loss["datasheet"]

@@ -88,6 +88,8 @@ def compiled(name: str) -> Compiled:
 
 @dataclass
 class Condition:
+    """One bench condition, in SI units: ``P`` in m (the CLI's ``--precompression`` and the paper's figures use
+    mm), ``stride_time`` in s, ``overrides`` by parameter name in each parameter's SI unit."""
     P: float  # precompression [m]
     stride_time: float  # [s]
     model: str = "replay"

@@ -272,11 +272,43 @@ def configure(parser) -> None:
                         default=None, help="MACCEPA precompressions in mm, 0-18 (default: 8); models without "
                         "a precompression run once per stride time")
     parser.add_argument("--preset", default="library", help="parameter preset (default: library)")
+    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="[MODEL:]NAME=VALUE",
+                        help="set a parameter, in SI units (m, s, ohm, ...; the only mm here is --precompression), "
+                        "for every compared model that has it, or for MODEL only; repeatable")
     parser.add_argument("--out", help="output directory (created if missing); required unless --list")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--list", action="store_true", help="list the known models and exit")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.set_defaults(run=run)
+
+
+def parse_sets(sets: list, models: list) -> dict:
+    """``--set [MODEL:]NAME=VALUE`` arguments as ``{model: {parameter: value}}``: each for every model among
+    ``models`` that has the parameter (or for MODEL only); a ModelError naming the argument when it is malformed,
+    its model is not compared, or no compared model has the parameter."""
+    from ..ankle.protocol import compiled
+
+    out: dict = {}
+    for item in sets:
+        target, sep, value = item.partition("=")
+        model, _, name = target.rpartition(":") if ":" in target else ("", "", target)
+        if not sep or not name:
+            raise ModelError(f"--set {item!r}: expected [MODEL:]NAME=VALUE, e.g. --set motor.R=0.4")
+        try:
+            number = float(value)
+        except ValueError:
+            raise ModelError(f"--set {item!r}: the value {value!r} is not a number (SI units)") from None
+        if model and model not in models:
+            raise ModelError(f"--set {item!r}: model {model!r} is not among the compared models {models}")
+        targets = [model] if model else list(models)
+        having = [m for m in targets if compiled(m).sim.has_parameter(name)]
+        if not having:
+            sim = compiled(targets[0]).sim
+            raise ModelError(f"--set {item!r}: {sim.unknown_name_error(name, 'parameter', sim.param_names)}")
+        for m in having:
+            compiled(m).sim.param_vector({name: number})  # its bounds, and not bound to other parameters
+            out.setdefault(m, {})[name] = number
+    return out
 
 
 def list_models() -> str:
@@ -303,9 +335,10 @@ def run(args) -> int:
                                  f"{P * 1e3:g} mm?")
         Ts = args.stride_times or list(DEFAULT_STRIDE_TIMES)
         conditions(args.models, Ts, [P * 1e-3 for P in Ps_mm], args.preset)  # validate before starting workers
+        overrides = parse_sets(args.sets, args.models)
         t0 = time.perf_counter()
         results = run_models(args.models, Ts, [P * 1e-3 for P in Ps_mm], preset=args.preset, jobs=args.jobs,
-                             progress=not args.no_progress)
+                             progress=not args.no_progress, overrides=overrides)
         paths = write_outputs(results, args.out)
     except ModelError as exc:
         print(f"acausal compare: {exc}" if not str(exc).startswith("acausal compare") else str(exc),
