@@ -13,3 +13,8 @@ def test_readme_example_runs():
     res = ns["res"]
     assert np.isfinite(res["L.i"]).all()
     assert res["R.R"][0] == 0.6
+    # a sensible operating point (issue 22): the datasheet motor below its no-load speed (24 V / k = 879 rad/s)
+    # and within its 3.5 A nominal current the whole time, the joint torque of a gait's order (tens of N m)
+    assert 0 < np.max(res["rotor.w"]) < 24.0 / 0.0273 and np.max(np.abs(res["L.i"])) < 3.5
+    assert 20.0 < abs(res["gear.flange_b.tau"][-1]) < 100.0
+    assert abs(res.energy_balance().residual) < 1e-6
