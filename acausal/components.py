@@ -61,6 +61,13 @@ class Parameter(_Declaration):
                  max: float | None = None):
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
 
+    def __repr__(self):  # what help(Component) and a notebook show: default, unit, bounds, doc
+        parts = [repr(self.default), f"unit={self.unit!r}"]
+        parts += [f"{k}={v!r}" for k, v in (("min", self.min), ("max", self.max)) if v is not None]
+        if self.doc:
+            parts.append(f"doc={self.doc!r}")
+        return f"Parameter({', '.join(parts)})"
+
     def __get__(self, obj, owner=None):
         if obj is None:
             return self
@@ -83,6 +90,16 @@ class Variable(_Declaration):
             raise ModelError(f"state_select must be one of {sorted(_STATE_SELECT)}, got {state_select!r}")
         self.start, self.unit, self.doc, self.fixed = start, unit, doc, fixed
         self.state_select, self.nominal = state_select, nominal
+
+    def __repr__(self):
+        parts = [f"start={self.start!r}", f"unit={self.unit!r}"]
+        if self.fixed:
+            parts.append("fixed=True")
+        if self.state_select != "default":
+            parts.append(f"state_select={self.state_select!r}")
+        if self.doc:
+            parts.append(f"doc={self.doc!r}")
+        return f"{type(self).__name__}({', '.join(parts)})"
 
     def __get__(self, obj, owner=None):
         if obj is None:
