@@ -237,8 +237,8 @@ class CompiledModel:
 
         A parameter bound to an expression of others (``Resistor(R=2 * self.R0)``) is evaluated from their
         values in this run; overriding it is a :class:`ModelError` naming what it is bound to (it would disagree
-        with them); the expressions are compiled once per model. Every value
-        is checked against its parameter's bounds (:class:`ModelError` naming the parameter and its owner).
+        with them); the expressions are compiled once per model. Every value is checked against its parameter's
+        bounds (:class:`ModelError` naming the parameter and its owner).
         A value may be an array (a batch of parameter sets): the vector then has dtype object entries that
         broadcast in the generated code; use :meth:`param_batch` for the usual case.
         """

@@ -65,6 +65,14 @@ def apply_event(cm, i, rising, t, x, p, d, u):
     return new
 
 
+def apply_hits(cm, hits, t, x, p, d, u):
+    """The modes after the crossings ``hits`` (``(time, event index, rising?)``, all at ``t``): each event's
+    assignments applied in turn (equal to ``d`` when none changes a mode)."""
+    for _, i, rising in hits:
+        d = apply_event(cm, i, rising, t, x, p, d, u)
+    return d
+
+
 def values_at(cm, t, x, p, d, u) -> dict:
     """Every unknown, state, parameter and mode by name at one time, as Python floats."""
     vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))

@@ -24,7 +24,7 @@ import numpy as np
 from scipy import integrate
 
 from .errors import ModelError, SimulationError
-from .modes import algebraic_modes, apply_event, cascade, crossings, record_events, settle_modes, zeros
+from .modes import algebraic_modes, apply_hits, cascade, crossings, record_events, settle_modes, zeros
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -124,9 +124,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                 if hits:
                     t_e = hits[0][0]
                     x_e = sol(t_e)
-                    d_new = d
-                    for _, i_ev, rising in hits:
-                        d_new = apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
+                    d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
                     if not np.array_equal(d_new, d):  # a crossing that changes no mode needs no restart
                         hit = hits
             t_stop = hit[0][0] if hit else t_new

@@ -8,7 +8,7 @@ moment) cannot hide: the interval's variation is then at least ``|z(a)| + |z(b)|
 integrated again on a finer grid, recursively, until the crossing is seen or shown not to exist. A crossing is
 located by Brent's method on ``z`` along one integrator solution of its interval (see :func:`_locate`), then the
 event's assignments, the cascade of mode changes and the restart follow the scipy path's own functions
-(:mod:`acausal.simulate`), so both paths switch the same way.
+(:mod:`acausal.modes`), so both paths switch the same way.
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..modes import apply_event, cascade, crossings, record_events, settle_modes, zeros
+from ..modes import apply_hits, cascade, crossings, record_events, settle_modes
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -172,8 +172,9 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args):
         zm, zb_m = zn.copy(), np.asarray(zb, dtype=float).copy()
         for i in handled:  # the same nonzero value everywhere: no crossing
             zm[i] = zb_m[i] = 1.0
-        if np.any(_crossed(zm[:, 0], zm[:, -1])) or np.any(_crossed(zm[:, :-1], zm[:, 1:])):
-            j = int(np.flatnonzero(np.any(_crossed(zm[:, :-1], zm[:, 1:]), axis=0))[0])  # the first bracket
+        brackets = np.flatnonzero(np.any(_crossed(zm[:, :-1], zm[:, 1:]), axis=0))
+        if brackets.size:  # a crossing between the ends shows between two neighbouring outputs
+            j = int(brackets[0])  # the first
             hits = crossings(cm, run.sol, run.nodes[j], run.nodes[j + 1], zm[:, j], zm[:, j + 1], p, d, u)
             t_e = hits[0][0] if hits else run.nodes[j + 1]
             x_e = run.sol(t_e)
@@ -183,9 +184,7 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args):
             t_e, x_e = b, xb
         if not hits:
             return None
-        d_new = d
-        for _, i_ev, rising in hits:
-            d_new = apply_event(cm, i_ev, rising, t_e, x_e, p, d_new, u)
+        d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
         if not np.array_equal(d_new, d):
             return t_e, x_e, hits, d_new
         handled |= {i for _, i, _ in hits}  # a crossing that changes no mode needs no restart

@@ -8,8 +8,9 @@ what fixes their structure (the inputs, the quadratures and the normalised outpu
 (sweeps, protocol conditions, fits) share one integrator whatever their start and length, and only the numbers
 change per run.
 
-What the path cannot run (a signal without a closed form, per-state tolerances, state events unless asked for)
-is reported by :meth:`CompiledPath.unsupported` as a reason; the caller then takes the scipy path and says why.
+What the path cannot run (a signal or a zero function without a closed form, per-state tolerances, a model
+without states) is reported by :meth:`CompiledPath.unsupported` as a reason; the caller then takes the scipy path
+and says why. State events are handled in :mod:`acausal.compiled.events`.
 """
 from __future__ import annotations
 
