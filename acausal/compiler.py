@@ -151,9 +151,54 @@ class CompiledModel:
         """The generated Python source."""
         return self.generator.source
 
-    def names(self) -> list:
-        """Every variable name the results answer: states, algebraic unknowns and aliases."""
-        return sorted(set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases))
+    def names(self, pattern: str | None = None, parameters: bool = False) -> list:
+        """Every variable name the results answer (states, algebraic unknowns and aliases), sorted; with
+        ``parameters=True`` the parameters too. ``pattern`` keeps the names that match it as a shell-style
+        wildcard (``"motor.*"``, ``"*.loss_power"``; see :mod:`fnmatch`) or, without wildcards, that contain it."""
+        names = set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases)
+        if parameters:
+            names |= set(self.param_names)
+        return _filtered(sorted(names), pattern)
+
+    def equations(self, component: str | None = None, solved: bool = False):
+        """The model's equations, one per line under the component (or connection) they come from; ``print``
+        it (a :class:`~acausal.components.Listing`, a ``str``).
+
+        ``component``: a component's path (``"motor"``), for its equations and those of everything inside it
+        with the connections made inside it; None for the whole model. By default the equations are shown as
+        the components wrote them, in hierarchical names; ``solved=True`` shows them after alias elimination
+        (what structural analysis works on: connected potentials and flows merged, ``0 = residual``) with the
+        component's eliminated aliases. A path that is no component is a :class:`ModelError` with suggestions.
+        """
+        from .components import Listing
+        if component and component not in self.flat.components:
+            raise self.unknown_name_error(component, "component", [c for c in self.flat.components if c])
+        if solved:
+            eqs = [e for e in self.flat.equations if not component or e.origin in
+                   {w.origin for w in self.flat.equations_of(component)}]
+            rows = [(e.origin, f"0 = {sp.sstr(e.residual)}") for e in eqs]
+            inside = (component + ".") if component else ""
+            rows += [("aliases (eliminated)", f"{n} = {sp.sstr(v)}") for n, v in sorted(self.flat.aliases.items())
+                     if n.startswith(inside)]
+        else:
+            rows = [(e.origin, e.text) for e in self.flat.equations_of(component)]
+        lines = [f"model {self.flat.name}" + (f", {component}" if component else "") + (
+            ": equations after alias elimination" if solved else ": equations as written") + f" ({len(rows)})"]
+        last = None
+        for origin, text in rows:
+            if origin != last:
+                lines.append(f"  {origin}:")
+                last = origin
+            lines.append(f"    {text}")
+        return Listing("\n".join(lines))
+
+    def device_defaults(self, params: dict | None = None) -> dict:
+        """Parameters left at a library default that belongs to one device (a datasheet number or an
+        assumption about one device, :class:`~acausal.components.Parameter` ``device``), unless ``params``
+        (a run's overrides) sets them: name -> (value, unit, device)."""
+        given = set(params or ())
+        return {n: (float(p.value), p.unit, p.device) for n, p in sorted(self.flat.parameters.items())
+                if p.device and n not in given and not isinstance(p.value, sp.Basic)}
 
     def unknown_name_error(self, name: str, kind: str, candidates) -> UnknownNameError:
         """The error for a name the model does not have (a :class:`ModelError` and a ``KeyError``): ``kind``
@@ -388,6 +433,13 @@ class CompiledModel:
             elif isinstance(s, LinearSolve):
                 lines.append(f"    linear solve for {s.vars}")
         lines.append(f"  simulation path: {self.simulation_path()}")
+        dev = self.device_defaults()
+        if dev:
+            lines.append(f"  left at a device's datasheet default ({len(dev)}; set them for your device, at "
+                         "construction or per run with params=...):")
+            for device in dict.fromkeys(d for _, _, d in dev.values()):
+                lines.append(f"    {device}: " + ", ".join(
+                    f"{n} = {v:g} {u}" for n, (v, u, d) in dev.items() if d == device))
         if self.generator.signal_orders:
             lines.append("  input derivatives used: " + ", ".join(
                 f"{k} up to order {v}" for k, v in sorted(self.generator.signal_orders.items())))
@@ -395,6 +447,16 @@ class CompiledModel:
 
     def __repr__(self):
         return f"<CompiledModel {self.flat.name}: {len(self.state_names)} states, {len(self.unknown_names)} unknowns>"
+
+
+def _filtered(names: list, pattern: str | None) -> list:
+    """``names`` matching ``pattern`` (a shell-style wildcard, or a substring when it has no wildcard)."""
+    if not pattern:
+        return names
+    if any(ch in pattern for ch in "*?["):
+        import fnmatch
+        return [n for n in names if fnmatch.fnmatchcase(n, pattern)]
+    return [n for n in names if pattern in n]
 
 
 def _mapping(value, what: str) -> dict:

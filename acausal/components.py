@@ -54,18 +54,25 @@ class Parameter(_Declaration):
     """A constant of the model with an SI unit; its value can be changed per run without recompiling.
 
     ``default`` may be a number or ``None`` (then the user must give a value). ``min``/``max`` are checked on
-    every run; a value outside them is a :class:`~acausal.errors.ModelError` naming the parameter.
+    every run; a value outside them is a :class:`~acausal.errors.ModelError` naming the parameter. ``device``
+    names the device (or test subject) a default belongs to when it is a datasheet number or an assumption about
+    one device rather than a neutral value or a physical constant (``"maxon EC-4pole 30"``): a model that leaves
+    such a parameter at its default says so in :meth:`CompiledModel.report
+    <acausal.compiler.CompiledModel.report>` and :meth:`~acausal.compiler.CompiledModel.device_defaults`.
     """
 
     def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
-                 max: float | None = None):
+                 max: float | None = None, device: str = ""):
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
+        self.device = device
 
     def __repr__(self):  # what help(Component) and a notebook show: default, unit, bounds, doc
         parts = [repr(self.default), f"unit={self.unit!r}"]
         parts += [f"{k}={v!r}" for k, v in (("min", self.min), ("max", self.max)) if v is not None]
         if self.doc:
             parts.append(f"doc={self.doc!r}")
+        if self.device:
+            parts.append(f"device={self.device!r}")
         return f"Parameter({', '.join(parts)})"
 
     def __get__(self, obj, owner=None):
@@ -178,14 +185,114 @@ class Event:
     doc: str = ""
 
 
+# --------------------------------------------------------------------------------------------- describing
+class Listing(str):
+    """Text that shows as itself (not as a quoted string) in a notebook or at the prompt: what
+    :meth:`Component.describe` and :meth:`CompiledModel.equations <acausal.compiler.CompiledModel.equations>`
+    return. It is a ``str``: ``print`` it, search it, write it to a file."""
+
+    def __repr__(self):
+        return str(self)
+
+
+class _ClassOrInstanceMethod:
+    """A method that works on the class (``DCMotor.describe()``) and on an instance (``motor.describe()``)."""
+
+    def __init__(self, fn):
+        self.fn = fn
+        self.__doc__ = fn.__doc__
+
+    def __get__(self, obj, owner=None):
+        return lambda *a, **k: self.fn(owner, obj, *a, **k)
+
+
+def _number(v) -> str:
+    return "-" if v is None else f"{v:g}" if isinstance(v, (int, float)) else str(v)
+
+
+def _bounds(d) -> str:
+    if d.min is None and d.max is None:
+        return ""
+    return f"[{_number(d.min) if d.min is not None else '-inf'}, {_number(d.max) if d.max is not None else 'inf'}]"
+
+
+def _table(rows, indent="    ") -> list:
+    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]) - 1)]
+    return [indent + "  ".join(c.ljust(w) for c, w in zip(r[:-1], widths)) + ("  " + r[-1] if r[-1] else "")
+            for r in rows]
+
+
+def describe_component(cls, obj=None) -> Listing:
+    """The parameter table (value or default, unit, bounds, doc, the device a datasheet default belongs to),
+    the ports and the variables of a component class, or of an instance with the values it was given."""
+    decl = cls.declarations()
+    where = f"{cls.__module__}.{cls.__qualname__}"
+    head = f"{cls.__name__} ({where})" if obj is None or not obj._path else f"{cls.__name__} {obj._path!r} ({where})"
+    lines = [head]
+    doc = " ".join(x.strip() for x in (cls.__doc__ or "").strip().split("\n\n")[0].split("\n")).rstrip(":")
+    if doc and not doc.startswith("Parameters"):
+        lines.append("  " + doc + ("." if not doc.endswith(".") else ""))
+    pars = [(k, d) for k, d in decl.items() if isinstance(d, Parameter)]
+    if pars:
+        lines.append("  parameters (name = value, unit, bounds, doc):")
+        rows = []
+        for k, d in pars:
+            given = obj is not None and k in obj._values
+            value = obj._values[k] if given else d.default
+            text = ("" if given or not d.device else f"[default of {d.device}] ") + d.doc
+            rows.append((k, "=", _number(value) if value is not None else "(required)", d.unit, _bounds(d), text))
+        lines += _table(rows)
+    ports = [(k, d) for k, d in decl.items() if isinstance(d, Connector)]
+    if obj is not None:
+        ports += [(k, v) for k, v in obj._children.items() if isinstance(v, Connector) and k not in decl]
+    if ports:
+        lines.append("  ports:")
+        lines += _table([(k, type(d).__name__, f"({d.domain})", d.doc) for k, d in ports])
+    inputs = [(k, d) for k, d in decl.items() if isinstance(d, Input)]
+    if inputs:
+        lines.append("  inputs (prescribed signals):")
+        lines += _table([(k, d.unit, d.doc) for k, d in inputs])
+    var = [(k, d) for k, d in decl.items() if isinstance(d, (Variable, Discrete))]
+    if var:
+        lines.append("  variables (name, unit, start, doc):")
+        lines += _table([(k, getattr(d, "unit", "mode"),
+                          f"start {_number(d.start)}" + (" fixed" if getattr(d, "fixed", False) else ""), d.doc)
+                         for k, d in var])
+    return Listing("\n".join(lines))
+
+
+def _doc_table(cls) -> str:
+    """The parameter table appended to a component class's docstring (what ``help()`` shows)."""
+    rows = [(k, "=", _number(d.default) if d.default is not None else "(required)", d.unit, _bounds(d),
+             (f"[default of {d.device}] " if d.device else "") + d.doc)
+            for k, d in cls.declarations().items() if isinstance(d, Parameter)]
+    lines = ["Parameters (name = default, unit, bounds, doc):"] + _table(rows)
+    ports = [(k, d) for k, d in cls.declarations().items() if isinstance(d, Connector)]
+    if ports:
+        lines += ["Ports:"] + _table([(k, type(d).__name__, f"({d.domain})", d.doc) for k, d in ports])
+    return "\n".join(lines)
+
+
 # --------------------------------------------------------------------------------------------- components
 _BUILDING: list["Component"] = []  # stack of models whose build() is running (for connect)
 
 
 class Component:
-    """Base class of every component, connector and model (see the module docstring)."""
+    """Base class of every component, connector and model (see the module docstring).
+
+    ``describe()`` (on the class or an instance) lists the parameters, ports, inputs and variables; ``help()``
+    shows the same parameter table after the class's own docstring."""
 
     doc_string = ""
+    describe = _ClassOrInstanceMethod(describe_component)
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        if cls.__name__ not in ("Model", "Connector") and any(isinstance(d, Parameter) for d in cls.declarations().values()):
+            doc = cls.__doc__ or ""
+            rest = [ln for ln in doc.splitlines()[1:] if ln.strip()]
+            pad = min((len(ln) - len(ln.lstrip()) for ln in rest), default=0) * " "
+            cls.__doc__ = doc.rstrip() + "\n\n" + "\n".join(pad + ln for ln in _doc_table(cls).splitlines())
 
     def __init__(self, doc: str = "", **values):
         object.__setattr__(self, "_path", "")

@@ -41,6 +41,7 @@ class ParInfo:
     doc: str = ""
     min: float | None = None
     max: float | None = None
+    device: str = ""  # the device whose datasheet default this is, when the value was left at that default
 
 
 @dataclass
@@ -64,6 +65,7 @@ class InputInfo:
 class FlatEquation:
     residual: sp.Expr
     origin: str  # "Resistor 'R1'" or "connect(a, b)"
+    text: str = ""  # as the component wrote it ("R.v = R.R*R.i"); see FlatModel.written
 
 
 @dataclass
@@ -89,6 +91,30 @@ class FlatModel:
     # eliminated variables with a fixed start whose alias class is a constant (an expression of parameters, e.g.
     # a capacitor voltage clamped by a source): name -> fixed start, checked at initialisation
     fixed_constants: dict = field(default_factory=dict)
+    written: list = field(default_factory=list)  # the equations as written, before alias elimination
+
+    def equations_of(self, component: str | None = None) -> list:
+        """The equations as written (:class:`FlatEquation`, ``text`` set) of the component at path
+        ``component`` and everything inside it, with the connections made inside it (all when None)."""
+        if not component:
+            return list(self.written)
+        inside = component + "."
+
+        def within(path):
+            return path == component or path.startswith(inside)
+
+        out = []
+        for e in self.written:
+            if e.origin.startswith("connect("):
+                members = e.origin[len("connect("):-1].split(", ")
+                keep = all(m.startswith(inside) for m in members)
+            elif e.origin.startswith("unconnected port "):
+                keep = within(e.origin.split("'")[1])
+            else:
+                keep = within(e.origin.split("'")[1]) if "'" in e.origin else False
+            if keep:
+                out.append(e)
+        return out
 
     def owner_of(self, name: str) -> str:
         base, _ = split_der(name)
@@ -121,13 +147,15 @@ def flatten(model: Component) -> FlatModel:
         origin = c._describe()
         for eq in c.equations():
             res = _residual(eq, origin)
-            flat.equations.append(FlatEquation(res, origin))
+            text = f"{sp.sstr(eq.lhs)} = {sp.sstr(eq.rhs)}" if isinstance(eq, sp.Equality) else f"0 = {sp.sstr(res)}"
+            flat.equations.append(FlatEquation(res, origin, text))
         for ev in c.events():
             flat.events.append(FlatEvent(sp.sympify(ev.zero), dict(ev.on_rising), dict(ev.on_falling), origin))
     for c in comps:
         if not isinstance(c, Connector):
             _connection_equations(c, flat, is_root=c is model)
     _check_parameter_bindings(flat)
+    flat.written = list(flat.equations)
     return flat
 
 
@@ -156,7 +184,8 @@ def _collect_declarations(c: Component, flat: FlatModel):
                 except (TypeError, ValueError):
                     raise ModelError(f"{c._describe()}: parameter {name!r} = {value!r} is not a number "
                                      "or an expression of parameters") from None
-            flat.parameters[path] = ParInfo(path, origin, value, d.unit, d.doc, d.min, d.max)
+            device = d.device if name not in c._values else ""
+            flat.parameters[path] = ParInfo(path, origin, value, d.unit, d.doc, d.min, d.max, device)
         elif isinstance(d, Variable):
             st = c._starts.get(name)
             kind = "flow" if isinstance(d, Flow) else "potential" if isinstance(d, Potential) else "variable"
@@ -218,11 +247,13 @@ def _connection_equations(m: Component, flat: FlatModel, is_root: bool):
         for name in pots:
             ref = var_symbol(members[0]._child_path(name))
             for p in members[1:]:
-                flat.equations.append(FlatEquation(var_symbol(p._child_path(name)) - ref, origin))
+                flat.equations.append(FlatEquation(var_symbol(p._child_path(name)) - ref, origin,
+                                                   f"{p._child_path(name)} = {ref}"))
         for name in flows:
             total = sum((-1 if id(p) in is_outside else 1) * var_symbol(p._child_path(name)) for p in members)
             flat.equations.append(FlatEquation(sp.sympify(total), origin if len(members) > 1 or id(members[0]) in connected
-                                               else f"unconnected port {members[0]._path!r} (flow = 0)"))
+                                               else f"unconnected port {members[0]._path!r} (flow = 0)",
+                                               f"0 = {sp.sstr(total)}"))
 
 
 def _check_parameter_bindings(flat: FlatModel):

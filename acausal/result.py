@@ -41,8 +41,11 @@ class Result:
         self._cache: dict = {}
 
     # ------------------------------------------------------------------ access
-    def names(self) -> list:
-        return self.model.names()
+    def names(self, pattern: str | None = None, parameters: bool = False) -> list:
+        """The names this result answers (states, unknowns, aliases; parameters too with ``parameters=True``),
+        filtered by ``pattern`` (shell-style wildcard or substring); see :meth:`CompiledModel.names
+        <acausal.compiler.CompiledModel.names>`."""
+        return self.model.names(pattern, parameters)
 
     def __contains__(self, name):
         try:
@@ -158,17 +161,55 @@ class Result:
         """
         return self._cumulative(what)
 
-    def energy_balance(self, t0: float | None = None, t1: float | None = None):
+    def energy_balance(self, t0: float | None = None, t1: float | None = None, between: tuple | None = None):
         """The energy balance between output times ``t0`` and ``t1`` (default: the whole result), from the
         model's accounts found by convention (:mod:`acausal.energy`): energy the sources and the boundary
         delivered, lost per ``loss_power``, change of every stored ``energy``; ``print`` it for the table,
-        ``.residual`` is the relative residual."""
+        ``.residual`` is the relative residual. ``between=(a, b)`` adds the :meth:`efficiency` from ``a`` to
+        ``b`` (``.efficiency`` = ``(a, b, ratio)``, printed under the table)."""
         from .energy import balance
-        return balance(self, self.model.accounts, *self._window(t0, t1))
+        b = balance(self, self.model.accounts, *self._window(t0, t1))
+        if between is not None:
+            a, z = between
+            b.efficiency = (a, z, self.efficiency(a, z, t0, t1))
+        return b
+
+    def efficiency(self, a: str, b: str, t0: float | None = None, t1: float | None = None) -> float:
+        """Energy that passed ``b`` over energy that passed ``a`` between output times ``t0`` and ``t1``.
+
+        ``a`` and ``b`` are anything :meth:`energy` integrates: a power variable (a power sensor's ``P``, a
+        supply's ``power``, ``motor.shaft_power``), a one-port component (``v i``), a flange (``tau w``, power
+        into its component). Each side is the magnitude of its net energy over the window, so the sign
+        convention of the port (into its component) does not matter; over a window where energy flows both
+        ways (a drive that brakes), this is the ratio of the net energies. No net energy at ``a`` is a
+        :class:`ModelError`.
+        """
+        k0, k1 = self._window(t0, t1)
+        ea, eb = (self._passed(x, k0, k1) for x in (a, b))
+        if ea == 0.0:
+            raise ModelError(f"efficiency {a} -> {b}: no net energy passed {a!r} between {self.t[k0]:g} and "
+                             f"{self.t[k1]:g} s")
+        return abs(eb) / abs(ea)
+
+    def _passed(self, name: str, k0: int, k1: int) -> float:
+        """Net energy [J] through ``name`` between samples ``k0`` and ``k1``: what :meth:`energy` integrates,
+        or for a component with several ports the power into it through all of its physical ports."""
+        cm = self.model
+        if name in cm.flat.components and name not in self and not (f"{name}.v" in self and f"{name}.i" in self):
+            known = set(self.names())
+            ports = [p for p in cm.flat.components if p.startswith(name + ".") and "." not in p[len(name) + 1:]
+                     and ({f"{p}.v", f"{p}.i"} <= known or {f"{p}.phi", f"{p}.tau"} <= known
+                          or f"{p}.Q_flow" in known)]
+            if ports:
+                return float(sum(self.energy(p)[k1] - self.energy(p)[k0] for p in ports))
+        e = self.energy(name)
+        return float(e[k1] - e[k0])
 
     def sankey(self, ax=None, t0: float | None = None, t1: float | None = None, title: str | None = None):
         """Sankey diagram between output times ``t0`` and ``t1``: the energy passed on at each power sensor (in
-        the order the model built them), each stage's loss named by its components (:mod:`acausal.energy`)."""
+        the order the model built them), each stage's loss named by its components (:mod:`acausal.energy`); a
+        model with fewer than two power sensors gets its energy balance as one diagram (inflows left, each
+        loss and stored energy leaving)."""
         from .energy import draw_sankey
         return draw_sankey(self, self.model.accounts, ax, *self._window(t0, t1), title)
 
