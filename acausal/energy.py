@@ -104,6 +104,7 @@ class Balance:
     boundary: dict
     losses: dict
     stored: dict
+    efficiency: tuple | None = None  # (from, to, ratio) when asked for (Result.energy_balance(between=...))
 
     @property
     def delivered(self) -> float:
@@ -124,7 +125,32 @@ class Balance:
         lines = [f"energy balance over {self.t0:g} .. {self.t1:g} s [J]"]
         lines += [f"  {kind:<21} {k:<{width}} {v:12.6g}" for kind, k, v in rows]
         lines.append(f"  relative residual {self.residual:.2e}")
+        if self.efficiency is not None:
+            a, b, eta = self.efficiency
+            lines.append(f"  efficiency {a} -> {b}: {eta:.4g}")
         return "\n".join(lines)
+
+    def flows(self) -> tuple:
+        """``(inflows, outflows)``, both name -> J > 0: what entered (sources, boundary work delivered, stored
+        energy released, a negative loss) and what left (losses, energy stored, boundary work absorbed, energy
+        a source took back). Their totals differ by the residual."""
+        ins, outs = {}, {}
+
+        def put(name, v, sign):
+            (ins if v * sign > 0 else outs)[name] = abs(v)
+
+        for n, v in self.sources.items():
+            put(n.rsplit(".", 1)[0], v, 1)
+        for c, v in self.boundary.items():
+            if v:
+                put(f"{c} (boundary)", v, 1)
+        for n, v in self.losses.items():
+            if v:
+                put(n.rsplit(".", 1)[0] + " loss", v, -1)
+        for n, v in self.stored.items():
+            if v:
+                put(n.rsplit(".", 1)[0] + (" (stored)" if v > 0 else " (released)"), v, -1)
+        return ins, outs
 
     def __str__(self):
         return self.table()
@@ -147,13 +173,20 @@ def balance(res, acc: Accounts, k0: int = 0, k1: int = -1) -> Balance:
 
 def draw_sankey(res, acc: Accounts, ax=None, k0: int = 0, k1: int = -1, title: str | None = None):
     """The energy passed on at each power sensor (build order) between output samples ``k0`` and ``k1``, each
-    stage's loss labelled by the components that dissipate it; returns the axes. Needs two or more sensors."""
-    from .errors import ModelError
-    from .sankey import sankey
+    stage's loss labelled by the components that dissipate it; returns the axes. A model with fewer than two
+    power sensors gets the balance itself as one diagram: what entered (sources, boundary work, stored energy
+    released) on the left, each loss, stored energy and absorbed boundary work leaving it."""
+    from .sankey import balance_sankey, sankey
 
     if len(acc.sensors) < 2:
-        raise ModelError(f"a Sankey diagram needs two or more power sensors; {res.model.flat.name} has "
-                         f"{len(acc.sensors)} ({', '.join(acc.sensors) or 'none'})")
+        b = balance(res, acc, k0, k1)
+        ins, outs = b.flows()
+        if ax is None:
+            import matplotlib.pyplot as plt
+            _, ax = plt.subplots(figsize=(7, 5))
+        balance_sankey(ax, ins, outs, title or f"{res.model.flat.name}: energy balance over {b.t0:g} .. "
+                       f"{b.t1:g} s [J]")
+        return ax
     if ax is None:
         import matplotlib.pyplot as plt
         _, ax = plt.subplots(figsize=(2.2 * len(acc.sensors) + 2, 5))

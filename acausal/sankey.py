@@ -59,3 +59,36 @@ def sankey(ax, energy: dict, title: str, scale: float, loss_names: list, labels:
                 fontsize=7, color="C3")
     ax.set_title(title, fontsize=10)
     ax.axis("off")
+
+
+def balance_sankey(ax, inflows: dict, outflows: dict, title: str, small: float = 0.01):
+    """One Sankey diagram of an energy balance with no measurement points: every ``inflows`` entry (J > 0:
+    sources, boundary work delivered, stored energy released) enters from the left or the top, every
+    ``outflows`` entry (J > 0: losses, energy stored, boundary work absorbed) leaves to the right (the largest)
+    or downwards. Entries below ``small`` of the total are summed into one "other" arrow, so that every joule
+    is drawn. Returns the residual (in - out) it could not draw, in J."""
+    total = sum(inflows.values()) or 1.0
+
+    def grouped(flows):
+        big = {k: v for k, v in flows.items() if v >= small * total}
+        rest = sum(v for k, v in flows.items() if k not in big)
+        if rest > 0:
+            big["other"] = rest
+        return dict(sorted(big.items(), key=lambda kv: -kv[1]))
+
+    ins, outs = grouped(inflows), grouped(outflows)
+    s = Sankey(ax=ax, scale=1.0 / total, unit=" J", format="%.3g", gap=0.45, head_angle=120, offset=0.15)
+    flows = list(ins.values()) + [-v for v in outs.values()]
+    orient = [0] + [1] * (len(ins) - 1) + [0] + [-1] * (len(outs) - 1)
+    labels = list(ins) + list(outs)
+    residual = sum(flows)
+    side = [0.3] + [0.3 + 0.3 * i for i in range(len(ins) - 1)]  # staggered, so side labels do not overlap
+    side += [0.3] + [0.3 + 0.3 * i for i in range(len(outs) - 1)]
+    s.add(flows=flows, orientations=orient, labels=labels, pathlengths=side, trunklength=1.5, facecolor="C0",
+          alpha=0.7)
+    for d in s.finish():
+        for t in d.texts:
+            t.set_fontsize(8)
+    ax.set_title(title, fontsize=10)
+    ax.axis("off")
+    return residual

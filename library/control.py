@@ -294,14 +294,21 @@ class CascadeServo(Model):
     wc/10 (kp_vel = J wv / k, PI zero at wv/4); position bandwidth wv/10. With a load, retune vel and pos.
     """
 
-    kp_pos = Parameter(62.8, unit="1/s", min=0.0, doc="position P gain (rad/s per rad)")
-    w_max = Parameter(2618.0, unit="rad/s", min=0.0, doc="speed limit (25 000 rpm, motor datasheet maximum)")
-    kp_vel = Parameter(0.0763, unit="A.s/rad", min=0.0, doc="velocity P gain")
-    ki_vel = Parameter(12.0, unit="A/rad", min=0.0, doc="velocity I gain")
-    i_max = Parameter(10.0, unit="A", min=0.0, doc="current limit (EPOS2 70/10: 10 A continuous)")
-    kp_cur = Parameter(0.41, unit="V/A", min=0.0, doc="current P gain (L * 2 pi 1 kHz)")
-    ki_cur = Parameter(2425.0, unit="V/(A.s)", min=0.0, doc="current I gain (R * 2 pi 1 kHz)")
-    v_max = Parameter(43.2, unit="V", min=0.0, doc="voltage limit (0.9 * 48 V supply, EPOS2 output stage)")
+    kp_pos = Parameter(62.8, unit="1/s", min=0.0, doc="position P gain (rad/s per rad)",
+                       device="maxon EC-4pole 30 on an EPOS2 70/10")
+    w_max = Parameter(2618.0, unit="rad/s", min=0.0, doc="speed limit (25 000 rpm, motor datasheet maximum)",
+                      device="maxon EC-4pole 30 on an EPOS2 70/10")
+    kp_vel = Parameter(0.0763, unit="A.s/rad", min=0.0, doc="velocity P gain",
+                       device="maxon EC-4pole 30 on an EPOS2 70/10")
+    ki_vel = Parameter(12.0, unit="A/rad", min=0.0, doc="velocity I gain", device="maxon EC-4pole 30 on an EPOS2 70/10")
+    i_max = Parameter(10.0, unit="A", min=0.0, doc="current limit (EPOS2 70/10: 10 A continuous)",
+                      device="maxon EC-4pole 30 on an EPOS2 70/10")
+    kp_cur = Parameter(0.41, unit="V/A", min=0.0, doc="current P gain (L * 2 pi 1 kHz)",
+                       device="maxon EC-4pole 30 on an EPOS2 70/10")
+    ki_cur = Parameter(2425.0, unit="V/(A.s)", min=0.0, doc="current I gain (R * 2 pi 1 kHz)",
+                       device="maxon EC-4pole 30 on an EPOS2 70/10")
+    v_max = Parameter(43.2, unit="V", min=0.0, doc="voltage limit (0.9 * 48 V supply, EPOS2 output stage)",
+                      device="maxon EC-4pole 30 on an EPOS2 70/10")
 
     position_ref = RealInput(doc="commanded position [rad]")
     position = RealInput(doc="measured position [rad]")

@@ -22,7 +22,8 @@ class _OptionalHeatPort:
 
 
 class PWMDriver(Component, _OptionalHeatPort):
-    """Averaged four-quadrant H-bridge (e.g. maxon EPOS2 70/10), duty-cycle or voltage command.
+    """Averaged four-quadrant H-bridge, duty-cycle or voltage command; lossless and unlimited by default
+    (the maxon EPOS2 70/10 of the paper, with its losses and duty limit, is :class:`EPOS2`).
 
     Ports: DC bus ``bus_p``/``bus_n``, motor side ``mot_p``/``mot_n``, command input ``u``. With
     ``command="duty"`` the duty cycle is ``d = clamp(u, -d_max, d_max)``; with ``command="voltage"`` it is
@@ -36,17 +37,16 @@ class PWMDriver(Component, _OptionalHeatPort):
 
     so ``v_bus i_bus = v_m i_m + loss_power`` holds exactly. The motor terminals are referenced to the bus as in
     a bridge with symmetric PWM (``mot_n.v = bus_n.v + (v_bus - v_m)/2``) and the four terminal currents sum to
-    zero, so the motor circuit needs no ground of its own (do not ground it separately). ``P_q`` is the constant quiescent consumption the
-    paper measured (10-15 W, section 4.2.1; default 12.5 W). ``R_on`` (0.05 ohm) and ``k_sw`` (0.004, switching
-    loss per unit of ``|i_m| v_bus``) are assumptions of the order that gives the EPOS2's ~94 % peak efficiency.
-    ``d_max`` = 0.9: the EPOS2 output voltage is at most about 0.9 of the supply. The bridge passes power both
-    ways; whether the supply can take it back is decided upstream (see ``NonRegenerativeRectifier``).
+    zero, so the motor circuit needs no ground of its own (do not ground it separately). The defaults are
+    neutral: no quiescent draw, no conduction or switching loss, the full duty range (``d_max`` = 1). Set them
+    for your driver, or use a subclass holding one device's values (:class:`EPOS2`). The bridge passes power
+    both ways; whether the supply can take it back is decided upstream (see ``NonRegenerativeRectifier``).
     """
 
-    P_q = Parameter(12.5, unit="W", min=0.0, doc="quiescent consumption (paper: 10-15 W measured)")
-    R_on = Parameter(0.05, unit="Ohm", min=0.0, doc="bridge conduction resistance (assumption)")
-    k_sw = Parameter(0.004, unit="1", min=0.0, doc="switching loss coefficient, P_sw = k_sw |i_m| v_bus (assumption)")
-    d_max = Parameter(0.9, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude (EPOS2: ~0.9)")
+    P_q = Parameter(0.0, unit="W", min=0.0, doc="quiescent consumption")
+    R_on = Parameter(0.0, unit="Ohm", min=0.0, doc="bridge conduction resistance")
+    k_sw = Parameter(0.0, unit="1", min=0.0, doc="switching loss coefficient, P_sw = k_sw |i_m| v_bus")
+    d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude")
     bus_p = Pin(doc="DC bus +")
     bus_n = Pin(doc="DC bus -")
     mot_p = Pin(doc="motor +")
@@ -85,6 +85,25 @@ class PWMDriver(Component, _OptionalHeatPort):
         return eqs
 
 
+class EPOS2(PWMDriver):
+    """The maxon EPOS2 70/10 of the paper's bench as a :class:`PWMDriver`: its losses and its duty limit.
+
+    ``P_q`` is the constant quiescent consumption the paper measured (10-15 W, section 4.2.1; default 12.5 W).
+    ``R_on`` (0.05 ohm) and ``k_sw`` (0.004, switching loss per unit of ``|i_m| v_bus``) are assumptions of the
+    order that gives the EPOS2's ~94 % peak efficiency. ``d_max`` = 0.9: the EPOS2's output voltage is at most
+    about 0.9 of its supply (../shared/data/parameters.md).
+    """
+
+    P_q = Parameter(12.5, unit="W", min=0.0, doc="quiescent consumption (paper: 10-15 W measured)",
+                    device="maxon EPOS2 70/10")
+    R_on = Parameter(0.05, unit="Ohm", min=0.0, doc="bridge conduction resistance (assumption)",
+                     device="maxon EPOS2 70/10")
+    k_sw = Parameter(0.004, unit="1", min=0.0, doc="switching loss coefficient, P_sw = k_sw |i_m| v_bus (assumption)",
+                     device="maxon EPOS2 70/10")
+    d_max = Parameter(0.9, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude (EPOS2: ~0.9)",
+                      device="maxon EPOS2 70/10")
+
+
 class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     """Permanent-magnet DC motor (a brushless EC motor driven as a DC machine), paper Eq. (4) per component::
 
@@ -107,11 +126,16 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     alpha_R = 0.00393 1/K (copper), T_ref = 298.15 K (datasheet values at 25 C).
     """
 
-    R = Parameter(0.386, unit="Ohm", min=0.0, doc="terminal resistance at T_ref (paper Table 2)")
-    L = Parameter(6.53e-5, unit="H", min=0.0, doc="terminal inductance (paper Table 2)")
-    k = Parameter(0.0274, unit="N.m/A", min=0.0, doc="torque = back-EMF constant (derived, parameters.md)")
-    J = Parameter(3.33e-6, unit="kg.m2", min=0.0, doc="rotor inertia (datasheet)")
-    b = Parameter(5.66e-6, unit="N.m.s/rad", min=0.0, doc="viscous friction (no-load torque / no-load speed)")
+    R = Parameter(0.386, unit="Ohm", min=0.0, doc="terminal resistance at T_ref (paper Table 2)",
+                  device="maxon EC-4pole 30, 48 V winding")
+    L = Parameter(6.53e-5, unit="H", min=0.0, doc="terminal inductance (paper Table 2)",
+                  device="maxon EC-4pole 30, 48 V winding")
+    k = Parameter(0.0274, unit="N.m/A", min=0.0, doc="torque = back-EMF constant (derived, parameters.md)",
+                  device="maxon EC-4pole 30, 48 V winding")
+    J = Parameter(3.33e-6, unit="kg.m2", min=0.0, doc="rotor inertia (datasheet)",
+                  device="maxon EC-4pole 30, 48 V winding")
+    b = Parameter(5.66e-6, unit="N.m.s/rad", min=0.0, doc="viscous friction (no-load torque / no-load speed)",
+                  device="maxon EC-4pole 30, 48 V winding")
     tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
     w_c = Parameter(1.0, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
     alpha_R = Parameter(0.00393, unit="1/K", doc="resistance temperature coefficient (copper)")

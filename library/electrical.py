@@ -164,8 +164,10 @@ class Supply(OnePort):
     70/10 accepts 11-70 V) and 0.05 ohm (assumption: a laboratory supply plus leads).
     """
 
-    V = Parameter(48.0, unit="V", min=0.0, doc="no-load voltage (assumption: motor nominal 48 V)")
-    R_int = Parameter(0.05, unit="Ohm", min=0.0, doc="internal resistance (assumption)")
+    V = Parameter(48.0, unit="V", min=0.0, doc="no-load voltage (assumption: motor nominal 48 V)",
+                  device="the paper's 48 V bench supply")
+    R_int = Parameter(0.05, unit="Ohm", min=0.0, doc="internal resistance (assumption)",
+                      device="the paper's 48 V bench supply")
     power = Variable(unit="W", doc="power delivered at the terminals")
     source_power = Variable(unit="W", doc="power of the ideal internal source")
     loss_power = Variable(unit="W", doc="dissipated in the internal resistance")
@@ -237,9 +239,12 @@ class NonRegenerativeRectifier(Model):
     threshold 50 V.
     """
 
-    C_bus = Parameter(470e-6, unit="F", min=0.0, doc="bus capacitance (assumption)")
-    V_brake = Parameter(50.0, unit="V", min=0.0, doc="brake chopper threshold (assumption)")
-    G_brake = Parameter(2.0, unit="S", min=0.0, doc="brake chopper conductance above threshold (assumption)")
+    C_bus = Parameter(470e-6, unit="F", min=0.0, doc="bus capacitance (assumption)",
+                      device="the paper's bench rectifier")
+    V_brake = Parameter(50.0, unit="V", min=0.0, doc="brake chopper threshold (assumption)",
+                        device="the paper's bench rectifier")
+    G_brake = Parameter(2.0, unit="S", min=0.0, doc="brake chopper conductance above threshold (assumption)",
+                        device="the paper's bench rectifier")
     p_in = Pin(doc="+ from the supply")
     n_in = Pin(doc="- from the supply")
     p_bus = Pin(doc="+ of the DC bus (to the driver)")

@@ -325,7 +325,8 @@ class AnkleTorqueLoad(_GaitSource):
     ``flange.tau = M`` (torque acting on this component), reaction on the optional support.
     """
 
-    body_mass = Parameter(DEFAULT_BODY_MASS, unit="kg", min=1e-3, doc="body mass (assumption: 60 kg)")
+    body_mass = Parameter(DEFAULT_BODY_MASS, unit="kg", min=1e-3, doc="body mass (assumption: 60 kg)",
+                          device="the paper's test subject (assumption)")
     profile = Input(unit="N.m/kg", doc="ankle moment per kg over the gait fraction (1-periodic)")
     M = Variable(unit="N.m", doc="biomechanical ankle moment, plantarflexor positive")
 

@@ -318,11 +318,15 @@ class Maccepa(PartialCompliant):
     of ../shared/data/parameters.md, low-medium confidence); P = 8 mm (the paper's Table 1 condition).
     """
 
-    k = Parameter(132e3, unit="N/m", min=0.0, doc="spring stiffness (paper: die spring 132 N/mm)")
-    A = Parameter(0.100, unit="m", min=0.0, doc="connecting link length c-b (assumption, parameters.md)")
-    B = Parameter(0.060, unit="m", min=0.0, doc="moment arm length a-c (assumption, parameters.md)")
+    k = Parameter(132e3, unit="N/m", min=0.0, doc="spring stiffness (paper: die spring 132 N/mm)",
+                  device="CYBERLEGs ankle MACCEPA")
+    A = Parameter(0.100, unit="m", min=0.0, doc="connecting link length c-b (assumption, parameters.md)",
+                  device="CYBERLEGs ankle MACCEPA")
+    B = Parameter(0.060, unit="m", min=0.0, doc="moment arm length a-c (assumption, parameters.md)",
+                  device="CYBERLEGs ankle MACCEPA")
     P = Parameter(0.008, unit="m", min=0.0, max=0.03, doc="spring precompression (the paper adjusts 0-18 mm; up to 30 mm "
-                  "allowed, so an actual precompression above the nominal one can be modelled)")
+                  "allowed, so an actual precompression above the nominal one can be modelled)",
+                  device="CYBERLEGs ankle MACCEPA")
     alpha = Variable(unit="rad", doc="angle between moment arm and foot, phi - theta")
     T = Variable(unit="N.m", doc="torque on the foot, Eq. 3 (plantarflexion positive)")
     energy = Variable(unit="J", doc="energy stored in the spring")

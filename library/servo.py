@@ -43,15 +43,19 @@ class PositionServo(Model):
     ``winding.loss_power``, ``armature.energy``.
     """
 
-    kt = Parameter(0.3867, unit="N.m/A", min=1e-9, doc="torque constant at the output (BAM xl330 m1)")
-    R = Parameter(4.017, unit="Ohm", min=1e-9, doc="winding resistance (BAM xl330 m1)")
-    armature = Parameter(0.001814, unit="kg.m2", min=0.0, doc="rotor inertia reflected to the output (BAM xl330 m1)")
-    ratio = Parameter(288.35, unit="1", min=1e-9, doc="gear ratio (XL330-M288 nominal)")
+    kt = Parameter(0.3867, unit="N.m/A", min=1e-9, doc="torque constant at the output (BAM xl330 m1)",
+                   device="Dynamixel XL330-M288")
+    R = Parameter(4.017, unit="Ohm", min=1e-9, doc="winding resistance (BAM xl330 m1)", device="Dynamixel XL330-M288")
+    armature = Parameter(0.001814, unit="kg.m2", min=0.0, doc="rotor inertia reflected to the output (BAM xl330 m1)",
+                         device="Dynamixel XL330-M288")
+    ratio = Parameter(288.35, unit="1", min=1e-9, doc="gear ratio (XL330-M288 nominal)", device="Dynamixel XL330-M288")
     kp = Parameter(None, unit="1", min=0.0, doc="firmware position gain (register value)")
     error_gain = Parameter(None, unit="1/rad", min=0.0, doc="duty per rad of error per unit of kp")
     d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty magnitude")
-    tau_c = Parameter(0.01283, unit="N.m", min=0.0, doc="Coulomb friction at the output (BAM xl330 m1 Kc)")
-    d = Parameter(0.003662, unit="N.m.s/rad", min=0.0, doc="viscous friction at the output (BAM xl330 m1 Kv)")
+    tau_c = Parameter(0.01283, unit="N.m", min=0.0, doc="Coulomb friction at the output (BAM xl330 m1 Kc)",
+                      device="Dynamixel XL330-M288")
+    d = Parameter(0.003662, unit="N.m.s/rad", min=0.0, doc="viscous friction at the output (BAM xl330 m1 Kv)",
+                  device="Dynamixel XL330-M288")
 
     flange = Flange(doc="output shaft")
     bus_p = Pin(doc="supply +")
@@ -65,7 +69,7 @@ class PositionServo(Model):
 
     def build(self):
         self.ctrl = DutyPositionController(kp=self.kp, error_gain=self.error_gain, d_max=self.d_max)
-        self.driver = PWMDriver(P_q=0.0, R_on=0.0, k_sw=0.0, d_max=1.0)
+        self.driver = PWMDriver()  # lossless: the XL330's bridge losses are in the winding's fitted R
         self.winding = SwitchedResistor(R=self.R)
         self.emf = EMF(k=self.kt / self.ratio)
         self.gear = IdealGear(ratio=self.ratio)

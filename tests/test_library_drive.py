@@ -7,7 +7,7 @@ import sympy as sp
 from acausal import Model, compile_model, connect, time
 from acausal.library.blocks import SignalSource
 from acausal.library.electrical import Ground, NonRegenerativeRectifier, Resistor, Supply
-from acausal.library.drives import DCMotor, PWMDriver
+from acausal.library.drives import EPOS2, DCMotor, PWMDriver
 from acausal.library.rotational import Gearbox, Inertia, LossyGear, Position, TorqueSource
 
 
@@ -38,7 +38,7 @@ class _DriverBench(Model):
     def build(self):
         self.supply = Supply(V=48.0)
         self.rect = NonRegenerativeRectifier()
-        self.driver = PWMDriver()
+        self.driver = EPOS2()
         self.cmd = SignalSource(signal=self._duty)
         self.motor = DCMotor()
         self.pos = Position(phi_ref=self._motion)

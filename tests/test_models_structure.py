@@ -130,8 +130,43 @@ def test_sankey_and_stages_of_any_model_with_power_sensors():
     assert "R" in texts and "P_in" in texts
     e_in, e_cap = res.energy("P_in.P")[-1], res.energy("P_cap.P")[-1]
     assert e_in - e_cap == pytest.approx(res.energy("R.loss_power")[-1], rel=1e-6)
-    with pytest.raises(ModelError, match="two or more power sensors"):
-        compile_model(_RC()).simulate(0.1).sankey()
+
+
+def test_sankey_of_a_model_without_power_sensors_draws_its_balance():
+    """No measurement points: the balance itself as one diagram, every account drawn (small ones as "other")."""
+    import matplotlib
+    matplotlib.use("Agg")
+    res = compile_model(_RC()).simulate(0.2, rtol=1e-9, atol=1e-12)  # the capacitor is still charging
+    b = res.energy_balance()
+    ins, outs = b.flows()
+    assert ins == {"src (boundary)": pytest.approx(b.boundary["src"])}
+    assert set(outs) == {"R loss", "C (stored)"}
+    assert sum(ins.values()) == pytest.approx(sum(outs.values()), rel=1e-6)
+    texts = " ".join(t.get_text() for t in res.sankey().texts)
+    assert "src (boundary)" in texts and "R loss" in texts and "C (stored)" in texts
+
+
+def test_efficiency_between_two_named_ports():
+    """Capacitor charged through R from 0 V by a constant source: half the delivered energy is stored."""
+    class Charge(Model):
+        def build(self):
+            self.src = PrescribedVoltage(v_ref=10.0)
+            self.R = Resistor(R=2.0)
+            self.C = Capacitor(C=0.05, v=Start(0.0))
+            self.gnd = Ground()
+            connect(self.src.p, self.R.p)
+            connect(self.R.n, self.C.p)
+            connect(self.C.n, self.src.n, self.gnd.p)
+
+    res = compile_model(Charge()).simulate(3.0, rtol=1e-10, atol=1e-12)  # 30 time constants
+    assert res.efficiency("src", "C") == pytest.approx(0.5, rel=1e-6)  # port signs do not matter
+    assert res.efficiency("src", "R.loss_power") == pytest.approx(0.5, rel=1e-6)
+    b = res.energy_balance(between=("src", "C"))
+    assert b.efficiency == ("src", "C", pytest.approx(0.5, rel=1e-6)) and "efficiency src -> C: 0.5" in str(b)
+    t1 = res.t[np.argmin(np.abs(res.t - 0.1))]  # the output time nearest to one time constant
+    assert res.efficiency("src", "C", t1=0.1) == pytest.approx((1 - np.exp(-t1 / 0.1)) / 2, rel=1e-6)
+    with pytest.raises(ModelError, match="no net energy passed 'C'"):
+        res.efficiency("C", "src", t0=3.0)
 
 
 def test_options_are_checked_with_model_errors():

@@ -27,7 +27,7 @@ completes it with the MACCEPA, the joint and the way the moment arm is moved. Op
   an assumed 90 %, smooth mesh law), ``"self_locking"`` (a self-locking 10:1 worm ``worm`` in place of the
   helical stage) or ``"ideal"`` (Eq. 4: one ideal gear ``gear`` of ratio 860).
 * ``driver``: ``"paper"`` (the EPOS2 model: quiescent draw, conduction, switching) or ``"ideal"`` (lossless);
-  ``driver_cls`` the driver's class (default :class:`~acausal.library.drives.PWMDriver`).
+  ``driver_cls`` the driver's class (default :class:`~acausal.library.drives.EPOS2`, the paper's).
 * ``linkage``: ``"lossless"`` (the paper's Eq. 1-3 MACCEPA) or ``"frictional"``
   (:class:`~acausal.library.maccepa.FrictionalMaccepa`: bar and pivot friction, ``link.r_f``, ``link.tau_0``,
   ``link.d``). The planned trajectory inverts the lossless linkage either way, so with friction the joint torque
@@ -58,7 +58,7 @@ from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable
 from acausal.partials import check_option
 from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource
 from acausal.library.control import PIDVariableLimit
-from acausal.library.drives import DCMotor, PWMDriver
+from acausal.library.drives import EPOS2, DCMotor
 from acausal.library.electrical import (ConstantVoltage, Ground, IdealNonRegenerativeRectifier,
                                         NonRegenerativeRectifier, Supply, VoltageSensor)
 from acausal.library.gait import DEFAULT_BODY_MASS, AnkleAngleSource, GaitProfile, unit_cycle
@@ -93,7 +93,7 @@ class DriveTrain(Model):
     shared_points: dict = {}
 
     def __init__(self, supply: str = "rectifier", gears: str = "paper", driver: str = "paper",
-                 driver_cls=PWMDriver, saturate: bool = False, **kw):
+                 driver_cls=EPOS2, saturate: bool = False, **kw):
         self.options = {k: check_option(self, k, v, OPTIONS[k])
                         for k, v in (("supply", supply), ("gears", gears), ("driver", driver))}
         super().__init__(**kw)

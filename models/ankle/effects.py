@@ -51,7 +51,7 @@ EFFECTS = {e.id: e for e in [
            "minutes (and a precise supply-current sensor) to see. Its zero is 1e-9 K/J (no heating).",
            scale=0.1),
     Effect("driver_quiescent_power", "driver.P_q", "W", 0.0, 12.5, (0.0, 60.0), "supply_current_A",
-           "constant standby draw of the motor driver (library PWMDriver P_q). Typical: the paper measured "
+           "constant standby draw of the motor driver (library EPOS2 P_q). Typical: the paper measured "
            "10-15 W for the EPOS2.", scale=10.0),
     Effect("torque_sensor_offset", "torque_offset.bias", "N.m", 0.0, 1.5, (-20.0, 20.0), "joint_torque_Nm",
            "zero offset of the joint torque sensor's reading (library Bias block in the sensor's signal path). "

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from acausal import ModelError, compile_model
-from acausal.library.drives import PWMDriver
+from acausal.library.drives import EPOS2
 from acausal.library.gait import unit_cycle
 from acausal.energy import balance
 from acausal.sweep import sweep as run_sweep
@@ -32,7 +32,7 @@ from .presets import preset
 PRECOMPRESSIONS = [0.002, 0.005, 0.008, 0.011, 0.015, 0.018]  # m (paper section 4)
 STRIDE_TIMES = [1.2, 1.3, 1.5, 2.0, 2.5, 3.0]  # s per stride (paper section 4)
 #: the driver's largest duty cycle: a replay needing more means the motor cannot follow at the bus voltage
-D_MAX = PWMDriver.d_max.default
+D_MAX = EPOS2.d_max.default
 
 #: C8 (paper 4.2.3, Fig. 13): the motor cannot follow at 18 mm and 1.2 s/stride, follows there at 3 s, and the
 #: paper ran every condition, so it follows in (nearly) all: read as at least 30 of the 36

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from acausal import ModelError
-from acausal.library.drives import PWMDriver
+from acausal.library.drives import EPOS2
 
 from . import windings
 
@@ -33,7 +33,7 @@ class Limits:
     nominal_torque: float = 0.095  # N m: the motor's nominal (continuous, thermal) torque
     driver_current_peak: float = 25.0  # A: EPOS2 70/10 peak output current
     driver_current_continuous: float = 10.0  # A: EPOS2 70/10 continuous output current
-    duty: float = PWMDriver.d_max.default  # the EPOS2's output voltage is at most about 0.9 of its supply
+    duty: float = EPOS2.d_max.default  # the EPOS2's output voltage is at most about 0.9 of its supply
 
 
 def _resolve(ref: str):

@@ -38,7 +38,7 @@ import numpy as np
 
 from acausal import Constant, Parameter, RealInput, Signal, connect
 from acausal.errors import ModelError
-from acausal.library.drives import PWMDriver
+from acausal.library.drives import EPOS2
 from acausal.library.gait import GaitProfile, unit_cycle
 from acausal.library.maccepa import Maccepa
 from acausal.library.maccepa import torque as maccepa_torque
@@ -52,10 +52,10 @@ RAMP = 0.01  # stride fractions: enable ramp of the driver (locked gear takes / 
 _N_RULE = 1000  # gait-fraction samples on which the rule is evaluated
 
 
-class SwitchedPWMDriver(PWMDriver):
+class SwitchedPWMDriver(EPOS2):
     """The paper's PWM driver with an ``enable`` input (1 on, 0 off) that switches its quiescent draw:
-    ``P_q_eff = P_off + enable (P_q - P_off)``; everything else as :class:`PWMDriver`. Switched off, the bridge
-    makes no voltage: use ``enable < 1`` only while the motor stands still with no current (the model ensures
+    ``P_q_eff = P_off + enable (P_q - P_off)``; everything else as the paper's
+    :class:`~acausal.library.drives.EPOS2`. Switched off, the bridge makes no voltage: use ``enable < 1`` only while the motor stands still with no current (the model ensures
     it). Defined here, not in the library, because only this alternative needs it (``P_off`` = 0 W: the whole
     measured draw is taken to stop with the driver, an assumption)."""
 
