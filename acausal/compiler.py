@@ -192,6 +192,13 @@ class CompiledModel:
             lines.append(f"    {text}")
         return Listing("\n".join(lines))
 
+    def parametric_inputs(self) -> dict:
+        """Inputs rebuilt from the run's parameters (:class:`~acausal.signals.ParametricSignal`, e.g. a planned
+        trajectory): input name -> the parameter names it is built from. Setting any of them in a run's
+        ``params`` rebuilds (replans) that input; no other parameter changes an input."""
+        return {n: tuple(dict.fromkeys(info.signal.parameters.values()))
+                for n, info in sorted(self.flat.inputs.items()) if isinstance(info.signal, ParametricSignal)}
+
     def device_defaults(self, params: dict | None = None) -> dict:
         """Parameters left at a library default that belongs to one device (a datasheet number or an
         assumption about one device, :class:`~acausal.components.Parameter` ``device``), unless ``params``
@@ -433,6 +440,8 @@ class CompiledModel:
             elif isinstance(s, LinearSolve):
                 lines.append(f"    linear solve for {s.vars}")
         lines.append(f"  simulation path: {self.simulation_path()}")
+        for n, used in self.parametric_inputs().items():
+            lines.append(f"  input {n} is rebuilt from the parameters {', '.join(used)}")
         dev = self.device_defaults()
         if dev:
             lines.append(f"  left at a device's datasheet default ({len(dev)}; set them for your device, at "

@@ -118,7 +118,7 @@ class Balance:
 
     def table(self) -> str:
         rows = [("source", k, v) for k, v in self.sources.items()]
-        rows += [("boundary (delivered)", k, v) for k, v in self.boundary.items() if abs(v) > 0]
+        rows += [("boundary (delivered)", k, v) for k, v in self.boundary.items() if abs(v) > self._roundoff]
         rows += [("loss", k, v) for k, v in self.losses.items()]
         rows += [("stored (change)", k, v) for k, v in self.stored.items()]
         width = max([len(k) for _, k, _ in rows] + [8])
@@ -129,6 +129,11 @@ class Balance:
             a, b, eta = self.efficiency
             lines.append(f"  efficiency {a} -> {b}: {eta:.4g}")
         return "\n".join(lines)
+
+    @property
+    def _roundoff(self) -> float:
+        """Boundary work below this [J] is round-off (an ideal gear or converter: exactly zero in theory)."""
+        return 1e-12 * (abs(self.delivered) + sum(abs(v) for v in self.losses.values()))
 
     def flows(self) -> tuple:
         """``(inflows, outflows)``, both name -> J > 0: what entered (sources, boundary work delivered, stored
@@ -142,7 +147,7 @@ class Balance:
         for n, v in self.sources.items():
             put(n.rsplit(".", 1)[0], v, 1)
         for c, v in self.boundary.items():
-            if v:
+            if abs(v) > self._roundoff:
                 put(f"{c} (boundary)", v, 1)
         for n, v in self.losses.items():
             if v:
