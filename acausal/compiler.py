@@ -192,6 +192,50 @@ class CompiledModel:
             lines.append(f"    {text}")
         return Listing("\n".join(lines))
 
+    def rate_expr(self, name: str):
+        """d/dt of variable or alias ``name`` as a sympy expression in quantities the model computes (states,
+        unknowns, state derivatives, parameters, modes, inputs and their derivatives), or None when it has no
+        such closed form. A derivative the model does not compute is taken through the explicit assignment that
+        computes the variable (``gear.phi_b = motor.phi / ratio`` gives ``der(motor.phi) / ratio``), repeatedly;
+        a variable from a numeric block or an assignment with a non-smooth function (Min, Max, Abs, Piecewise)
+        has none. Energies of flanges use it (``tau der(phi)``), so they are integrated, not differenced."""
+        from .symbols import der, var_symbol
+        cache = self.__dict__.setdefault("_rate_cache", {})
+        if name in cache:
+            return cache[name]
+        known = set(self.unknown_names) | set(self.state_names)
+        if name in known:
+            expr = var_symbol(name)
+        elif name in self.flat.aliases:
+            expr = sp.sympify(self.flat.aliases[name])
+        else:
+            cache[name] = None
+            return None
+        assigned = self.__dict__.setdefault("_assigned", {st.var: st.expr for st in self.steps if
+                                                          type(st).__name__ == "Assign"})
+        d = der(expr)
+        out = None
+        for _ in range(16):
+            missing = {s for s in d.free_symbols if s.name.startswith("der(") and s.name not in known}
+            if not missing:
+                out = d
+                break
+            sub = {}
+            for s in missing:
+                base, order = split_der(s.name)
+                src = assigned.get(base) if order == 1 else None
+                if src is None or src.has(sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside):
+                    sub = None
+                    break
+                sub[s] = der(src)
+            if sub is None:
+                break
+            d = d.xreplace(sub)
+        if out is not None and out.has(sp.Derivative, sp.Subs, sp.DiracDelta, sp.Heaviside):
+            out = None
+        cache[name] = out
+        return out
+
     def parametric_inputs(self) -> dict:
         """Inputs rebuilt from the run's parameters (:class:`~acausal.signals.ParametricSignal`, e.g. a planned
         trajectory): input name -> the parameter names it is built from. Setting any of them in a run's

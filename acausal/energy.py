@@ -214,7 +214,7 @@ def integrand_expr(cm, what: str):
     :meth:`Result.energy <acausal.result.Result.energy>` integrates for ``what``: a port's power into its
     component (``v*i``, ``tau*der(phi)``, ``Q_flow``) or a variable; None when a derivative it needs is not
     computed by the model (the result then differentiates numerically)."""
-    from .symbols import der, var_symbol
+    from .symbols import var_symbol
 
     known = set(cm.state_names) | set(cm.unknown_names)
 
@@ -224,12 +224,7 @@ def integrand_expr(cm, what: str):
         return sp.sympify(cm.flat.aliases[name]) if name in cm.flat.aliases else None
 
     def rate(name):
-        e = value(name)
-        if e is None:
-            return None
-        d = der(e)
-        needed = {s.name for s in d.free_symbols if s.name.startswith("der(")}
-        return d if needed <= set(cm.unknown_names) else None
+        return cm.rate_expr(name) if value(name) is not None else None
 
     names = known | set(cm.flat.aliases)
     if f"{what}.v" in names and f"{what}.i" in names:

@@ -8,6 +8,7 @@ import sympy as sp
 from scipy.integrate import cumulative_simpson
 
 from .errors import ModelError, UnknownNameError
+from .signals import SignalCall
 from .symbols import der_name, split_der
 
 
@@ -124,6 +125,12 @@ class Result:
             hi = np.asarray(f(self.t + h, x, self.params, self.modes, self.inputs)[i], dtype=float)
             lo = np.asarray(f(self.t - h, x, self.params, self.modes, self.inputs)[i], dtype=float)
             return np.broadcast_to((hi - lo) / (2 * h), self.t.shape)
+        if order == 1 and not self._exact_time_function:
+            d_expr = cm.rate_expr(name)  # through the assignment that computes it (gear.phi_b = motor.phi / ratio)
+            if d_expr is not None and not d_expr.has(SignalCall):
+                return np.broadcast_to(np.asarray(
+                    cm.eval_expr(d_expr, self._unknowns, self.params, self._mode_rows(), self.t), dtype=float),
+                    self.t.shape)
         y = self[name]
         for _ in range(order):
             y = np.gradient(y, self.t)

@@ -13,11 +13,13 @@ Jacobian uses their exact piecewise derivatives.
 * :class:`PIDVariableLimit` - the same with a time-varying symmetric limit from an input (e.g. the bus voltage).
 * :class:`FirstOrder`, :class:`Limiter`, :class:`Feedback`, :class:`Add` - the usual small blocks.
 * :class:`DutyPositionController` - a hobby servo's P position law commanding the PWM duty.
-* :class:`CascadeServo` - position -> velocity -> current cascade of a servo drive, built from the blocks above.
+* :class:`CascadeServo` - position -> velocity -> current cascade of a servo drive, built from the blocks above;
+  :func:`cascade_gains` tunes it for a motor by loop shaping.
 """
 from __future__ import annotations
 
 import abc
+import math
 from numbers import Real
 
 import sympy as sp
@@ -27,7 +29,7 @@ from acausal import Component, Model, ModelError, Parameter, RealInput, RealOutp
 from acausal.partials import check_option
 
 __all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "DutyPositionController",
-           "CascadeServo", "clamp"]
+           "CascadeServo", "cascade_gains", "clamp"]
 
 
 def clamp(u, lo, hi):
@@ -260,6 +262,32 @@ class DutyPositionController(Component):
 
 
 # --------------------------------------------------------------------------------------------- cascade
+def cascade_gains(R: float, L: float, k: float, J: float, f_current: float = 1000.0, speed_ratio: float = 10.0,
+                  position_ratio: float = 10.0) -> dict:
+    """Gains of :class:`CascadeServo` (and :class:`~acausal.library.drives.ServoDriver`) by loop shaping for a
+    motor with terminal resistance ``R`` [ohm], inductance ``L`` [H], torque constant ``k`` [N m/A] and the
+    inertia ``J`` [kg m2] its velocity loop moves (rotor plus what is rigidly coupled to it, reflected to the
+    motor shaft).
+
+    Current loop: crossover ``wc = 2 pi f_current`` with the PI zero on the electrical pole R/L
+    (``kp_cur = L wc``, ``ki_cur = R wc``). Velocity loop: crossover ``wv = wc / speed_ratio``
+    (``kp_vel = J wv / k``) with its PI zero at ``wv / 4`` (``ki_vel = kp_vel wv / 4``). Position loop: bandwidth
+    ``wv / position_ratio`` (``kp_pos``). Each loop is several times slower than the one inside it, so each sees
+    the inner one as ideal. The limits (``i_max``, ``w_max``) are the device's and not set here. A compliant
+    load (a series spring) has a resonance the position loop must stay below: lower ``kp_pos`` (see the users'
+    guide chapter on an SEA under position control).
+    """
+    for name, v in (("R", R), ("L", L), ("k", k), ("J", J), ("f_current", f_current), ("speed_ratio", speed_ratio),
+                    ("position_ratio", position_ratio)):
+        if not (isinstance(v, Real) and v > 0):
+            raise ModelError(f"cascade_gains: {name} must be a number > 0, got {v!r}")
+    wc = 2 * math.pi * f_current
+    wv = wc / speed_ratio
+    kp_vel = J * wv / k
+    return {"kp_cur": float(L * wc), "ki_cur": float(R * wc), "kp_vel": kp_vel, "ki_vel": kp_vel * wv / 4,
+            "kp_pos": wv / position_ratio}
+
+
 class CascadeServo(Model):
     """Cascaded position -> velocity -> current controller of a servo drive, commanding the motor voltage.
 

@@ -7,7 +7,7 @@ delivers to its load is ``-flange.tau``).
 import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Parameter, RealInput, Variable, der
+from acausal import Component, Model, Parameter, RealInput, Variable, connect, der
 from acausal.connectors import HeatPort, Pin
 from acausal.partials import PartialElementaryRotationalToElectrical, check_option
 
@@ -102,6 +102,70 @@ class EPOS2(PWMDriver):
                      device="maxon EPOS2 70/10")
     d_max = Parameter(0.9, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude (EPOS2: ~0.9)",
                       device="maxon EPOS2 70/10")
+
+
+class ServoDriver(Model):
+    """A current-limited servo amplifier: a position -> velocity -> current cascade driving an averaged H-bridge
+    from a DC bus, the motor current measured inside.
+
+    ::
+
+        position_ref, position, velocity --> [CascadeServo] --voltage--> [PWMDriver, voltage command] --> mot_p/mot_n
+                                                ^ current (ammeter in mot_p)    ^ |v| <= d_max v_bus (bus_p/bus_n)
+
+    ``ctrl`` is a :class:`~acausal.library.control.CascadeServo` whose voltage limit is the bridge's
+    ``d_max v_bus``, read from the bus (so a sagging supply limits the command, and the current loop's
+    anti-windup knows it); ``bridge`` a :class:`PWMDriver` with its losses (neutral by default); ``ammeter`` the
+    current sensor in series with ``mot_p``. The current limit ``i_max`` bounds the current reference, so the
+    motor current stays within it (up to the current loop's overshoot). The gains and limits have no neutral
+    value and no default: tune them for your motor with :func:`~acausal.library.control.cascade_gains` and set
+    the limits of your device. ``position`` and ``velocity`` are in the motor's units (rad, rad/s at its shaft);
+    measure them where the loop should close (collocated at the motor, or at a load scaled by the ratio).
+    Sign: a positive position error drives current out of ``mot_p`` through the motor.
+    """
+
+    kp_pos = Parameter(None, unit="1/s", min=0.0, doc="position P gain (rad/s per rad)")
+    w_max = Parameter(None, unit="rad/s", min=0.0, doc="speed limit of the position loop's output")
+    kp_vel = Parameter(None, unit="A.s/rad", min=1e-12, doc="velocity P gain")
+    ki_vel = Parameter(None, unit="A/rad", min=0.0, doc="velocity I gain")
+    i_max = Parameter(None, unit="A", min=0.0, doc="current limit")
+    kp_cur = Parameter(None, unit="V/A", min=1e-12, doc="current P gain")
+    ki_cur = Parameter(None, unit="V/(A.s)", min=0.0, doc="current I gain")
+    P_q = Parameter(0.0, unit="W", min=0.0, doc="bridge quiescent consumption")
+    R_on = Parameter(0.0, unit="Ohm", min=0.0, doc="bridge conduction resistance")
+    k_sw = Parameter(0.0, unit="1", min=0.0, doc="bridge switching loss coefficient")
+    d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude")
+    bus_p = Pin(doc="DC bus +")
+    bus_n = Pin(doc="DC bus -")
+    mot_p = Pin(doc="motor +")
+    mot_n = Pin(doc="motor -")
+    position_ref = RealInput(doc="commanded position [rad]")
+    position = RealInput(doc="measured position [rad]")
+    velocity = RealInput(doc="measured velocity [rad/s]")
+
+    def build(self):
+        from .blocks import Gain
+        from .control import CascadeServo
+        from .electrical import CurrentSensor, VoltageSensor
+        self.bridge = PWMDriver(command="voltage", P_q=self.P_q, R_on=self.R_on, k_sw=self.k_sw, d_max=self.d_max)
+        self.ctrl = CascadeServo(use_voltage_limit_input=True, kp_pos=self.kp_pos, w_max=self.w_max,
+                                 kp_vel=self.kp_vel, ki_vel=self.ki_vel, i_max=self.i_max, kp_cur=self.kp_cur,
+                                 ki_cur=self.ki_cur, v_max=0.0)  # v_max unused: the limit comes from the bus
+        self.ammeter = CurrentSensor()
+        self.bus_meter = VoltageSensor()
+        self.available = Gain(k=self.d_max)
+        connect(self.bus_p, self.bridge.bus_p, self.bus_meter.p)
+        connect(self.bus_n, self.bridge.bus_n, self.bus_meter.n)
+        connect(self.bridge.mot_p, self.ammeter.p)
+        connect(self.ammeter.n, self.mot_p)
+        connect(self.bridge.mot_n, self.mot_n)
+        connect(self.bus_meter.v_out, self.available.u)
+        connect(self.available.y, self.ctrl.v_limit)
+        connect(self.position_ref, self.ctrl.position_ref)
+        connect(self.position, self.ctrl.position)
+        connect(self.velocity, self.ctrl.velocity)
+        connect(self.ammeter.i_out, self.ctrl.current)
+        connect(self.ctrl.voltage, self.bridge.u)
 
 
 class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):

@@ -7,7 +7,8 @@ import sympy as sp
 
 from acausal import Model, ModelError, Start, compile_model, connect, time
 from acausal.library.blocks import SignalSource
-from acausal.library.control import (PID, Add, CascadeServo, Feedback, FirstOrder, Limiter, PIDVariableLimit)
+from acausal.library.control import (PID, Add, CascadeServo, Feedback, FirstOrder, Limiter, PIDVariableLimit,
+                                     cascade_gains)
 from acausal.library.electrical import EMF, CurrentSensor, Ground, Inductor, Resistor, SignalVoltage
 from acausal.library.rotational import AngleSensor, Damper, Fixed, Inertia, SpeedSensor
 from acausal.result import Result
@@ -279,3 +280,64 @@ def test_pid_variable_limit_block():
     res = compile_model(Clamped()).simulate(1.0, rtol=1e-10, atol=1e-12, n_points=101)
     lim = 1.0 + 0.5 * res.t
     assert np.allclose(res["pid.y.value"], np.clip(10 * np.sin(2 * np.pi * res.t), -lim, lim), atol=1e-9)
+
+
+# ------------------------------------------------------------------------------------ ServoDriver, cascade_gains
+def test_cascade_gains_reproduce_the_documented_loop_shaping():
+    g = cascade_gains(M_R, M_L, M_K, 3.33e-6)
+    wc = 2 * np.pi * 1000.0
+    assert g["kp_cur"] == pytest.approx(M_L * wc) and g["ki_cur"] == pytest.approx(M_R * wc)
+    assert g["kp_vel"] == pytest.approx(3.33e-6 * wc / 10 / M_K)
+    assert g["ki_vel"] == pytest.approx(g["kp_vel"] * wc / 40) and g["kp_pos"] == pytest.approx(wc / 100)
+    for name in ("kp_pos", "kp_vel", "ki_vel", "i_max", "kp_cur", "ki_cur"):  # the library defaults are these
+        assert name == "i_max" or getattr(CascadeServo, name).default == pytest.approx(g[name], rel=2e-3)
+    with pytest.raises(ModelError, match="cascade_gains: J must be a number > 0"):
+        cascade_gains(M_R, M_L, M_K, 0.0)
+
+
+class _Amplified(Model):
+    """ServoDriver on a 24 V supply with internal resistance, driving the motor with a small load."""
+
+    def __init__(self, target, **drive):
+        super().__init__()
+        self.target, self.drive_kw = target, drive
+
+    def build(self):
+        from acausal.library.drives import ServoDriver
+        from acausal.library.electrical import Supply
+        self.supply, self.gnd = Supply(V=24.0, R_int=0.2), Ground()
+        self.drive = ServoDriver(**self.drive_kw)
+        self.R, self.L, self.emf = Resistor(R=M_R), Inductor(L=M_L, i=Start(0.0)), EMF(k=M_K)
+        self.J, self.damper, self.fixed = Inertia(J=M_J, phi=Start(0.0), w=Start(0.0)), Damper(d=M_D), Fixed()
+        self.angle, self.speed, self.ref = AngleSensor(), SpeedSensor(), SignalSource(signal=self.target)
+        connect(self.supply.p, self.drive.bus_p); connect(self.supply.n, self.drive.bus_n, self.gnd.p)
+        connect(self.drive.mot_p, self.R.p); connect(self.R.n, self.L.p); connect(self.L.n, self.emf.p)
+        connect(self.emf.n, self.drive.mot_n)
+        connect(self.emf.flange, self.J.flange_a)
+        connect(self.J.flange_b, self.damper.flange_b, self.angle.flange, self.speed.flange)
+        connect(self.damper.flange_a, self.fixed.flange)
+        connect(self.ref.y, self.drive.position_ref); connect(self.angle.phi, self.drive.position)
+        connect(self.speed.w, self.drive.velocity)
+
+
+def test_servo_driver_limits_current_and_voltage_to_its_bus():
+    gains = cascade_gains(M_R, M_L, M_K, M_J)
+    sim = compile_model(_Amplified(TARGET, **gains, i_max=2.0, w_max=600.0, d_max=0.95))
+    res = sim.simulate(0.4, rtol=1e-8, atol=1e-10, n_points=4001)
+    assert res["J.phi"][-1] == pytest.approx(20.0, abs=1e-3)
+    i, i_ref = res["drive.ammeter.i"], res["drive.ctrl.vel.y.value"]
+    assert np.max(np.abs(i_ref)) == pytest.approx(2.0)  # the current limit is reached ...
+    assert np.max(np.abs(i)) < 2.0 * 1.02  # ... and holds (up to the current loop's overshoot)
+    assert np.allclose(i, res["L.i"])  # the ammeter sits in the motor circuit
+    v_avail = 0.95 * res["drive.bridge.v_bus"]
+    assert np.all(np.abs(res["drive.bridge.u.value"]) <= v_avail + 1e-9)  # the bus limits the command
+    v_bus = res["drive.bridge.v_bus"]
+    assert v_bus.min() < 23.9 and v_bus.max() > 24.1  # sags while driving, rises while braking into the supply
+    b = res.energy_balance()
+    assert abs(b.residual) < 1e-6 and b.losses["drive.bridge.loss_power"] == 0.0  # a neutral bridge is lossless
+    assert sim.device_defaults() == {}  # the cascade inside takes the driver's values, none of the EPOS2's
+
+
+def test_servo_driver_needs_its_gains_and_limits():
+    with pytest.raises(ModelError, match="ServoDriver 'drive': parameter 'i_max' has no value"):
+        compile_model(_Amplified(TARGET, **cascade_gains(M_R, M_L, M_K, M_J), w_max=600.0))
