@@ -12,7 +12,32 @@ from .errors import SimulationError
 
 
 def zeros(cm, t, x, p, d, u):
-    return np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
+    """The zero functions at one point (time ``t`` [s], states ``x``, modes ``d``); a NaN or infinite value is a
+    :class:`SimulationError` (:func:`check_zeros`), never a crossing."""
+    z = np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
+    check_zeros(cm, t, z, d)
+    return z
+
+
+def check_zeros(cm, t, z, d) -> None:
+    """Raise a :class:`SimulationError` naming the event's component, its zero function, the time and the modes
+    when a zero function's value ``z`` (one value per event, or one row of values per event at the times ``t``)
+    is NaN or infinite: such a value has no sign, and taking it for a crossing would switch modes at random."""
+    z = np.asarray(z, dtype=float)
+    if np.all(np.isfinite(z)):
+        return
+    rows = np.atleast_1d(np.any(~np.isfinite(z.reshape(len(cm.event_zeros), -1)), axis=1))
+    i = int(np.flatnonzero(rows)[0])
+    tt = np.atleast_1d(np.asarray(t, dtype=float))
+    col = np.flatnonzero(~np.isfinite(z.reshape(len(cm.event_zeros), -1)[i]))[0]
+    when = float(tt[min(col, tt.size - 1)])
+    ev = cm.flat.events[i]
+    modes = ", ".join(f"{n} = {v:g}" for n, v in zip(cm.discrete_names, np.asarray(d, dtype=float).ravel()))
+    value = z.reshape(len(cm.event_zeros), -1)[i, col]
+    raise SimulationError(f"the zero function of an event of {ev.origin} is {value} at t = {when:.9g} s: "
+                          f"{cm.event_zeros[i]} (modes {modes}); a NaN or infinite "
+                          "switching value has no sign to switch on (a division by a coefficient that is zero in "
+                          "this mode, or a function used outside its domain)")
 
 
 def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
@@ -25,7 +50,7 @@ def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
             found.append((t0, i, b > 0))
             continue
         if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
-            g = lambda tt, i=i: float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i])
+            g = lambda tt, i=i: _finite(cm, i, tt, float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i]), d)
             try:
                 te = optimize.brentq(g, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
             except ValueError:
@@ -42,6 +67,14 @@ def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
     together = [f for f in found if f[0] <= t_first + tol]
     t_e = max(f[0] for f in together)
     return [(t_e, i, rising) for _, i, rising in together]
+
+
+def _finite(cm, i, t, value, d):
+    if not np.isfinite(value):
+        z = np.ones(len(cm.event_zeros))
+        z[i] = value
+        check_zeros(cm, t, z, d)
+    return value
 
 
 def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
