@@ -1,7 +1,15 @@
-"""Causal signal blocks: sources, gains, and the inverse-model constraint."""
+"""Causal signal blocks: sources (MSL ``Modelica.Blocks.Sources``: Step, Ramp, Sine), gains and products, and the
+inverse-model constraint.
+
+Sources are expressions of time and of their parameters, so their parameters change per run without recompiling
+and index reduction differentiates them exactly where the structure needs it. A Step's jump (and a Ramp's or a
+delayed Sine's kink) is a discontinuity in time the integrator meets inside a step: put an output time at
+``start_time`` (or pass it in the run's output times) when the exact instant matters.
+"""
+import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Input, Parameter, RealInput, RealOutput
+from acausal import Component, Input, Parameter, RealInput, RealOutput, time
 
 
 class SignalSource(Component):
@@ -61,3 +69,57 @@ class Bias(Component):
 
     def equations(self):
         return [Eq(self.y.value, self.u.value + self.bias)]
+
+
+class Step(Component):
+    """``y = offset`` before ``start_time``, ``offset + height`` from it on (MSL ``Blocks.Sources.Step``)."""
+
+    height = Parameter(1.0, doc="height of the step (unit of the signal)")
+    offset = Parameter(0.0, doc="output before the step (unit of the signal)")
+    start_time = Parameter(0.0, unit="s", doc="time of the step")
+    y = RealOutput(doc="output")
+
+    def equations(self):
+        return [Eq(self.y.value, self.offset + sp.Piecewise((0, time < self.start_time), (self.height, True)))]
+
+
+class Ramp(Component):
+    """``y`` rises linearly by ``height`` over ``duration`` from ``start_time`` (MSL ``Blocks.Sources.Ramp``)."""
+
+    height = Parameter(1.0, doc="height of the ramp (unit of the signal)")
+    duration = Parameter(1.0, unit="s", min=0.0, doc="duration of the ramp (0: a step)")
+    offset = Parameter(0.0, doc="output before the ramp (unit of the signal)")
+    start_time = Parameter(0.0, unit="s", doc="time the ramp starts")
+    y = RealOutput(doc="output")
+
+    def equations(self):
+        t0, T = self.start_time, self.duration
+        return [Eq(self.y.value, self.offset + sp.Piecewise((0, time < t0), (self.height, time >= t0 + T),
+                                                            (self.height * (time - t0) / sp.Max(T, 1e-300), True)))]
+
+
+class Sine(Component):
+    """``y = offset + amplitude sin(2 pi f (t - start_time) + phase)`` from ``start_time`` on, ``offset`` before
+    it (MSL ``Blocks.Sources.Sine``)."""
+
+    amplitude = Parameter(1.0, doc="amplitude (unit of the signal)")
+    f = Parameter(1.0, unit="Hz", min=0.0, doc="frequency")
+    phase = Parameter(0.0, unit="rad", doc="phase at start_time")
+    offset = Parameter(0.0, doc="offset (unit of the signal)")
+    start_time = Parameter(0.0, unit="s", doc="time the sine starts")
+    y = RealOutput(doc="output")
+
+    def equations(self):
+        wave = self.amplitude * sp.sin(2 * sp.pi * self.f * (time - self.start_time) + self.phase)
+        return [Eq(self.y.value, self.offset + sp.Piecewise((0, time < self.start_time), (wave, True)))]
+
+
+class Product(Component):
+    """``y = u1 u2`` (MSL ``Blocks.Math.Product``)."""
+
+    u1 = RealInput(doc="first factor")
+    u2 = RealInput(doc="second factor")
+    y = RealOutput(doc="product")
+
+    def equations(self):
+        return [Eq(self.y.value, self.u1.value * self.u2.value)]

@@ -178,25 +178,29 @@ class Supply(OnePort):
 
 
 class IdealDiode(OnePort):
-    """Ideal diode with state events (MSL ``IdealDiode`` with Vknee = 0), conducting from p to n.
+    """Ideal diode with state events (MSL ``IdealDiode``), conducting from p to n above the knee voltage.
 
-    Written with the curve parameter ``s`` so that both modes have the same structure::
+    Written with the curve parameter ``s`` (the position on the characteristic, 0 at the knee) so that both modes
+    have the same structure::
 
-        v = s * (off + (1 - off) R_on)       i = s * (off G_off + (1 - off))
+        v = s * (off + (1 - off) R_on) + V_knee       i = s * (off G_off + (1 - off)) + G_off V_knee
 
     ``off`` switches when ``s`` crosses zero: falling -> blocking (off = 1), rising -> conducting (off = 0).
-    ``loss_power = v i >= 0`` in both modes. R_on and G_off are small leakage values (assumptions).
+    ``loss_power = v i >= 0`` in both modes (conducting: ``s >= 0``; blocking: ``v i = G_off (s + V_knee)^2``).
+    R_on and G_off are small leakage values (MSL's defaults, 1e-5); V_knee = 0 by default (MSL's).
     """
 
     R_on = Parameter(1e-5, unit="Ohm", min=0.0, doc="forward state-on resistance")
     G_off = Parameter(1e-5, unit="S", min=0.0, doc="backward state-off conductance")
-    s = Variable(doc="curve parameter: current (on) or voltage (off)")
+    V_knee = Parameter(0.0, unit="V", min=0.0, doc="forward threshold voltage")
+    s = Variable(doc="curve parameter: current (on) or voltage (off) above the knee")
     loss_power = Variable(unit="W", doc="dissipated power v*i")
     off = Discrete(start=0.0, doc="1 while blocking")
 
     def equations(self):
-        return [*super().equations(), Eq(self.v, self.s * (self.off + (1 - self.off) * self.R_on)),
-                Eq(self.i, self.s * (self.off * self.G_off + (1 - self.off))), Eq(self.loss_power, self.v * self.i)]
+        return [*super().equations(), Eq(self.v, self.s * (self.off + (1 - self.off) * self.R_on) + self.V_knee),
+                Eq(self.i, self.s * (self.off * self.G_off + (1 - self.off)) + self.G_off * self.V_knee),
+                Eq(self.loss_power, self.v * self.i)]
 
     def events(self):
         return [Event(self.s, on_rising={self.off: 0}, on_falling={self.off: 1}, doc="diode switches")]
