@@ -34,7 +34,7 @@ def compile_model(model) -> "CompiledModel":
     system = reduce_index(check_balance(system))
     _check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
-    system = solve_blocks(blt_blocks(system), starts)
+    system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes))
     gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs))
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)

@@ -134,15 +134,34 @@ def settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
                           + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
 
 
-def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20):
+#: a zero function within this of zero [SI unit of the function] is at its switching point: when the modes
+#: after an event cycle and every zero function that flips in the cycle is this small in each mode of it (an ideal
+#: diode at its knee, where the switching variable is round-off of either sign), either mode is consistent and the
+#: cascade keeps the present one
+KNEE = 1e-6
+
+
+def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20, hits=()):
     """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
-    those events' assignments, and repeat, until nothing flips."""
+    those events' assignments, and repeat, until nothing flips (Modelica's event iteration).
+
+    The modes visited are remembered. Returning to one of them is a cycle: if every zero function that flipped
+    within it stayed within :data:`KNEE` of zero, it sits at its switching point (round-off decides its sign, and
+    differs per mode and per generated code), so the present modes are kept; otherwise no mode is consistent and
+    the run stops with a :class:`SimulationError` naming the events' components, their values and the time.
+    ``hits``: the crossings that caused the event (``(time, event index, rising?)``); a crossing zero function
+    located exactly at zero counts as on the side it crossed to, so a new mode that puts it back is a flip."""
     z_prev = zeros(cm, t, x, p, d_old, u)
+    side = z_prev.copy()  # the sign each zero function had (a crossing exactly at zero: the side it went to)
+    for _, i, rising in hits:
+        if side[i] == 0:
+            side[i] = 1.0 if rising else -1.0
     d = d_new
+    seen = [np.asarray(d_old, dtype=float).copy(), np.asarray(d, dtype=float).copy()]
+    flips: list = [[]]  # flips[k]: (event, largest |z| of the flip) made to leave seen[k + 1]
     for _ in range(max_iter):
         z = zeros(cm, t, x, p, d, u)
-        flipped = [i for i in range(len(z)) if z[i] != 0 and np.sign(z[i]) != np.sign(z_prev[i])
-                   and z_prev[i] != 0]
+        flipped = [i for i in range(len(z)) if z[i] != 0 and np.sign(z[i]) != np.sign(side[i]) and side[i] != 0]
         if not flipped:
             return d
         new = d
@@ -150,9 +169,21 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20):
             new = apply_event(cm, i, z[i] > 0, t, x, p, new, u)
         if np.array_equal(new, d):
             return d
-        z_prev, d = z, new
-    raise SimulationError(f"discrete modes do not settle after an event at t = {t:.6g} s: "
-                          + ", ".join(f"{n} = {v}" for n, v in zip(cm.discrete_names, d)))
+        flips.append([(i, max(abs(z[i]), abs(z_prev[i]))) for i in flipped])
+        back = [k for k, s in enumerate(seen) if np.array_equal(new, s)]
+        if back:  # a cycle: the flips since that visit
+            cycle = [f for step in flips[back[0]:] for f in step]
+            if all(size <= KNEE for _, size in cycle):
+                return d
+            culprits = sorted({cm.flat.events[i].origin for i, size in cycle if size > KNEE})
+            break
+        seen.append(np.asarray(new, dtype=float).copy())
+        z_prev, side, d = z, z.copy(), new
+    else:
+        culprits = sorted({cm.flat.events[i].origin for step in flips for i, _ in step})
+    raise SimulationError(f"discrete modes do not settle after an event at t = {t:.9g} s: the events of "
+                          f"{', '.join(culprits)} switch back and forth (no mode is consistent there: the model "
+                          "chatters); modes " + ", ".join(f"{n} = {v:g}" for n, v in zip(cm.discrete_names, d)))
 
 
 def algebraic_modes(cm, t, p, d, u):

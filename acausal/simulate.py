@@ -138,7 +138,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                     k_out = k_end
             if hit:
                 record_events(cm, events, hit, t_e, max_events)
-                d = cascade(cm, t_e, x_e, p, d, d_new, u)
+                d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hit)
                 t, x = t_e, x_e
                 restarted = True
                 break

@@ -6,6 +6,11 @@
   assignments; what cannot be torn is solved by sympy LU (linear, up to :data:`SYMBOLIC_LINEAR_MAX` unknowns),
   a numeric linear solve ``A y = b`` at run time (larger linear), or Newton's method with the exact sympy
   Jacobian of the torn residuals (nonlinear).
+
+A coefficient that depends on discrete modes and vanishes for some of their values (:func:`_may_vanish`) is never
+a pivot: the unknown is left to the block's numeric solve, which pivots on the values of the present mode. So an
+element whose equations determine a variable from one equation in one mode and from another in the other (a
+friction element's path parameter, stuck or sliding) compiles to code without inf or NaN in either mode.
 """
 from __future__ import annotations
 
@@ -14,7 +19,7 @@ from dataclasses import dataclass, replace
 import sympy as sp
 
 from .structure import EquationSystem
-from .symbols import var_symbol
+from .symbols import par_symbol, var_symbol
 
 SYMBOLIC_LINEAR_MAX = 3
 
@@ -42,24 +47,49 @@ class NewtonSolve:
     guesses: list
 
 
-def solve_blocks(system: EquationSystem, starts: dict) -> EquationSystem:
+def solve_blocks(system: EquationSystem, starts: dict, modes=()) -> EquationSystem:
     """``system`` (after BLT) with its ``steps``: every block solved, in evaluation order. ``starts`` (variable
-    name -> start value) seeds Newton's method where a block needs it."""
+    name -> start value) seeds Newton's method where a block needs it. ``modes``: the names of the discrete
+    modes; a coefficient that vanishes for some mode values (``1 - stuck``) is never divided by (see
+    :func:`_may_vanish`)."""
     steps = []
+    ms = frozenset(par_symbol(m) for m in modes)
     for eqs, unknowns in system.blocks:
         ys = [var_symbol(u) for u in unknowns]
         rs = [system.residuals[e] for e in eqs]
         orig = [system.origins[e] for e in eqs]
         if len(eqs) == 1:
-            steps.extend(_solve_scalar(rs[0], ys[0], unknowns[0], orig, starts))
+            steps.extend(_solve_scalar(rs[0], ys[0], unknowns[0], orig, starts, ms))
         else:
-            steps.extend(_tear(rs, ys, unknowns, orig, starts))
+            steps.extend(_tear(rs, ys, unknowns, orig, starts, ms))
     return replace(system, steps=steps)
 
 
-def _solve_scalar(r, y, name, orig, starts):
+MODE_VALUES = (0, 1)  # the values a mode is checked at (the library's modes are flags)
+_MAX_MODE_COMBINATIONS = 64
+
+
+def _may_vanish(a, modes: frozenset) -> bool:
+    """Whether coefficient ``a`` depends on the discrete modes ``modes`` (their symbols) and is zero for some of their values (each mode at
+    :data:`MODE_VALUES`; a coefficient with more modes than :data:`_MAX_MODE_COMBINATIONS` combinations counts as
+    vanishing). Dividing by it would give inf or NaN in that mode: e.g. a friction element's ``a = (1 - stuck) sa``
+    determines ``sa`` only while sliding, ``tau = stuck sa + ...`` only while stuck."""
+    ms = sorted(a.free_symbols & modes, key=lambda s: s.name)
+    if not ms:
+        return False
+    if len(MODE_VALUES) ** len(ms) > _MAX_MODE_COMBINATIONS:
+        return True
+    from itertools import product
+    for values in product(MODE_VALUES, repeat=len(ms)):
+        v = a.xreplace(dict(zip(ms, values)))
+        if v == 0 or (v.is_number and v.is_zero):
+            return True
+    return False
+
+
+def _solve_scalar(r, y, name, orig, starts, modes=frozenset()):
     a = r.diff(y)
-    if a != 0 and y not in a.free_symbols:
+    if a != 0 and y not in a.free_symbols and not _may_vanish(a, modes):
         return [Assign(name, -r.xreplace({y: 0}) / a)]
     if sp.count_ops(r) <= 40:
         try:
@@ -80,7 +110,7 @@ def _pivot_score(a):
     return 2 + len(a.free_symbols)
 
 
-def _tear(rs, ys, unknowns, orig, starts):
+def _tear(rs, ys, unknowns, orig, starts, modes=frozenset()):
     """Tearing: repeatedly eliminate the unknown that some block equation gives linearly with a coefficient free
     of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols; among equal pivots the
     equation with the fewest block unknowns left, so the order of the block's unknowns does not decide),
@@ -99,7 +129,7 @@ def _tear(rs, ys, unknowns, orig, starts):
             width = len(cur[e].free_symbols & left)  # block unknowns still in the equation
             for v in vars_:
                 a = cur[e].diff(ys[v])
-                if a == 0 or (a.free_symbols & yset):
+                if a == 0 or (a.free_symbols & yset) or _may_vanish(a, modes):
                     continue
                 score = (_pivot_score(a), width)
                 if best is None or score < best[0]:
@@ -127,10 +157,10 @@ def _tear(rs, ys, unknowns, orig, starts):
     if all(not (j.free_symbols & tset) for row in jac for j in row):
         zero = {y: 0 for y in tsyms}
         b = [-r.xreplace(zero) for r in res]
-        if len(tear) <= SYMBOLIC_LINEAR_MAX:
-            sol = sp.Matrix(jac).LUsolve(sp.Matrix(b))
+        sol = sp.Matrix(jac).LUsolve(sp.Matrix(b)) if len(tear) <= SYMBOLIC_LINEAR_MAX else None
+        if sol is not None and not any(_may_vanish(sp.fraction(sp.together(x))[1], modes) for x in sol):
             head = [Assign(u, sol[i]) for i, u in enumerate(tear)]
-        else:
+        else:  # large, or sympy's LU divides by a pivot that is zero in some mode: numpy pivots per sample
             head = [LinearSolve(tear, jac, b, [orig[e] for e in eqs])]
     else:
         head = [NewtonSolve(tear, res, jac, [orig[e] for e in eqs], [starts.get(u, 0.0) for u in tear])]

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from acausal import Component, Discrete, Eq, Event, Model, SimulationError, Variable, compile_model, der
+from acausal import (Component, Discrete, Eq, Event, Model, SimulationError, Variable, compile_model, connect,
+                     der)
 
 
 class _Trip(Component):
@@ -88,3 +89,117 @@ def test_a_three_phase_bridge_switches_the_same_way_in_every_process(tmp_path, m
     assert all(o == outs[0] for o in outs[1:])
     first = outs[0]
     assert len(first["events"]) >= 60 and first["v"][-1] == pytest.approx(100 * np.sqrt(3), rel=1e-3)
+
+
+# ------------------------------------------------------------------ StickSlipGear: MSL LossyGear's modes
+class _TwoInertias(Model):
+    """Torque T1 on J1 = 1 -> StickSlipGear(ratio 2) -> J2 = 1.5 with torque T2 on it (both TorqueSources)."""
+
+    def __init__(self, T1, T2, w0=0.0, **gear):
+        super().__init__()
+        self.T1, self.T2, self.w0, self.gear_kw = T1, T2, w0, gear
+
+    def build(self):
+        from acausal import Start
+        from acausal.library.rotational import Inertia, StickSlipGear, TorqueSource
+        self.src1, self.src2 = TorqueSource(tau=self.T1), TorqueSource(tau=self.T2)
+        self.J1 = Inertia(J=1.0, phi=Start(0.0), w=Start(self.w0))
+        self.gear = StickSlipGear(ratio=2.0, **self.gear_kw)
+        self.J2 = Inertia(J=1.5)
+        connect(self.src1.flange, self.J1.flange_a)
+        connect(self.J1.flange_b, self.gear.flange_a)
+        connect(self.gear.flange_b, self.J2.flange_a)
+        connect(self.J2.flange_b, self.src2.flange)
+
+
+def _accel(T1, T2, loss_slope, loss_offset):
+    """J1's acceleration while sliding with tau_loss = loss_slope tau_a + loss_offset (J1 = 1, J2 = 1.5, ratio 2):
+    J1 a = T1 - tau_a, J2 a / 2 = -flange_b.tau + T2 with flange_b.tau = 2 (tau_loss - tau_a)."""
+    # tau_a = T1 - a;  0.75 a = -2 ((loss_slope - 1) tau_a + loss_offset) + T2
+    k = -2 * (loss_slope - 1)
+    return (k * T1 - 2 * loss_offset + T2) / (0.75 + k)
+
+
+def _check_gear_run(res):
+    assert np.all(res["gear.loss_power"] >= -1e-9)  # never creates energy
+    assert abs(res.energy_balance().residual) < 1e-8
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_stick_slip_gear_holds_inside_its_friction_band_and_breaks_away_outside(method):
+    """At rest, T1 = 1 and T2 = -0.5 need a holding torque of 0.75 N m, inside the forward breakaway torque
+    max(0.5 tau_a, -tau_a) + 0.3 = 0.8: stuck. From 1 s, T1 = -2 needs -2.25, beyond the backward breakaway
+    -1.3: it slides backward with the analytic acceleration (driving backward: tau_loss = 0.5 tau_a - 0.3)."""
+    from acausal import time
+    T1 = sp.Piecewise((1.0, time < 1), (-2.0, True))
+    sim = compile_model(_TwoInertias(T1, -0.5, eta=0.5, tau_bf=0.3))
+    res = sim.simulate(3.0, method=method, n_points=301, rtol=1e-9, atol=1e-12)
+    t, w = res.t, res["J1.w"]
+    assert np.all(w[t <= 1.0] == 0.0) and np.all(res["gear.stuck"][(t > 0) & (t < 1.0)] == 1)
+    assert np.allclose(res["gear.tau_loss"][(t > 0) & (t < 1.0)], 0.75)  # the holding torque
+    a = _accel(-2.0, -0.5, 0.5, -0.3)
+    assert a == pytest.approx(-1.9 / 1.75)
+    assert np.allclose(w[t > 1.0], a * (t[t > 1.0] - 1.0), rtol=1e-7, atol=1e-9)
+    assert res["gear.forward"][-1] == 0 and res["gear.stuck"][-1] == 0
+    _check_gear_run(res)
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_stick_slip_gear_stops_and_reverses_in_one_event_when_the_load_pushes_through(method):
+    """Sliding forward at 3 rad/s against T1 = -2: it decelerates (driven backward through the gear: tau_a < 0,
+    power flows from flange_b, tau_loss = (1 - 1/eta_b) tau_a + tau_bf), stops at the analytic time, sticks and at
+    once breaks away backward (the holding torque -2 is beyond the backward breakaway), then accelerates
+    backward (driving: tau_loss = (1 - eta) tau_a - tau_bf). No chatter: one stop, one breakaway."""
+    sim = compile_model(_TwoInertias(-2.0, 0.0, w0=3.0, eta=0.8, eta_b=0.6, tau_bf=0.1))
+    res = sim.simulate(4.0, method=method, n_points=401, rtol=1e-9, atol=1e-12)
+    dec = _accel(-2.0, 0.0, 1 - 1 / 0.6, 0.1)
+    t_stop = -3.0 / dec
+    acc = _accel(-2.0, 0.0, 1 - 0.8, -0.1)
+    t, w = res.t, res["J1.w"]
+    before, after = t < t_stop - 1e-6, t > t_stop + 1e-6
+    assert np.allclose(w[before], 3.0 + dec * t[before], rtol=1e-7, atol=1e-8)
+    assert np.allclose(w[after], acc * (t[after] - t_stop), rtol=1e-6, atol=1e-8)
+    stops = [e for e in res.events if abs(e[0] - t_stop) < 1e-6]
+    assert stops and len(res.events) <= 4  # the stop and the breakaway, nothing chattering
+    _check_gear_run(res)
+
+
+def test_stick_slip_gear_comes_to_rest_and_stays():
+    """Coasting at 2 rad/s against the mesh and bearing losses alone: it stops at the analytic time (5.1 s) and
+    stays stuck, its speed constant afterwards at what it was just past the stop (the event is located to about
+    1e-12 s, so below 1e-10 rad/s; no further events)."""
+    sim = compile_model(_TwoInertias(0.0, 0.0, w0=2.0, eta=0.9, tau_bf=0.5))
+    res = sim.simulate(10.0, n_points=1001, rtol=1e-9, atol=1e-12)
+    dec = _accel(0.0, 0.0, 1 - 0.9, 0.5)  # tau_a = -a > 0 while decelerating: driving forward, tau_loss >= 0.5
+    t_stop = -2.0 / dec
+    t, w = res.t, res["J1.w"]
+    assert np.allclose(w[t < t_stop - 1e-6], 2.0 + dec * t[t < t_stop - 1e-6], rtol=1e-7)
+    held = w[t > t_stop + 1e-6]
+    assert np.all(np.abs(held) < 1e-10) and np.all(held == held[0]) and res["gear.stuck"][-1] == 1
+    assert len(res.events) == 1
+    _check_gear_run(res)
+
+
+class _NoConsistentMode(Component):
+    """At t = 1 the zero x - 1 - 2 m rises and sets m = 1, which makes it -2: falling, it sets m = 0 again."""
+
+    x = Variable(start=0.0, fixed=True)
+    m = Discrete(start=0.0)
+
+    def equations(self):
+        return [Eq(der(self.x), 1.0)]
+
+    def events(self):
+        return [Event(self.x - 1 - 2 * self.m, on_rising={self.m: 1}, on_falling={self.m: 0})]
+
+
+class _Chatter(Model):
+    def build(self):
+        self.c = _NoConsistentMode()
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_modes_with_no_consistent_value_stop_with_the_component_and_time(method):
+    with pytest.raises(SimulationError, match=r"do not settle after an event at t = 1(\.0+\d*)? s: the events of "
+                                              r"_NoConsistentMode 'c' switch back and forth.*chatters"):
+        compile_model(_Chatter()).simulate(2.0, method=method)

@@ -94,7 +94,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
         record_events(cm, events, hits, t_e, max_events)
-        d = cascade(cm, t_e, x_e, p, d, d_new, u)
+        d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hits)
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q,
