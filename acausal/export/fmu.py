@@ -1,0 +1,144 @@
+"""``export_fmu``: a compiled model as an FMI 2.0 Model Exchange FMU (a zip: ``modelDescription.xml``, the binary
+``binaries/linux64/<id>.so`` built from generated C, that C in ``sources/`` and ``documentation/index.html``).
+"""
+from __future__ import annotations
+
+import hashlib
+import inspect
+import os
+import platform
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+from . import ccode
+from .ccode import ExportError
+from .model_description import documentation, model_description
+
+#: C compilers looked for, in order, when neither ``compiler=`` nor the ``CC`` environment variable names one
+COMPILERS = ("cc", "gcc", "clang")
+#: optimisation: -O1 builds the large generated functions several times faster than -O2 at nearly the same speed
+CFLAGS = ("-O1", "-fPIC", "-fvisibility=hidden", "-std=c99")
+
+
+def platform_folder() -> tuple:
+    """``(FMI platform folder, shared library suffix, link flags)`` of this machine; an ExportError elsewhere."""
+    bits64 = sys.maxsize > 2**32
+    machine = platform.machine().lower()
+    if sys.platform.startswith("linux") and bits64 and machine in ("x86_64", "amd64", "aarch64", "arm64"):
+        return "linux64", ".so", ("-shared",)
+    if sys.platform == "darwin" and bits64:
+        return "darwin64", ".dylib", ("-dynamiclib",)
+    raise ExportError(f"export_fmu builds binaries on 64-bit Linux and macOS only (this is {sys.platform} "
+                      f"{machine}); export with binary=False for a source FMU and let the importing tool compile "
+                      "sources/")
+
+
+def find_compiler(compiler: str | None = None) -> str:
+    """The C compiler to use: ``compiler``, else ``$CC``, else the first of :data:`COMPILERS` on the PATH; an
+    :class:`ExportError` saying what to install when there is none."""
+    wanted = compiler or os.environ.get("CC")
+    if wanted:
+        found = shutil.which(wanted)
+        if found is None:
+            origin = "compiler=" if compiler else "the CC environment variable"
+            raise ExportError(f"the C compiler {wanted!r} ({origin}) was not found on the PATH")
+        return found
+    for name in COMPILERS:
+        found = shutil.which(name)
+        if found:
+            return found
+    raise ExportError("no C compiler found (looked for $CC, " + ", ".join(COMPILERS) + " on the PATH): an FMU's "
+                      "binary is compiled from generated C. Install one (Debian/Ubuntu: apt-get install gcc; "
+                      "Fedora: dnf install gcc; macOS: xcode-select --install), name it with compiler= or CC, or "
+                      "export with binary=False for a source-only FMU")
+
+
+def identifier_of(name: str) -> str:
+    """A C identifier from a model name (the FMU's ``modelIdentifier`` and the binary's file name)."""
+    ident = re.sub(r"\W", "_", name, flags=re.ASCII)
+    return ident if re.match(r"[A-Za-z_]", ident) else f"model_{ident}"
+
+
+def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None = None, doc: str | None = None,
+               identifier: str | None = None, binary: bool = True, compiler: str | None = None,
+               stop_time: float | None = None) -> Path:
+    """Write ``model`` (a :class:`~acausal.CompiledModel`, or a :class:`~acausal.Model` instance, compiled here) as
+    an FMI 2.0 Model Exchange FMU to ``path`` and return the path.
+
+    ``params``: parameter values by name [SI units] that become the FMU's start values (default: the model's
+    defaults); every parameter stays settable through FMI before ``fmi2ExitInitializationMode``. ``inputs``:
+    replacement signals for numeric inputs, as in :meth:`simulate`. Numeric inputs are compiled in (tables or
+    expressions); an input rebuilt from parameters (a :class:`~acausal.signals.ParametricSignal`, e.g. a planned
+    trajectory) is built once with the export's parameter values, and setting those parameters in the FMU does
+    not rebuild it (the FMU logs a warning; the documentation and the parameters' descriptions say so).
+    ``doc``: the model's documentation (default: the docstring of the model's class when a Model is given).
+    ``identifier``: the ``modelIdentifier`` (default: the model's class name). ``binary=False`` writes a
+    source-only FMU (no compiler needed). ``compiler``: the C compiler (default ``$CC``, then cc, gcc, clang).
+    ``stop_time`` [s]: the DefaultExperiment's stop time (none by default).
+
+    Raises :class:`ExportError` (a ModelError) naming what is missing: an input without a table or symbolic form,
+    an unknown parameter, no C compiler (with what to install), a platform without binary support.
+    """
+    from .. import __version__
+    from ..compiler import CompiledModel, compile_model
+    from ..components import Component
+
+    if isinstance(model, CompiledModel):
+        cm = model
+    elif isinstance(model, Component):
+        cm = compile_model(model)
+        if doc is None:
+            doc = inspect.getdoc(type(model)) or ""
+    else:
+        raise ExportError(f"export_fmu: expected a CompiledModel or a Model instance, got {type(model).__name__}")
+    path = Path(path)
+    if path.suffix.lower() != ".fmu":
+        raise ExportError(f"export_fmu: the file name {str(path)!r} must end in .fmu")
+    ident = identifier_of(identifier or cm.flat.name)
+    doc = (doc or "").strip()
+    description = doc.split("\n\n")[0].replace("\n", " ") if doc else f"{cm.flat.name} (exported by acausal)"
+    folder, suffix, link = platform_folder() if binary else (None, None, None)
+    cc = find_compiler(compiler) if binary else None
+
+    head, tail, layout, tabulated, start = ccode.generate(cm, ident, "{GUID}", params=params, inputs=inputs)
+    fixed = {s for s in layout.states if getattr(cm.flat.variables.get(s), "fixed", False)}
+    has_targets = any(v.fixed and n not in layout.states for n, v in cm.flat.variables.items()) or \
+        bool(getattr(cm.flat, "fixed_constants", {}))
+    adjusted = {s for s in layout.states if s not in fixed} if has_targets else set()
+    source_name = f"{ident}.c"
+
+    def describe(guid):
+        return model_description(cm, layout, start, tabulated, identifier=ident, guid=guid, description=description,
+                                 source_file=source_name, version=__version__, adjusted=adjusted,
+                                 stop_time=stop_time)
+
+    digest = hashlib.sha256((describe("") + head + tail).encode()).hexdigest()
+    guid = "{" + "-".join((digest[:8], digest[8:12], digest[12:16], digest[16:20], digest[20:32])) + "}"
+    head = head.replace('"{GUID}"', f'"{guid}"')
+    c_text = ccode.source(head, tail)
+    xml = describe(guid)
+    html = documentation(cm, layout, start, tabulated, description=description, doc=doc, identifier=ident,
+                         adjusted=adjusted)
+    with tempfile.TemporaryDirectory(prefix="acausal_fmu_") as tmp:
+        members = {"modelDescription.xml": xml.encode(), f"sources/{source_name}": c_text.encode(),
+                   "documentation/index.html": html.encode()}
+        if binary:
+            c_file = Path(tmp) / source_name
+            c_file.write_text(c_text)
+            lib = Path(tmp) / f"{ident}{suffix}"
+            cmd = [cc, *link, *CFLAGS, "-o", str(lib), str(c_file), "-lm"]
+            run = subprocess.run(cmd, capture_output=True, text=True)
+            if run.returncode != 0:
+                raise ExportError(f"the C compiler {cc} failed on the generated code of {cm.flat.name} (a bug of "
+                                  f"the exporter: please report it with the model):\n{run.stderr[-4000:]}")
+            members[f"binaries/{folder}/{ident}{suffix}"] = lib.read_bytes()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+            for name, data in members.items():
+                zf.writestr(name, data)
+    return path

@@ -1,0 +1,695 @@
+/* ---------------------------------------------------------------------------------------------------------
+ * acausal FMI 2.0 Model Exchange runtime: the same for every exported model. The model's part (above: sizes,
+ * start values, names; below: model_bound_parameters, model_check_parameter, model_evaluate, model_event) is
+ * generated from the compiled model's solved equations.
+ *
+ * Every real variable lives in r[] at the index of its value reference: parameters, states, unknowns (state
+ * derivatives included), aliases, discrete modes. model_evaluate computes unknowns, aliases and event indicators
+ * from time, states, parameters and modes; the runtime evaluates lazily (values are valid until time, a state, a
+ * parameter or a mode changes).
+ *
+ * Initialisation (fmi2ExitInitializationMode) follows acausal's simulate(): bound parameters computed and every
+ * parameter checked against its bounds; the states start at their start values, and variables with a fixed start
+ * that are not states are met by a minimum-norm Gauss-Newton iteration on the states that are neither fixed nor
+ * set through fmi2SetReal; the modes are settled by the signs of the event indicators, and the states initialised
+ * again with the settled modes.
+ *
+ * Events (fmi2NewDiscreteStates) follow acausal.modes: an indicator that crossed zero since the last event
+ * applies its rising or falling assignments; a mode change that flips the sign of another indicator applies that
+ * one's, until nothing flips (each iteration is one call: newDiscreteStatesNeeded says when another is due).
+ * --------------------------------------------------------------------------------------------------------- */
+
+#define NX1 (NX > 0 ? NX : 1)
+#define NZ1 (NZ > 0 ? NZ : 1)
+#define ND1 (ND > 0 ? ND : 1)
+#define NT1 (NT > 0 ? NT : 1)
+#define MAX_SETTLE 20
+
+enum { PHASE_INSTANTIATED, PHASE_INIT, PHASE_EVENT, PHASE_CONTINUOUS, PHASE_TERMINATED, PHASE_ERROR };
+
+typedef struct {
+    double r[NR];
+    double z[NZ1];
+    double z_pre[NZ1];
+    double x_start[NX1];
+    double time;
+    int given[NX1];          /* state start set through fmi2SetReal: fixed at initialisation */
+    int phase;
+    int valid;               /* r holds unknowns, aliases and indicators of the current inputs */
+    int event_iter;
+    int logging;
+    fmi2CallbackLogger logger;
+    fmi2CallbackFreeMemory free_memory;
+    fmi2ComponentEnvironment env;
+    char name[128];
+    char message[512];       /* why the last evaluation failed */
+} Inst;
+
+static void model_bound_parameters(Inst *m);
+static int model_check_parameter(Inst *m, int vr);
+static int model_evaluate(Inst *m);
+static void model_event(Inst *m, int i, int rising);
+
+#include <stdarg.h>
+
+static void log_msg(Inst *m, fmi2Status status, const char *category, const char *fmt, ...) {
+    char text[1024], escaped[2048];
+    va_list ap;
+    size_t i, k = 0;
+    if (!m || !m->logger || (status == fmi2OK && !m->logging)) return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    for (i = 0; text[i] && k + 2 < sizeof escaped; i++) {  /* the logger takes a format string: keep % as is */
+        if (text[i] == '%') escaped[k++] = '%';
+        escaped[k++] = text[i];
+    }
+    escaped[k] = 0;
+    m->logger(m->env, m->name, status, category, escaped);
+}
+
+/* ------------------------------------------------------------------------------------- numeric helpers */
+/* A y = b by Gaussian elimination with partial pivoting (A row-major n x n, overwritten; b becomes y). */
+MAYBE_UNUSED static int solve_linear(int n, double *A, double *b) {
+    int i, j, k, p;
+    for (k = 0; k < n; k++) {
+        double best = fabs(A[k * n + k]);
+        p = k;
+        for (i = k + 1; i < n; i++)
+            if (fabs(A[i * n + k]) > best) { best = fabs(A[i * n + k]); p = i; }
+        if (!(best > 0.0)) return 1;
+        if (p != k) {
+            for (j = 0; j < n; j++) { double s = A[k * n + j]; A[k * n + j] = A[p * n + j]; A[p * n + j] = s; }
+            { double s = b[k]; b[k] = b[p]; b[p] = s; }
+        }
+        for (i = k + 1; i < n; i++) {
+            double f = A[i * n + k] / A[k * n + k];
+            if (f == 0.0) continue;
+            for (j = k; j < n; j++) A[i * n + j] -= f * A[k * n + j];
+            b[i] -= f * b[k];
+        }
+    }
+    for (k = n - 1; k >= 0; k--) {
+        double s = b[k];
+        for (j = k + 1; j < n; j++) s -= A[k * n + j] * b[j];
+        b[k] = s / A[k * n + k];
+    }
+    return 0;
+}
+
+typedef void (*residual_fn)(Inst *m, const double *y, double *res, double *jac);
+
+/* Newton's method with the exact Jacobian, as acausal.runtime.newton: at most 60 steps, converged when every
+ * step is below 1e-12 relative to 1 + |y|; otherwise accepted when every residual is below 1e-8. */
+MAYBE_UNUSED static int solve_newton(Inst *m, int n, double *y, residual_fn f, const char *label) {
+    double res[16], jac[256];
+    int it, i;
+    if (n > 16) { snprintf(m->message, sizeof m->message, "%s: more than 16 tear variables", label); return 1; }
+    for (it = 0; it < 60; it++) {
+        double step = 0.0;
+        f(m, y, res, jac);
+        for (i = 0; i < n; i++) res[i] = -res[i];
+        if (solve_linear(n, jac, res)) {
+            snprintf(m->message, sizeof m->message, "Newton iteration for %s: singular Jacobian", label);
+            return 1;
+        }
+        for (i = 0; i < n; i++) {
+            double s;
+            y[i] += res[i];
+            s = fabs(res[i]) / (1.0 + fabs(y[i]));
+            if (!(s <= step)) step = s;  /* NaN propagates */
+        }
+        if (!isfinite(step)) {
+            snprintf(m->message, sizeof m->message, "Newton iteration for %s: non-finite iterate", label);
+            return 1;
+        }
+        if (step < 1e-12) return 0;
+    }
+    f(m, y, res, jac);
+    {
+        double worst = 0.0;
+        for (i = 0; i < n; i++) if (!(fabs(res[i]) <= worst)) worst = fabs(res[i]);
+        if (worst < 1e-8) return 0;
+        snprintf(m->message, sizeof m->message, "Newton iteration for %s did not converge (residual %.3g)", label,
+                 worst);
+    }
+    return 1;
+}
+
+/* A table signal: piece i covers breaks[i] <= tau < breaks[i+1], value sum_k coef[i][k] (tau - breaks[i])^(deg-k).
+ * outside: 0 periodic, 1 hold (end values held, derivatives zero), 2 extend (end pieces continue). */
+MAYBE_UNUSED static double table_value(const double *breaks, const double *coef, int pieces, int degree, int outside,
+                          double arg, int order) {
+    double b0 = breaks[0], bn = breaks[pieces], tau = arg, x, y = 0.0;
+    int lo = 0, hi = pieces, i, k;
+    if (outside == 0) {
+        double span = bn - b0;
+        tau = arg - span * floor((arg - b0) / span);
+    } else if (outside == 1) {
+        if (order > 0 && !(arg >= b0 && arg < bn)) return 0.0;
+        tau = arg < b0 ? b0 : (arg > bn ? bn : arg);
+    }
+    while (hi - lo > 1) {  /* the last break <= tau */
+        int mid = (lo + hi) / 2;
+        if (breaks[mid] <= tau) lo = mid; else hi = mid;
+    }
+    i = lo;
+    x = tau - breaks[i];
+    for (k = 0; k <= degree - order; k++) {
+        int power = degree - k, j;
+        double c = coef[i * (degree + 1) + k];
+        for (j = 0; j < order; j++) c *= (double)(power - j);
+        y = y * x + c;
+    }
+    return y;
+}
+
+/* ------------------------------------------------------------------------------------- evaluation */
+static int ensure(Inst *m) {
+    if (m->valid) return 0;
+    m->message[0] = 0;
+    if (model_evaluate(m)) {
+        log_msg(m, fmi2Error, "logStatusError", "at t = %.9g s: %s", m->time, m->message);
+        return 1;
+    }
+    m->valid = 1;
+    return 0;
+}
+
+/* the first unknown (in the order the model computes them) that is not finite, or -1 */
+static int first_non_finite(Inst *m) {
+    int k;
+    for (k = 0; k < NV; k++)
+        if (!isfinite(m->r[order_vr[k]])) return order_vr[k];
+    return -1;
+}
+
+static int apply_event(Inst *m, int i, int rising) {
+    if (ensure(m)) return 1;
+    model_event(m, i, rising);
+    m->valid = 0;
+    return 0;
+}
+
+static int modes_differ(const double *a, const double *b) {
+    int k;
+    for (k = 0; k < ND; k++) if (a[k] != b[k]) return 1;
+    return 0;
+}
+
+/* acausal.modes.settle_modes: every event's assignments by the sign of its indicator until nothing changes */
+static int settle_modes(Inst *m) {
+    int it, i;
+    double before[ND1], zs[NZ1];
+    for (it = 0; it < MAX_SETTLE; it++) {
+        if (ensure(m)) return 1;
+        memcpy(before, m->r + OFF_D, sizeof(double) * ND);
+        memcpy(zs, m->z, sizeof(double) * NZ);
+        for (i = 0; i < NZ; i++) {
+            if (!isfinite(zs[i])) {
+                log_msg(m, fmi2Error, "logStatusError", "the event indicator %d (%s) is %g at t = %.9g s: a NaN or "
+                        "infinite switching value has no sign to switch on", i, event_origins[i], zs[i], m->time);
+                return 1;
+            }
+            if (zs[i] > 0 && apply_event(m, i, 1)) return 1;
+            if (zs[i] < 0 && apply_event(m, i, 0)) return 1;
+        }
+        if (!modes_differ(before, m->r + OFF_D)) return 0;
+    }
+    log_msg(m, fmi2Error, "logStatusError", "discrete modes do not settle at t = %.9g s", m->time);
+    return 1;
+}
+
+/* acausal.simulate.initialize: states at their start values; fixed starts of other variables (targets) met by
+ * a minimum-norm Gauss-Newton iteration on the free states (finite-difference Jacobian). */
+static int initialize_states(Inst *m) {
+    double want[NT1], res[NT1], res2[NT1], J[NT1 * NX1], G[NT1 * NT1 > NX1 * NX1 ? NT1 * NT1 : NX1 * NX1];
+    double rhs[NT1 > NX1 ? NT1 : NX1], scale[NT1];
+    int free_idx[NX1], nf = 0, i, j, k, it;
+    memcpy(m->r + OFF_X, m->x_start, sizeof(double) * NX);
+    m->valid = 0;
+    if (NT == 0) return 0;
+    for (i = 0; i < NX; i++) if (!state_fixed[i] && !m->given[i]) free_idx[nf++] = i;
+    for (k = 0; k < NT; k++) {
+        want[k] = target_value[k];
+        scale[k] = fabs(want[k]) > 1.0 ? fabs(want[k]) : 1.0;
+    }
+#define RESIDUAL(out)                                                          \
+    do {                                                                       \
+        m->valid = 0;                                                          \
+        if (ensure(m)) return 1;                                               \
+        for (k = 0; k < NT; k++) (out)[k] = m->r[target_vr[k]] - want[k];      \
+    } while (0)
+    for (it = 0; it < 50; it++) {
+        int done = 1;
+        double big = 0.0, largest = 1.0;
+        RESIDUAL(res);
+        for (k = 0; k < NT; k++) if (!(fabs(res[k]) <= 1e-10 * scale[k])) done = 0;
+        if (done || nf == 0) break;
+        for (j = 0; j < nf; j++) {
+            double *x = &m->r[OFF_X + free_idx[j]], keep = *x;
+            double h = 1e-7 * (fabs(keep) > 1.0 ? fabs(keep) : 1.0);
+            *x = keep + h;
+            RESIDUAL(res2);
+            *x = keep;
+            for (k = 0; k < NT; k++) J[k * nf + j] = (res2[k] - res[k]) / h;
+        }
+        /* minimum-norm least squares: (J J^T) y = -res, step = J^T y (as many targets as free states or fewer),
+         * else the normal equations (J^T J) step = -J^T res; a tiny ridge keeps a rank-deficient J solvable */
+        if (NT <= nf) {
+            double tr = 0.0;
+            for (i = 0; i < NT; i++)
+                for (k = 0; k < NT; k++) {
+                    double s = 0.0;
+                    for (j = 0; j < nf; j++) s += J[i * nf + j] * J[k * nf + j];
+                    G[i * NT + k] = s;
+                }
+            for (i = 0; i < NT; i++) tr += G[i * NT + i];
+            for (i = 0; i < NT; i++) { G[i * NT + i] += 1e-14 * tr + 1e-300; rhs[i] = -res[i]; }
+            if (solve_linear(NT, G, rhs)) break;
+            for (j = 0; j < nf; j++) {
+                double s = 0.0;
+                for (k = 0; k < NT; k++) s += J[k * nf + j] * rhs[k];
+                m->r[OFF_X + free_idx[j]] += s;
+                if (fabs(s) > big) big = fabs(s);
+            }
+        } else {
+            double tr = 0.0;
+            for (i = 0; i < nf; i++) {
+                for (j = 0; j < nf; j++) {
+                    double s = 0.0;
+                    for (k = 0; k < NT; k++) s += J[k * nf + i] * J[k * nf + j];
+                    G[i * nf + j] = s;
+                }
+                rhs[i] = 0.0;
+                for (k = 0; k < NT; k++) rhs[i] -= J[k * nf + i] * res[k];
+            }
+            for (i = 0; i < nf; i++) tr += G[i * nf + i];
+            for (i = 0; i < nf; i++) G[i * nf + i] += 1e-14 * tr + 1e-300;
+            if (solve_linear(nf, G, rhs)) break;
+            for (j = 0; j < nf; j++) {
+                m->r[OFF_X + free_idx[j]] += rhs[j];
+                if (fabs(rhs[j]) > big) big = fabs(rhs[j]);
+            }
+        }
+        for (j = 0; j < nf; j++)
+            if (fabs(m->r[OFF_X + free_idx[j]]) > largest) largest = fabs(m->r[OFF_X + free_idx[j]]);
+        if (big < 1e-14 * largest) break;
+    }
+    RESIDUAL(res);
+#undef RESIDUAL
+    for (k = 0; k < NT; k++) {
+        if (!(fabs(res[k]) <= 1e-7 * scale[k])) {
+            log_msg(m, fmi2Error, "logStatusError", "inconsistent initial conditions: cannot meet %s (wanted %.6g, "
+                    "got %.6g) with the %d states that are neither fixed nor set free", var_names[target_vr[k]],
+                    want[k], want[k] + res[k], nf);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static int nonfinite_error(Inst *m, const char *what) {
+    int bad = first_non_finite(m);
+    if (bad >= 0)
+        log_msg(m, fmi2Error, "logStatusError", "non-finite value at t = %.9g s: %s = %g (%s)", m->time,
+                var_names[bad], m->r[bad], what);
+    else
+        log_msg(m, fmi2Error, "logStatusError", "non-finite %s at t = %.9g s", what, m->time);
+    return 1;
+}
+
+/* ------------------------------------------------------------------------------------- FMI 2.0 functions */
+#define INST ((Inst *)c)
+#define CHECK_INST if (!c) return fmi2Error
+#define FAIL(...) do { log_msg(INST, fmi2Error, "logStatusError", __VA_ARGS__); return fmi2Error; } while (0)
+
+FMI2_EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
+FMI2_EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+
+FMI2_EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                                           const fmi2String categories[]) {
+    (void)nCategories; (void)categories;
+    CHECK_INST;
+    INST->logging = loggingOn;
+    return fmi2OK;
+}
+
+static void reset_instance(Inst *m) {
+    memcpy(m->r, start_values, sizeof(double) * NR);
+    memcpy(m->x_start, start_values + OFF_X, sizeof(double) * NX);
+    memset(m->given, 0, sizeof m->given);
+    m->time = 0.0;
+    m->phase = PHASE_INSTANTIATED;
+    m->valid = 0;
+    m->event_iter = 0;
+    model_bound_parameters(m);
+}
+
+FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                                          fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                                          fmi2Boolean visible, fmi2Boolean loggingOn) {
+    Inst *m;
+    (void)fmuResourceLocation; (void)visible;
+    if (!functions) return NULL;
+    if (fmuType != fmi2ModelExchange) {
+        if (functions->logger)
+            functions->logger(functions->componentEnvironment, instanceName, fmi2Error, "logStatusError",
+                              "this FMU supports Model Exchange only (no Co-Simulation)");
+        return NULL;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
+        if (functions->logger)
+            functions->logger(functions->componentEnvironment, instanceName, fmi2Error, "logStatusError",
+                              "the GUID does not match this binary's modelDescription.xml");
+        return NULL;
+    }
+    m = functions->allocateMemory ? (Inst *)functions->allocateMemory(1, sizeof(Inst))
+                                  : (Inst *)calloc(1, sizeof(Inst));
+    if (!m) return NULL;
+    m->logger = functions->logger;
+    m->free_memory = functions->allocateMemory ? functions->freeMemory : free;
+    m->env = functions->componentEnvironment;
+    m->logging = loggingOn;
+    snprintf(m->name, sizeof m->name, "%s", instanceName ? instanceName : MODEL_IDENTIFIER);
+    reset_instance(m);
+    return m;
+}
+
+FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) {
+    if (c) INST->free_memory(c);
+}
+
+FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                                           fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    CHECK_INST;
+    INST->time = startTime;
+    INST->valid = 0;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    CHECK_INST;
+    INST->phase = PHASE_INIT;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    Inst *m = INST;
+    int k, bad = 0;
+    CHECK_INST;
+    model_bound_parameters(m);
+    for (k = 0; k < NP; k++) bad |= model_check_parameter(m, k);
+    if (bad) { m->phase = PHASE_ERROR; return fmi2Error; }
+    for (k = 0; k < NPT; k++)
+        if (m->r[tabulated_vr[k]] != tabulated_value[k])
+            log_msg(m, fmi2Warning, "logStatusWarning", "parameter %s = %g differs from the value %g its input "
+                    "table was built with at export: the table is not rebuilt (export again to change it)",
+                    var_names[tabulated_vr[k]], m->r[tabulated_vr[k]], tabulated_value[k]);
+    memcpy(m->x_start, m->r + OFF_X, sizeof(double) * NX);
+    if (initialize_states(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
+    if (NZ > 0) {
+        if (settle_modes(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
+        if (ND > 0 && initialize_states(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
+    }
+    if (ensure(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
+    memcpy(m->z_pre, m->z, sizeof(double) * NZ);
+    m->event_iter = 0;
+    m->phase = PHASE_EVENT;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
+    CHECK_INST;
+    INST->phase = PHASE_TERMINATED;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2Reset(fmi2Component c) {
+    CHECK_INST;
+    reset_instance(INST);
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
+    size_t i;
+    CHECK_INST;
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] >= NR) FAIL("fmi2GetReal: no variable has the value reference %u", vr[i]);
+        if (vr[i] >= OFF_V && vr[i] < OFF_D && ensure(INST)) return fmi2Error;
+        value[i] = INST->r[vr[i]];
+    }
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                   const fmi2Real value[]) {
+    Inst *m = INST;
+    size_t i;
+    int params = 0;
+    CHECK_INST;
+    for (i = 0; i < nvr; i++) {
+        unsigned int k = vr[i];
+        if (k >= NR) FAIL("fmi2SetReal: no variable has the value reference %u", k);
+        if (k < OFF_X) {
+            if (bound_message[k]) FAIL("fmi2SetReal: %s", bound_message[k]);
+            if (m->phase > PHASE_INIT)
+                FAIL("fmi2SetReal: parameter %s is fixed: set it before fmi2ExitInitializationMode", var_names[k]);
+            m->r[k] = value[i];
+            if (model_check_parameter(m, (int)k)) return fmi2Error;
+            params = 1;
+        } else if (k < OFF_V) {
+            if (m->phase > PHASE_INIT)
+                FAIL("fmi2SetReal: the state %s is set through fmi2SetContinuousStates after initialisation",
+                     var_names[k]);
+            m->r[k] = value[i];
+            m->given[k - OFF_X] = 1;
+        } else {
+            FAIL("fmi2SetReal: %s is computed by the model (causality %s): it cannot be set", var_names[k],
+                 k >= OFF_D ? "local" : "output");
+        }
+        m->valid = 0;
+    }
+    if (params) model_bound_parameters(m);
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                      fmi2Integer value[]) {
+    (void)vr; (void)value;
+    CHECK_INST;
+    if (nvr) FAIL("fmi2GetInteger: the model has no Integer variables");
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                      fmi2Boolean value[]) {
+    (void)vr; (void)value;
+    CHECK_INST;
+    if (nvr) FAIL("fmi2GetBoolean: the model has no Boolean variables");
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                     fmi2String value[]) {
+    (void)vr; (void)value;
+    CHECK_INST;
+    if (nvr) FAIL("fmi2GetString: the model has no String variables");
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                      const fmi2Integer value[]) {
+    (void)vr; (void)value;
+    CHECK_INST;
+    if (nvr) FAIL("fmi2SetInteger: the model has no Integer variables");
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                      const fmi2Boolean value[]) {
+    (void)vr; (void)value;
+    CHECK_INST;
+    if (nvr) FAIL("fmi2SetBoolean: the model has no Boolean variables");
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                     const fmi2String value[]) {
+    (void)vr; (void)value;
+    CHECK_INST;
+    if (nvr) FAIL("fmi2SetString: the model has no String variables");
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Inst *copy;
+    CHECK_INST;
+    copy = *state ? (Inst *)*state : (Inst *)malloc(sizeof(Inst));
+    if (!copy) FAIL("fmi2GetFMUstate: out of memory");
+    memcpy(copy, c, sizeof(Inst));
+    *state = copy;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    CHECK_INST;
+    if (!state) FAIL("fmi2SetFMUstate: no state given");
+    memcpy(c, state, sizeof(Inst));
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    (void)c;
+    if (state && *state) { free(*state); *state = NULL; }
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
+    (void)state; (void)size;
+    CHECK_INST;
+    FAIL("fmi2SerializedFMUstateSize: not supported (canSerializeFMUstate is false)");
+}
+
+FMI2_EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[], size_t size) {
+    (void)state; (void)bytes; (void)size;
+    CHECK_INST;
+    FAIL("fmi2SerializeFMUstate: not supported (canSerializeFMUstate is false)");
+}
+
+FMI2_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size,
+                                               fmi2FMUstate *state) {
+    (void)bytes; (void)size; (void)state;
+    CHECK_INST;
+    FAIL("fmi2DeSerializeFMUstate: not supported (canSerializeFMUstate is false)");
+}
+
+FMI2_EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
+                                                    size_t nUnknown, const fmi2ValueReference vKnown_ref[],
+                                                    size_t nKnown, const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
+    (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
+    CHECK_INST;
+    FAIL("fmi2GetDirectionalDerivative: not supported (providesDirectionalDerivative is false)");
+}
+
+/* ---------------------------------------------------------------------------------- Model Exchange */
+FMI2_EXPORT fmi2Status fmi2EnterEventMode(fmi2Component c) {
+    CHECK_INST;
+    INST->phase = PHASE_EVENT;
+    INST->event_iter = 0;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
+    Inst *m = INST;
+    double before[ND1], zs[NZ1];
+    int i, hits = 0;
+    CHECK_INST;
+    info->newDiscreteStatesNeeded = fmi2False;
+    info->terminateSimulation = fmi2False;
+    info->nominalsOfContinuousStatesChanged = fmi2False;
+    info->valuesOfContinuousStatesChanged = fmi2False;
+    info->nextEventTimeDefined = fmi2False;
+    info->nextEventTime = 0.0;
+    if (NZ == 0) return fmi2OK;
+    if (ensure(m)) return fmi2Error;
+    memcpy(before, m->r + OFF_D, sizeof(double) * ND);
+    memcpy(zs, m->z, sizeof(double) * NZ);
+    for (i = 0; i < NZ; i++) {
+        double a = m->z_pre[i], b = zs[i];
+        int rising = -1;
+        if (!isfinite(b))
+            FAIL("the event indicator %d (%s) is %g at t = %.9g s: a NaN or infinite switching value has no sign "
+                 "to switch on", i, event_origins[i], b, m->time);
+        if (m->event_iter == 0) {  /* acausal.modes.crossings: since the last event */
+            if (a == 0.0 && b != 0.0) rising = b > 0;
+            else if ((a < 0 && b > 0) || (a > 0 && b < 0) || (a != 0.0 && b == 0.0)) rising = a < 0;
+        } else if (b != 0.0 && a != 0.0 && (a > 0) != (b > 0)) {  /* acausal.modes.cascade: flipped by a mode */
+            rising = b > 0;
+        }
+        if (rising >= 0) {
+            log_msg(m, fmi2OK, "logEvents", "t = %.9g s: event %d (%s) %s", m->time, i, event_origins[i],
+                    rising ? "rising" : "falling");
+            if (apply_event(m, i, rising)) return fmi2Error;
+            hits++;
+        }
+    }
+    memcpy(m->z_pre, zs, sizeof(double) * NZ);
+    m->event_iter++;
+    if (hits && modes_differ(before, m->r + OFF_D)) {
+        if (m->event_iter > MAX_SETTLE)
+            FAIL("discrete modes do not settle after an event at t = %.9g s", m->time);
+        info->newDiscreteStatesNeeded = fmi2True;
+        return fmi2OK;
+    }
+    if (ensure(m)) return fmi2Error;
+    memcpy(m->z_pre, m->z, sizeof(double) * NZ);
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
+    CHECK_INST;
+    INST->phase = PHASE_CONTINUOUS;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                                   fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    CHECK_INST;
+    *enterEventMode = fmi2False;
+    *terminateSimulation = fmi2False;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
+    CHECK_INST;
+    if (INST->time != time) { INST->time = time; INST->valid = 0; }
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
+    CHECK_INST;
+    if (nx != NX) FAIL("fmi2SetContinuousStates: %d states expected, got %d", NX, (int)nx);
+    if (NX) memcpy(INST->r + OFF_X, x, sizeof(double) * NX);
+    INST->valid = 0;
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
+    Inst *m = INST;
+    size_t i;
+    CHECK_INST;
+    if (nx != NX) FAIL("fmi2GetDerivatives: %d states expected, got %d", NX, (int)nx);
+    if (ensure(m)) return fmi2Error;
+    for (i = 0; i < nx; i++) {
+        derivatives[i] = m->r[der_vr[i]];
+        if (!isfinite(derivatives[i])) { nonfinite_error(m, "a state derivative"); return fmi2Error; }
+    }
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
+    CHECK_INST;
+    if (ni != NZ) FAIL("fmi2GetEventIndicators: %d indicators expected, got %d", NZ, (int)ni);
+    if (NZ == 0) return fmi2OK;
+    if (ensure(INST)) return fmi2Error;
+    memcpy(eventIndicators, INST->z, sizeof(double) * NZ);
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
+    CHECK_INST;
+    if (nx != NX) FAIL("fmi2GetContinuousStates: %d states expected, got %d", NX, (int)nx);
+    if (NX) memcpy(x, INST->r + OFF_X, sizeof(double) * NX);
+    return fmi2OK;
+}
+
+FMI2_EXPORT fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
+    size_t i;
+    CHECK_INST;
+    if (nx != NX) FAIL("fmi2GetNominalsOfContinuousStates: %d states expected, got %d", NX, (int)nx);
+    for (i = 0; i < nx; i++) x_nominal[i] = state_nominal[i];
+    return fmi2OK;
+}
