@@ -5,9 +5,10 @@ import zipfile
 import numpy as np
 import pytest
 
-from acausal import compile_model
+from acausal import Model, Parameter, Start, compile_model, connect
 from acausal.export import ExportError, export_fmu
 from acausal.export.fmu import find_compiler
+from acausal.library.electrical import Capacitor, ConstantVoltage, Ground, Resistor
 
 from .drive_models import MotorGearLoad
 
@@ -45,3 +46,96 @@ def test_motor_gear_load_validates_and_matches_simulate(drive):
     ref = cm.simulate(1.0, t_eval=res["time"], **TIGHT)
     for n in names:
         assert relative_error(res[n], ref[n]) < 1e-6, n
+
+
+class BoundRC(Model):
+    """An RC charger whose resistor is bound to the model's parameter R0 (R = 2 R0).
+
+    Used to check calculated parameters in the FMU."""
+
+    R0 = Parameter(10.0, unit="Ohm", min=0.0, doc="half the resistance")
+
+    def build(self):
+        self.src = ConstantVoltage(V=5.0)
+        self.R = Resistor(R=2 * self.R0)
+        self.C = Capacitor(C=1e-3, v=Start(0.0))
+        self.gnd = Ground()
+        connect(self.src.p, self.R.p)
+        connect(self.R.n, self.C.p)
+        connect(self.C.n, self.src.n, self.gnd.p)
+
+
+@pytest.fixture(scope="module")
+def rc(tmp_path_factory):
+    return compile_model(BoundRC()), export_fmu(BoundRC(), tmp_path_factory.mktemp("fmu") / "rc.fmu")
+
+
+def test_parameters_and_start_values_set_through_fmi(drive, rc):
+    """A parameter and a state's start set through FMI act as simulate(params=..., starts=...) does; a bound
+    parameter is a calculatedParameter computed in the FMU from the one it is bound to."""
+    cm, path = drive
+    res = simulate_fmu(str(path), stop_time=0.5, relative_tolerance=1e-10, output_interval=0.01,
+                       output=["L.i", "rotor.w"], start_values={"R.R": 0.6, "L.i": 1.5}, record_events=False)
+    ref = cm.simulate(0.5, t_eval=res["time"], params={"R.R": 0.6}, starts={"L.i": 1.5}, **TIGHT)
+    assert res["L.i"][0] == 1.5
+    for n in ("L.i", "rotor.w"):
+        assert relative_error(res[n], ref[n]) < 1e-6, n
+    cm_rc, path_rc = rc
+    assert validate_fmu(str(path_rc)) == []
+    kinds = {v.name: v.causality for v in read_model_description(str(path_rc)).modelVariables}
+    assert kinds["R0"] == "parameter" and kinds["R.R"] == "calculatedParameter"
+    res = simulate_fmu(str(path_rc), stop_time=0.1, relative_tolerance=1e-10, output_interval=0.01,
+                       output=["C.v", "R.R"], start_values={"R0": 20.0}, record_events=False)
+    ref = cm_rc.simulate(0.1, t_eval=res["time"], params={"R0": 20.0}, **TIGHT)
+    assert np.all(res["R.R"] == 40.0)
+    assert relative_error(res["C.v"], ref["C.v"]) < 1e-6
+
+
+def _messages():
+    got = []
+
+    def logger(env, name, status, category, message):
+        got.append(message.decode() if isinstance(message, bytes) else str(message))
+    return got, logger
+
+
+def test_refused_settings_are_errors_naming_the_parameter(drive, rc):
+    """Out of bounds, bound to another parameter: fmi2SetReal fails and the FMU's log says why, as
+    param_vector() does."""
+    got, logger = _messages()
+    with pytest.raises(Exception, match="fmi2SetReal"):
+        simulate_fmu(str(drive[1]), stop_time=0.1, start_values={"R.R": -1.0}, logger=logger)
+    assert any("parameter 'R.R' of R = -1 is below its minimum 0 [Ohm]" in m for m in got), got
+    got, logger = _messages()  # fmpy itself refuses to set a calculatedParameter: ask the FMU directly
+    md = read_model_description(str(rc[1]))
+    fmu = fmpy.instantiate_fmu(fmpy.extract(str(rc[1])), md, fmi_type="ModelExchange", logger=logger)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    with pytest.raises(Exception, match="fmi2SetReal"):
+        fmu.setReal([vr["R.R"]], [30.0])
+    with pytest.raises(Exception, match="fmi2SetReal"):
+        fmu.setReal([vr["R.loss_power"]], [1.0])
+    fmu.freeInstance()
+    assert any("'R.R' of R is bound to 2*R0" in m and "set 'R0'" in m for m in got), got
+    assert any("R.loss_power is computed by the model" in m for m in got), got
+
+
+def test_model_description_names_every_variable_with_unit_and_doc(drive):
+    """Every parameter, state, unknown, alias and mode is a variable of the FMU; units and docs come along, the
+    state derivatives point at their states, and the zip holds the C source and the model's documentation."""
+    cm, path = drive
+    md = read_model_description(str(path))
+    by_name = {v.name: v for v in md.modelVariables}
+    assert set(by_name) == set(cm.names(parameters=True)) | set(cm.discrete_names)
+    assert {v.name for v in md.modelVariables if v.causality == "output"} == set(cm.names())
+    assert by_name["R.R"].unit == "Ohm" and by_name["R.R"].start == "0.7"
+    assert by_name["L.i"].unit == "A" and by_name["src.p.i"].unit == "A"
+    assert by_name["der(L.i)"].derivative is by_name["L.i"]
+    assert [d.variable.name for d in md.derivatives] == [f"der({s})" for s in cm.state_names]
+    assert md.description.startswith("24 V source, R, L, EMF")
+    assert by_name["R.loss_power"].description == cm.flat.variables["R.loss_power"].doc
+    with zipfile.ZipFile(path) as zf:
+        files = set(zf.namelist())
+        page = zf.read("documentation/index.html").decode()
+    assert {"modelDescription.xml", "sources/MotorGearLoad.c", "binaries/linux64/MotorGearLoad.so",
+            "documentation/index.html"} <= files
+    assert "ideal gear 860" in page and "R.R" in page and "states (3)" in page
