@@ -98,8 +98,24 @@ def _solve_scalar(r, y, name, orig, starts, modes=frozenset()):
             sols = []
         real = [s for s in sols if not s.has(sp.I)]
         if len(real) == 1:
-            return [Assign(name, real[0])]
+            return [Assign(name, _real_roots(real[0]))]
     return [NewtonSolve([name], [r], [[a]], orig, [starts.get(name, 0.0)])]
+
+
+def _real_roots(expr):
+    """``expr`` with every odd root of a base that may be negative taken as the real root:
+    ``x**(p/q)`` (q odd) -> ``|x|**(p/q)``, negated where ``x < 0`` for odd ``p`` (a Piecewise, so that it
+    differentiates without the derivative of ``sign``). sympy's solution of ``v = a i**3`` is the principal cube
+    root ``(v/a)**(1/3)``, which is complex (NaN in numpy) for negative ``v/a``; the real root is the solution of
+    the real equation."""
+    def odd_root(e):
+        return (e.is_Pow and e.exp.is_Rational and not e.exp.is_Integer and e.exp.q % 2 == 1
+                and not e.base.is_nonnegative)
+
+    def real(e):
+        mag = sp.Abs(e.base) ** e.exp
+        return mag if e.exp.p % 2 == 0 else sp.Piecewise((-mag, e.base < 0), (mag, True))
+    return expr.replace(odd_root, real)
 
 
 def _pivot_score(a):

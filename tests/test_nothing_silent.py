@@ -247,3 +247,38 @@ def test_an_infinite_or_undefined_end_time_is_refused(t_end):
         cm.simulate(t_end)
     with pytest.raises(ModelError, match="t_start must be a finite time"):
         cm.simulate(1.0, t_start=-float("inf"))
+
+
+# ------------------------------------------------------------------ real roots in symbolic solves (issue 20, item 3)
+def test_an_odd_power_law_is_solved_with_the_real_root_on_both_signs():
+    """``v = a i**3`` driven by 8 sin(2 pi t): sympy's principal cube root would be NaN for v < 0; the compiled
+    solution is the real root on both paths. (The capacitor starts charged: at exactly v = 0 the law's
+    conductance di/dv is infinite, a true singularity of this element.)"""
+    import sympy as sp
+    from sympy import Eq
+
+    from acausal import Model, Parameter, Start, compile_model, connect, time
+    from acausal.library.electrical import Capacitor, Ground, PrescribedVoltage
+    from acausal.partials import OnePort
+
+    class Cubic(OnePort):
+        a = Parameter(2.0, unit="V/A3")
+
+        def equations(self):
+            return [*super().equations(), Eq(self.v, self.a * self.i**3)]
+
+    class Drive(Model):
+        def build(self):
+            self.src = PrescribedVoltage(v_ref=8 * sp.sin(2 * sp.pi * time))
+            self.c, self.C, self.g = Cubic(), Capacitor(C=1.0, v=Start(1.0)), Ground()
+            connect(self.src.p, self.c.p)
+            connect(self.c.n, self.C.p)
+            connect(self.C.n, self.src.n, self.g.p)
+
+    sim = compile_model(Drive())
+    for method in ("auto", "BDF"):
+        res = sim.simulate(1.0, method=method, rtol=1e-9, atol=1e-12, n_points=101)
+        i, v = res["c.i"], res["c.v"]
+        assert np.all(np.isfinite(i)) and (i < -0.1).any() and (i > 0.1).any()
+        assert np.allclose(2.0 * i**3, v, rtol=1e-9, atol=1e-12)
+        assert np.all(np.sign(i) == np.sign(v))
