@@ -116,7 +116,7 @@ def model_description(cm, layout, start, tabulated, *, identifier: str, guid: st
              + ' variableNamingConvention="' + naming_convention(names) + '" numberOfEventIndicators="'
              + str(len(cm.event_zeros)) + '">',
              '  <ModelExchange modelIdentifier=' + quoteattr(identifier) + ' needsExecutionTool="false" '
-             'completedIntegratorStepNotNeeded="true" canBeInstantiatedOnlyOncePerProcess="false" '
+             'completedIntegratorStepNotNeeded="' + ('false' if cm.event_zeros else 'true') + '" canBeInstantiatedOnlyOncePerProcess="false" '
              'canNotUseMemoryManagementFunctions="false" canGetAndSetFMUstate="true" canSerializeFMUstate="false" '
              'providesDirectionalDerivative="false">']
     if source_file:

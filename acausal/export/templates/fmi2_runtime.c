@@ -191,6 +191,14 @@ static int apply_event(Inst *m, int i, int rising) {
     return 0;
 }
 
+/* acausal.modes.crossings' rule between an indicator's value a at the last event and b now: 1 rising, 0 falling,
+ * -1 no crossing; leaving an exact zero takes the direction of b, reaching one the direction from a */
+static int crossed(double a, double b) {
+    if (a == 0.0) return b != 0.0 ? b > 0 : -1;
+    if ((a < 0 && b >= 0) || (a > 0 && b <= 0)) return a < 0;
+    return -1;
+}
+
 static int modes_differ(const double *a, const double *b) {
     int k;
     for (k = 0; k < ND; k++) if (a[k] != b[k]) return 1;
@@ -603,15 +611,17 @@ FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *inf
             FAIL("the event indicator %d (%s) is %g at t = %.9g s: a NaN or infinite switching value has no sign "
                  "to switch on", i, event_origins[i], b, m->time);
         if (m->event_iter == 0) {  /* acausal.modes.crossings: since the last event */
-            if (a == 0.0 && b != 0.0) rising = b > 0;
-            else if ((a < 0 && b > 0) || (a > 0 && b < 0) || (a != 0.0 && b == 0.0)) rising = a < 0;
+            rising = crossed(a, b);
         } else if (b != 0.0 && a != 0.0 && (a > 0) != (b > 0)) {  /* acausal.modes.cascade: flipped by a mode */
             rising = b > 0;
         }
         if (rising >= 0) {
-            log_msg(m, fmi2OK, "logEvents", "t = %.9g s: event %d (%s) %s", m->time, i, event_origins[i],
-                    rising ? "rising" : "falling");
+            double modes[ND1];
+            memcpy(modes, m->r + OFF_D, sizeof(double) * ND);
             if (apply_event(m, i, rising)) return fmi2Error;
+            if (modes_differ(modes, m->r + OFF_D))  /* as Result.events: the crossings that switch a mode */
+                log_msg(m, fmi2OK, "logEvents", "t = %.17g s: event %d (%s) %s", m->time, i, event_origins[i],
+                        rising ? "rising" : "falling");
             hits++;
         }
     }
@@ -634,12 +644,20 @@ FMI2_EXPORT fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
     return fmi2OK;
 }
 
+/* An indicator that left an exact zero (a diode at rest at the start) shows no sign change to the environment's
+ * root finding: the step that leaves it asks for an event, in which its direction applies its assignments (as
+ * acausal.modes.crossings does when a step leaves an exact zero). */
 FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                                    fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
+    int i;
     (void)noSetFMUStatePriorToCurrentPoint;
     CHECK_INST;
     *enterEventMode = fmi2False;
     *terminateSimulation = fmi2False;
+    if (NZ == 0) return fmi2OK;
+    if (ensure(INST)) return fmi2Error;
+    for (i = 0; i < NZ; i++)
+        if (crossed(INST->z_pre[i], INST->z[i]) >= 0) *enterEventMode = fmi2True;
     return fmi2OK;
 }
 
