@@ -12,7 +12,11 @@ from acausal.export.fmu import find_compiler
 from acausal.library.electrical import (Capacitor, ConstantVoltage, Ground, IdealDiode, PrescribedVoltage,
                                         Resistor)
 
-from .drive_models import MotorGearLoad
+from acausal.library.electrical import EMF, Inductor
+from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Position
+from acausal.signals import PeriodicSpline, SampledSignal, Signal
+
+from .drive_models import MotorGearLoad, MotorGearLoadInverse
 
 fmpy = pytest.importorskip("fmpy", reason="the FMU tests run the exported FMUs in fmpy (pip install fmpy, in the "
                                           "test extra)")
@@ -181,3 +185,77 @@ def test_rectifier_switches_through_its_events_as_simulate_does(rectifier):
     assert relative_error(res["C.v"], ref["C.v"]) < 1e-6
     differ = np.flatnonzero(res["D.off"] != ref.modes[cm.discrete_names.index("D.off")])
     assert differ.size <= 2  # at most an output sample at a switch, where the two runs' times differ by < 1e-6 s
+
+
+class SplineReplay(MotorGearLoad):
+    """The reference drive with its load angle prescribed by a periodic quintic spline (a numeric signal, as the
+    gait data are): index reduction needs the spline's first and second derivatives."""
+
+    def build(self):
+        super().build()
+        t = np.linspace(0.0, 1.0, 40, endpoint=False)
+        motion = 0.3 * np.sin(2 * np.pi * t) + 0.1 * np.cos(6 * np.pi * t)
+        self.pos = Position(phi_ref=PeriodicSpline(t, motion, period=1.0, name="gait-like motion"))
+        connect(self.pos.flange, self.load.flange_b)
+
+
+class FedDrive(Model):
+    """Motor, gear and damped load fed through a prescribed voltage ``supply`` (a numeric signal)."""
+
+    def supply(self):
+        return SampledSignal([0.0, 0.1, 0.25, 0.5], [0.0, 10.0, 24.0, 18.0], name="logged supply")
+
+    def build(self):
+        self.src = PrescribedVoltage(v_ref=self.supply())
+        self.R, self.L, self.emf = Resistor(R=0.7), Inductor(L=6.53e-5, i=Start(0.0)), EMF(k=0.0273)
+        self.rotor, self.gear, self.load = Inertia(J=5.68e-6), IdealGear(ratio=860), Inertia(J=0.05)
+        self.friction, self.housing, self.gnd = Damper(d=2.0), Fixed(), Ground()
+        connect(self.src.p, self.R.p)
+        connect(self.R.n, self.L.p)
+        connect(self.L.n, self.emf.p)
+        connect(self.emf.n, self.src.n, self.gnd.p)
+        connect(self.emf.flange, self.rotor.flange_a)
+        connect(self.rotor.flange_b, self.gear.flange_a)
+        connect(self.gear.flange_b, self.load.flange_a)
+        connect(self.load.flange_b, self.friction.flange_a)
+        connect(self.friction.flange_b, self.housing.flange)
+
+
+class SampledDrive(FedDrive):
+    """The drive fed through a logged voltage (linear between samples, held after the last)."""
+
+
+@pytest.mark.parametrize("model, t_end", [(MotorGearLoadInverse, 1.0), (SplineReplay, 2.0), (SampledDrive, 0.8)])
+def test_prescribed_inputs_are_compiled_in(model, t_end, tmp_path):
+    """Prescribed motion as an expression of time (MotorGearLoadInverse), as a periodic spline table (derivatives
+    up to the 2nd, past its period) and a logged voltage held after its last sample: the FMU's runs match
+    simulate() to 1e-6 relative."""
+    cm = compile_model(model())
+    path = export_fmu(cm, tmp_path / f"{model.__name__}.fmu")
+    assert validate_fmu(str(path)) == []
+    names = ["L.i", "src.p.i", "gear.flange_b.tau", "load.phi"]
+    res = simulate_fmu(str(path), stop_time=t_end, relative_tolerance=1e-10, output_interval=0.005, output=names,
+                       record_events=False)
+    ref = cm.simulate(t_end, t_eval=res["time"], **TIGHT)
+    for n in names:
+        assert relative_error(res[n], ref[n]) < 1e-6, n
+
+
+class _Opaque(Signal):
+    name = "opaque"
+
+    def evaluate(self, t, order):
+        return np.sin(t) if order == 0 else np.cos(t)
+
+
+def test_an_input_without_a_table_form_is_an_error_naming_it(tmp_path):
+    """A numeric input with neither a table nor a closed form cannot be compiled in: the error names the input,
+    its component and what to do."""
+    class Opaque(FedDrive):
+        def supply(self):
+            return _Opaque()
+
+    with pytest.raises(ExportError, match=r"input 'src.v_ref' of src is a _Opaque 'opaque' with neither a table "
+                                          r"nor a symbolic form.*SampledSignal"):
+        export_fmu(Opaque(), tmp_path / "opaque.fmu")
+    assert not (tmp_path / "opaque.fmu").exists()
