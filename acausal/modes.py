@@ -69,6 +69,35 @@ def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
     return [(t_e, i, rising) for _, i, rising in together]
 
 
+#: interior points of a solver step at which the scipy path also checks the zero functions (the compiled path
+#: integrates each zero function's total variation instead, see :mod:`acausal.compiled.events`)
+SUBSTEPS = 8
+
+
+def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS):
+    """:func:`crossings` in a solver step ``(t0, t1]`` whose dense output is ``sol``, looked for at the step's
+    ends and at ``substeps`` interior points: a zero function that crosses zero and back within one long step
+    (nearly constant states, a diode bridge run on past its last switch) shows at an interior point even when
+    its sign at both ends agrees, and of several crossings in one step the first is found (Brent's method on the
+    whole step would find any one of them). Zero functions faster than the states (a fast source) can still
+    cross twice between two of these points: bound the step (``max_step``) below half their shortest switching
+    interval on this path."""
+    if substeps <= 0 or not len(z0):
+        return crossings(cm, sol, t0, t1, z0, z1, p, d, u)
+    ts = t0 + (t1 - t0) * np.arange(1, substeps + 1) / (substeps + 1)
+    X = np.asarray(sol(ts))
+    Z = np.array([np.broadcast_to(np.asarray(v, dtype=float), ts.shape) for v in cm.funcs["zeros"](ts, X, p, d, u)])
+    check_zeros(cm, ts, Z, d)
+    za, ta = np.asarray(z0, dtype=float), t0
+    for k in range(substeps):
+        zb = Z[:, k]
+        found = crossings(cm, sol, ta, ts[k], za, zb, p, d, u)
+        if found:
+            return found
+        za, ta = zb, ts[k]
+    return crossings(cm, sol, ta, t1, za, z1, p, d, u)
+
+
 def _finite(cm, i, t, value, d):
     if not np.isfinite(value):
         z = np.ones(len(cm.event_zeros))

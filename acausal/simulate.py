@@ -24,7 +24,7 @@ import numpy as np
 from scipy import integrate
 
 from .errors import ModelError, SimulationError
-from .modes import algebraic_modes, apply_hits, cascade, crossings, record_events, settle_modes, zeros
+from .modes import algebraic_modes, apply_hits, cascade, crossings_in_step, record_events, settle_modes, zeros
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -119,7 +119,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             hit = None
             if has_events:
                 z_new = zeros(cm, t_new, solver.y, p, d, u)
-                hits = crossings(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
+                hits = crossings_in_step(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
                 z_old = z_new
                 if hits:
                     t_e = hits[0][0]
