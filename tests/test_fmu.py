@@ -9,10 +9,8 @@ import sympy as sp
 from acausal import Model, Parameter, Start, compile_model, connect, time
 from acausal.export import ExportError, export_fmu
 from acausal.export.fmu import find_compiler
-from acausal.library.electrical import (Capacitor, ConstantVoltage, Ground, IdealDiode, PrescribedVoltage,
-                                        Resistor)
-
-from acausal.library.electrical import EMF, Inductor
+from acausal.library.electrical import (EMF, Capacitor, ConstantVoltage, Ground, IdealDiode, Inductor,
+                                        PrescribedVoltage, Resistor)
 from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Position
 from acausal.signals import PeriodicSpline, SampledSignal, Signal
 
