@@ -12,6 +12,8 @@
 
     acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR | --list
 
+    acausal export MODEL --fmu FILE.fmu [--preset NAME] [--set NAME=VALUE ...]   an FMI 2.0 Model Exchange FMU
+
 This module is the one place in ``acausal/`` that imports ``acausal.models`` (the CLI wires verbs to models;
 see the dependency rules in the design).
 """
@@ -249,6 +251,74 @@ def _diagnose_servo(args, out: Path, candidates, progress):
     return d
 
 
+def load_model_class(ref: str):
+    """``MODULE:CLASS`` (an importable module) or ``FILE.py:CLASS`` -> the model class; a ModelError naming the
+    reference when it cannot be found or is no Model."""
+    from acausal import Model, ModelError
+
+    where, sep, name = ref.rpartition(":")
+    if not sep or not where or not name:
+        raise ModelError(f"model {ref!r}: expected a registered name (acausal compare --list), MODULE:CLASS or "
+                         "FILE.py:CLASS")
+    try:
+        if where.endswith(".py"):
+            path = Path(where)
+            if not path.is_file():
+                raise ModelError(f"model {ref!r}: no file {where}")
+            spec = importlib.util.spec_from_file_location(f"acausal_user_{path.stem}", path)
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[spec.name] = module
+            spec.loader.exec_module(module)
+        else:
+            if os.getcwd() not in sys.path:  # the console script does not put the working directory on it
+                sys.path.insert(0, os.getcwd())
+            module = importlib.import_module(where)
+    except ImportError as exc:
+        raise ModelError(f"model {ref!r}: cannot import {where!r}: {exc}") from None
+    cls = getattr(module, name, None)
+    if not (isinstance(cls, type) and issubclass(cls, Model)):
+        raise ModelError(f"model {ref!r}: {where} has no Model class {name!r}")
+    return cls
+
+
+def cmd_export(args) -> int:
+    import inspect
+
+    from acausal import ModelError, compile_model
+    from acausal.export import export_fmu
+
+    sets = {}
+    for name, value in _pairs(args.set, "--set"):
+        try:
+            sets[name] = float(value)
+        except ValueError:
+            raise ModelError(f"--set {name}={value}: the value {value!r} is not a number (SI units)") from None
+    if ":" in args.model:
+        cls = load_model_class(args.model)
+        cm, doc, params = compile_model(cls()), inspect.getdoc(cls) or "", {}
+    else:
+        from acausal.models.ankle.presets import preset  # the CLI wires verbs to models (design rule exception)
+        from acausal.models.ankle.protocol import compiled
+        from acausal.models.ankle.registry import spec
+
+        s = spec(args.model)
+        cm = compiled(args.model).sim
+        doc = f"{s.summary}.\n\n{inspect.getdoc(type(s.build())) or ''}"
+        params = {k: v for k, v in preset(args.preset).items() if cm.has_parameter(k)}
+        params.update(s.params)
+    for name in sets:
+        if not cm.has_parameter(name):
+            raise ModelError(f"--set {name}: {cm.unknown_name_error(name, 'parameter', cm.param_names)}")
+    params.update(sets)
+    cm.param_vector(params)  # bounds and bindings checked before any C is written
+    path = export_fmu(cm, args.fmu, params=params, doc=doc, binary=not args.no_binary, compiler=args.compiler,
+                      identifier=args.identifier)
+    print(f"{path}: FMI 2.0 Model Exchange, {len(cm.state_names)} states, {len(cm.param_names)} parameters, "
+          f"{len(cm.names())} outputs, {len(cm.event_zeros)} event indicators"
+          + ("" if args.no_binary else ", binary for this platform"))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="acausal", description="Modelica-style acausal modelling: the paper's "
                                 "results, a virtual bench, calibration, diagnosis and drive-train comparison.")
@@ -295,6 +365,19 @@ def build_parser() -> argparse.ArgumentParser:
     from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
     cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
     compare.configure(cmp)
+    ex = sub.add_parser("export", help="write a model as an FMI 2.0 Model Exchange FMU (C code compiled into a "
+                        "binary for this platform; runs in fmpy and Modelica tools)")
+    ex.add_argument("model", metavar="MODEL", help="a registered model (acausal compare --list), MODULE:CLASS or "
+                    "FILE.py:CLASS (a Model class built without arguments)")
+    ex.add_argument("--fmu", required=True, help="the FMU file to write (ends in .fmu)")
+    ex.add_argument("--preset", default="library", help="registered models: parameter preset (default: library)")
+    ex.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter's value in the FMU, in SI "
+                    "units (its start value, still settable through FMI); repeatable")
+    ex.add_argument("--identifier", help="the FMU's modelIdentifier (default: the model's class name)")
+    ex.add_argument("--compiler", help="the C compiler (default: $CC, then cc, gcc, clang)")
+    ex.add_argument("--no-binary", action="store_true", help="a source-only FMU (no compiler needed: the "
+                    "importing tool compiles sources/)")
+    ex.set_defaults(run=cmd_export)
     dg = sub.add_parser("diagnose", help="calibrate a baseline model on recordings (the ankle's Eq. 4 model, or "
                         "--model servo_pendulum), show its residuals, name the missing effect, extend the model and "
                         "measure the gain on held-out data")

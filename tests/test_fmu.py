@@ -303,3 +303,39 @@ def test_a_replanning_parameter_set_in_the_fmu_is_flagged(actuator):
     got, logger = _messages()
     simulate_fmu(str(path), stop_time=0.01, start_values={"P_nominal": 0.010}, logger=logger)
     assert any("P_nominal = 0.01 differs from the value 0.008" in m and "not rebuilt" in m for m in got), got
+
+
+def test_cli_exports_a_model_class_and_a_registered_model(actuator, tmp_path, capsys):
+    """``acausal export MODEL --fmu FILE`` for a MODULE:CLASS (with a parameter set) and for a registered model
+    (the closed-loop actuator, library preset); a misspelt parameter is refused with suggestions."""
+    from acausal import cli
+
+    out = tmp_path / "drive.fmu"
+    assert cli.main(["export", "tests.drive_models:MotorGearLoad", "--fmu", str(out), "--set", "R.R=0.6"]) == 0
+    assert "3 states, 10 parameters" in capsys.readouterr().out
+    assert validate_fmu(str(out)) == []
+    start = {v.name: v.start for v in read_model_description(str(out)).modelVariables}
+    assert float(start["R.R"]) == 0.6
+    out = tmp_path / "actuator.fmu"
+    assert cli.main(["export", "closed_loop", "--fmu", str(out), "--set", "motor.R=0.5"]) == 0
+    md = read_model_description(str(out))
+    start = {v.name: v.start for v in md.modelVariables}
+    assert float(start["motor.R"]) == 0.5 and md.description.startswith("the paper's actuator under PID control")
+    assert cli.main(["export", "closed_loop", "--fmu", str(out), "--set", "motor.RR=0.5"]) == 2
+    assert "unknown parameter 'motor.RR'" in capsys.readouterr().err
+    assert cli.main(["export", "tests.drive_models:Nothing", "--fmu", str(out)]) == 2
+    assert "has no Model class 'Nothing'" in capsys.readouterr().err
+
+
+def test_without_a_c_compiler_the_error_says_what_to_install(monkeypatch, tmp_path):
+    """No compiler on the PATH: an ExportError that says what to install; a source-only FMU still exports."""
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))
+    with pytest.raises(ExportError, match=r"no C compiler found .*apt-get install gcc"):
+        export_fmu(compile_model(MotorGearLoad()), tmp_path / "drive.fmu")
+    path = export_fmu(compile_model(MotorGearLoad()), tmp_path / "drive.fmu", binary=False)
+    with zipfile.ZipFile(path) as zf:
+        assert not [n for n in zf.namelist() if n.startswith("binaries/")]
+    assert validate_fmu(str(path)) == []
+    with pytest.raises(ExportError, match=r"the C compiler 'tcc' \(compiler=\) was not found"):
+        export_fmu(compile_model(MotorGearLoad()), tmp_path / "drive.fmu", compiler="tcc")
