@@ -21,7 +21,8 @@ from .model_description import documentation, model_description
 
 #: C compilers looked for, in order, when neither ``compiler=`` nor the ``CC`` environment variable names one
 COMPILERS = ("cc", "gcc", "clang")
-#: optimisation: -O1 builds the large generated functions several times faster than -O2 at nearly the same speed
+#: optimisation: -O1 compiles the generated functions about twice as fast as -O2 (closed-loop actuator: 0.26 s
+#: against 0.52 s); the importing tool's integrator, not the model's arithmetic, dominates an FMU's run time
 CFLAGS = ("-O1", "-fPIC", "-fvisibility=hidden", "-std=c99")
 
 
