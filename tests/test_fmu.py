@@ -1,5 +1,6 @@
 """FMU export (issue 19): exported FMI 2.0 Model Exchange FMUs validated and simulated by fmpy, compared with
 ``simulate()``. Each FMU is exported (C compiled) once per module."""
+import ctypes
 import zipfile
 
 import numpy as np
@@ -362,3 +363,61 @@ def test_registered_replays_export(name, tmp_path):
     ref = cm.simulate(1.2, t_eval=res["time"], params=params, rtol=1e-10, atol=1e-12)
     for n in names:
         assert relative_error(res[n], ref[n]) < 1e-4, n
+
+
+def _instance(path):
+    """An initialised Model Exchange instance of the FMU at ``path`` (fmpy's low-level API), in continuous-time
+    mode at t = 0, and its variables' value references by name."""
+    md = read_model_description(str(path))
+    fmu = fmpy.instantiate_fmu(fmpy.extract(str(path)), md, fmi_type="ModelExchange")
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    while fmu.newDiscreteStates()[0]:
+        pass
+    fmu.enterContinuousTimeMode()
+    return fmu, md, {v.name: v.valueReference for v in md.modelVariables}
+
+
+def test_derivatives_and_indicators_equal_the_python_functions_anywhere(actuator):
+    """At arbitrary times and states (not only along a solution), fmi2GetDerivatives and fmi2GetEventIndicators
+    of the closed-loop actuator's FMU equal the generated Python functions (Newton block, spline and plan tables)
+    to 1e-10 relative: the C is the same equations, not an approximation of them."""
+    cm, params, path = actuator
+    fmu, md, vr = _instance(path)
+    p = cm.param_vector(params)
+    u = cm.input_tuple(None, p)
+    x0 = np.array(fmu.getReal([vr[n] for n in cm.state_names]))
+    rng = np.random.default_rng(3)
+    for k in range(20):
+        t = float(rng.uniform(0.0, 2.4))
+        x = x0 + rng.normal(size=x0.size) * np.maximum(np.abs(x0), 1.0) * 0.05
+        fmu.setTime(t)
+        fmu.setContinuousStates((ctypes.c_double * x.size)(*x), x.size)
+        d = np.array(fmu.getReal([vr[n] for n in cm.discrete_names]))
+        dx = np.zeros(x.size)
+        fmu.getDerivatives((ctypes.c_double * x.size).from_buffer(dx), x.size)
+        z = np.zeros(len(cm.event_zeros))
+        fmu.getEventIndicators((ctypes.c_double * z.size).from_buffer(z), z.size)
+        ref_dx = np.asarray(cm.funcs["rhs"](t, x.tolist(), p.tolist(), d.tolist(), u), dtype=float)
+        ref_z = np.array([float(v) for v in cm.funcs["zeros"](t, x.tolist(), p.tolist(), d.tolist(), u)])
+        assert np.allclose(dx, ref_dx, rtol=1e-10, atol=1e-10 * np.max(np.abs(ref_dx))), (t, dx, ref_dx)
+        assert np.allclose(z, ref_z, rtol=1e-10, atol=1e-12), (t, z, ref_z)
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def test_fmu_state_is_saved_and_restored(drive):
+    """fmi2GetFMUstate / fmi2SetFMUstate (canGetAndSetFMUstate): states, time and values come back."""
+    cm, path = drive
+    fmu, md, vr = _instance(path)
+    saved = fmu.getFMUState()
+    before = fmu.getReal([vr["L.i"], vr["der(L.i)"]])
+    fmu.setTime(0.3)
+    fmu.setContinuousStates((ctypes.c_double * 3)(1.0, 2.0, 3.0), 3)
+    assert fmu.getReal([vr["L.i"], vr["der(L.i)"]]) != before
+    fmu.setFMUState(saved)
+    assert fmu.getReal([vr["L.i"], vr["der(L.i)"]]) == before
+    fmu.freeFMUState(saved)
+    fmu.terminate()
+    fmu.freeInstance()
