@@ -131,10 +131,8 @@ class ServoDriver(Model):
     i_max = Parameter(None, unit="A", min=0.0, doc="current limit")
     kp_cur = Parameter(None, unit="V/A", min=1e-12, doc="current P gain")
     ki_cur = Parameter(None, unit="V/(A.s)", min=0.0, doc="current I gain")
-    P_q = Parameter(0.0, unit="W", min=0.0, doc="bridge quiescent consumption")
-    R_on = Parameter(0.0, unit="Ohm", min=0.0, doc="bridge conduction resistance")
-    k_sw = Parameter(0.0, unit="1", min=0.0, doc="bridge switching loss coefficient")
-    d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty cycle magnitude")
+    # the bridge's parameters are the PWMDriver's declarations (one home for their defaults and bounds)
+    P_q, R_on, k_sw, d_max = PWMDriver.P_q, PWMDriver.R_on, PWMDriver.k_sw, PWMDriver.d_max
     bus_p = Pin(doc="DC bus +")
     bus_n = Pin(doc="DC bus -")
     mot_p = Pin(doc="motor +")
