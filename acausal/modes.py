@@ -164,9 +164,9 @@ def settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
 
 
 #: a zero function within this of zero [SI unit of the function] is at its switching point: when the modes
-#: after an event cycle and every zero function that flips in the cycle is this small in each mode of it (an ideal
-#: diode at its knee, where the switching variable is round-off of either sign), either mode is consistent and the
-#: cascade keeps the present one
+#: after an event cycle and every zero function that flips in the cycle was this small in the modes it flipped
+#: out of (an ideal diode at its knee, where the switching variable is round-off of either sign; a brake breaking
+#: away at exactly zero speed), those modes are consistent and the cascade keeps the present one
 KNEE = 1e-6
 
 
@@ -175,8 +175,9 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20, hits=()):
     those events' assignments, and repeat, until nothing flips (Modelica's event iteration).
 
     The modes visited are remembered. Returning to one of them is a cycle: if every zero function that flipped
-    within it stayed within :data:`KNEE` of zero, it sits at its switching point (round-off decides its sign, and
-    differs per mode and per generated code), so the present modes are kept; otherwise no mode is consistent and
+    within it was within :data:`KNEE` of zero in the modes it flipped out of, it sits at its switching point
+    (round-off decides its sign, and differs per mode and per generated code), so the present modes are kept;
+    otherwise no mode is consistent and
     the run stops with a :class:`SimulationError` naming the events' components, their values and the time.
     ``hits``: the crossings that caused the event (``(time, event index, rising?)``); a crossing zero function
     located exactly at zero counts as on the side it crossed to, so a new mode that puts it back is a flip."""
@@ -198,7 +199,7 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20, hits=()):
             new = apply_event(cm, i, z[i] > 0, t, x, p, new, u)
         if np.array_equal(new, d):
             return d
-        flips.append([(i, max(abs(z[i]), abs(z_prev[i]))) for i in flipped])
+        flips.append([(i, abs(z[i])) for i in flipped])  # how inconsistent the mode being left is
         back = [k for k, s in enumerate(seen) if np.array_equal(new, s)]
         if back:  # a cycle: the flips since that visit
             cycle = [f for step in flips[back[0]:] for f in step]

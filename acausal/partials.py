@@ -10,7 +10,7 @@ import abc
 
 from sympy import Eq
 
-from .components import Component, Parameter, Variable
+from .components import Component, Discrete, Event, Parameter, Variable
 from .connectors import Flange, Pin
 from .errors import ModelError
 from .symbols import der
@@ -157,3 +157,42 @@ class PartialElementaryRotationalToElectrical(OnePort, PartialElementaryOneFlang
 
     def equations(self):
         return [*super().equations(), Eq(self.phi, self.flange.phi - self.phi_support), Eq(self.w, der(self.phi))]
+
+
+class PartialFriction(Component):
+    """The stick/slip machine of a friction element (MSL ``PartialFriction``): modes forward, stuck, backward.
+
+    A subclass declares its relative speed ``w`` and acceleration ``a`` (``a = der(w)``), its friction torque
+    ``tau`` (positive opposing forward motion), and calls :meth:`friction_equations` and :meth:`friction_events`
+    with the torque it transmits while sliding forward/backward and the limits at which it breaks away::
+
+        tau = stuck sa + (1 - stuck) (forward slide_fwd + (1 - forward) slide_bwd)      a = (1 - stuck) sa
+
+    The path parameter ``sa`` is the holding torque while stuck and the acceleration while sliding, so every
+    mode has the same structure; the compiler leaves ``sa`` to the numeric block solve (its coefficients vanish in
+    one mode or the other). Events: sliding forward, ``w`` falling through 0 sticks; stuck, ``sa`` rising above
+    ``break_fwd`` breaks away forward and falling below ``break_bwd`` backward (checked right after sticking, so a
+    reversal under load passes straight through); sliding backward mirrors it. An element at rest starts forward
+    and sticks at once if it moves backward; one moving backward at the start needs ``forward=0``.
+    """
+
+    sa = Variable(doc="path parameter: holding torque [N m] while stuck, acceleration [rad/s2] while sliding")
+    stuck = Discrete(start=0.0, doc="1 while stuck")
+    forward = Discrete(start=1.0, doc="1 while sliding forward, 0 backward (meaningless while stuck)")
+
+    def friction_equations(self, w, a, tau, slide_fwd, slide_bwd) -> list:
+        S, F = self.stuck, self.forward
+        return [Eq(a, der(w)), Eq(tau, S * self.sa + (1 - S) * (F * slide_fwd + (1 - F) * slide_bwd)),
+                Eq(a, (1 - S) * self.sa)]
+
+    def friction_events(self, w, break_fwd, break_bwd) -> list:
+        S, F = self.stuck, self.forward
+        sliding_fwd, sliding_bwd = (1 - S) * F, (1 - S) * (1 - F)
+        # forward side: the speed while sliding forward, the margin to breaking away forward while stuck, -1 while
+        # sliding backward (no crossing there); the backward side mirrors it
+        z_fwd = S * (self.sa - break_fwd) + sliding_fwd * w - sliding_bwd
+        z_bwd = S * (self.sa - break_bwd) + sliding_bwd * w + sliding_fwd
+        return [Event(z_fwd, on_rising={S: 0, F: 1}, on_falling={S: S + sliding_fwd},
+                      doc="forward: stops (sticks) or breaks away"),
+                Event(z_bwd, on_falling={S: 0, F: 0}, on_rising={S: S + sliding_bwd},
+                      doc="backward: stops (sticks) or breaks away")]

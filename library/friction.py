@@ -37,12 +37,13 @@ the curve's value there is lower by a factor ``exp(-(w_c/w_s)^alpha)``, 1e-5 wit
 import sympy as sp
 from sympy import Eq
 
-from acausal import Parameter, Variable, der
+from acausal import Parameter, RealInput, Variable, der
 from acausal.errors import ModelError
-from acausal.partials import PartialElementaryTwoFlangesAndSupport2
+from acausal.partials import (PartialCompliantWithRelativeStates, PartialElementaryTwoFlangesAndSupport2,
+                              PartialFriction)
 
 __all__ = ["GearFriction", "CoulombViscousFriction", "StribeckFriction", "LoadDependentFriction",
-           "DirectionalFriction", "TERMS"]
+           "DirectionalFriction", "TERMS", "Clutch", "Brake"]
 
 #: the budget terms a law may have, in the order they are documented
 TERMS = ("coulomb", "stribeck", "load", "backdrive")
@@ -125,3 +126,65 @@ class DirectionalFriction(GearFriction):
     k_b |tau_a| (1 - tanh(tau_a w / P_s)) / 2``."""
 
     default_terms = ("coulomb", "load", "backdrive")
+
+
+# --------------------------------------------------------------------------------------------- stick/slip
+class _DryFriction(PartialFriction):
+    """Coulomb friction with stiction, driven by a normal force: ``fn = fn_max f_normalized`` (clipped at 0);
+    sliding it transmits ``mu cgeo fn`` against the motion, stuck it holds up to ``peak mu cgeo fn`` (MSL's
+    constant ``mu_pos`` table, ``peak``, ``cgeo``, ``fn_max``)."""
+
+    mu = Parameter(0.5, unit="1", min=0.0, doc="kinetic friction coefficient (MSL mu_pos, constant)")
+    peak = Parameter(1.0, unit="1", min=1.0, doc="static / kinetic friction ratio")
+    cgeo = Parameter(1.0, unit="m", min=0.0, doc="geometry constant: friction torque per unit of friction force")
+    fn_max = Parameter(1.0, unit="N", min=0.0, doc="normal force at f_normalized = 1")
+    f_normalized = RealInput(doc="normalized normal force (0: open, 1: fn_max)")
+    loss_power = Variable(unit="W", doc="friction loss tau w >= 0")
+
+    def _torques(self):
+        slide = self.mu * self.cgeo * self.fn_max * sp.Max(self.f_normalized.value, 0)
+        return slide, -slide, self.peak * slide, -self.peak * slide
+
+    def _dry_friction(self, w, a, tau) -> list:
+        slide_fwd, slide_bwd, _, _ = self._torques()
+        return [*self.friction_equations(w, a, tau, slide_fwd, slide_bwd), Eq(self.loss_power, tau * w)]
+
+    def _dry_events(self, w) -> list:
+        _, _, break_fwd, break_bwd = self._torques()
+        return self.friction_events(w, break_fwd, break_bwd)
+
+
+class Clutch(PartialCompliantWithRelativeStates, _DryFriction):
+    """Clutch between two flanges (MSL ``Clutch``): friction torque ``tau = flange_b.tau`` opposing the relative
+    speed ``w_rel = der(flange_b.phi - flange_a.phi)``; modes of :class:`~acausal.partials.PartialFriction`
+    (stuck: the flanges turn together and ``tau`` is what couples them, up to ``peak mu cgeo fn``).
+    ``loss_power = tau w_rel >= 0``."""
+
+    a_rel = Variable(unit="rad/s2", doc="relative angular acceleration")
+
+    def equations(self):
+        return [*super().equations(), *self._dry_friction(self.w_rel, self.a_rel, self.tau)]
+
+    def events(self):
+        return self._dry_events(self.w_rel)
+
+
+class Brake(PartialElementaryTwoFlangesAndSupport2, _DryFriction):
+    """Brake on a shaft (MSL ``Brake``): ``flange_a`` and ``flange_b`` turn together, the friction torque
+    ``tau = flange_a.tau + flange_b.tau`` acts between the shaft and the support (its reaction on the support with
+    ``use_support=True``), opposing ``w = der(flange_a.phi - support angle)``; stuck, the shaft stands still
+    relative to the support up to ``peak mu cgeo fn``. ``loss_power = tau w >= 0``."""
+
+    phi = Variable(unit="rad", doc="shaft angle relative to the support")
+    w = Variable(unit="rad/s", doc="shaft speed relative to the support")
+    a = Variable(unit="rad/s2", doc="shaft acceleration relative to the support")
+    tau = Variable(unit="N.m", doc="friction torque on the shaft, opposing w")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.phi, self.flange_a.phi - self.phi_support),
+                Eq(self.flange_a.phi, self.flange_b.phi), Eq(self.w, der(self.phi)),
+                Eq(self.tau, self.flange_a.tau + self.flange_b.tau),
+                *self._dry_friction(self.w, self.a, self.tau)]
+
+    def events(self):
+        return self._dry_events(self.w)

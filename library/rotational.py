@@ -8,7 +8,7 @@ from sympy import Eq
 
 from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import Flange
-from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates,
+from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates, PartialFriction,
                               PartialElementaryOneFlangeAndSupport2, PartialGear, PartialTwoFlanges, check_option)
 
 from .friction import GearFriction
@@ -290,7 +290,7 @@ class LossyGear(PartialGear):
                       doc="load reverses")]
 
 
-class StickSlipGear(PartialGear):
+class StickSlipGear(PartialGear, PartialFriction):
     """Gear mesh with direction-dependent efficiency and bearing friction that can stick (MSL ``LossyGear``'s
     semantics: modes Forward, Stuck, Backward), massless; for forward dynamics.
 
@@ -304,16 +304,10 @@ class StickSlipGear(PartialGear):
     ``eta``: efficiency when power flows from flange_a to flange_b (MSL ``eta_mf1``), ``eta_b`` when it flows back
     (``eta_mf2``, default ``eta``), ``tau_bf``: bearing friction torque at flange_a (``tau_bf1 = tau_bf2``; the
     speed dependence of MSL's ``lossTable`` is not modelled). Stuck, ``der(w_a) = 0`` and ``tau_loss`` is what holds
-    the gear: the path parameter ``sa`` is that torque while stuck and the acceleration ``der(w_a)`` while
-    sliding, so the equations keep one structure in every mode::
-
-        tau_loss = stuck sa + (1 - stuck) (forward loss or backward loss)        der(w_a) = (1 - stuck) sa
-
-    Mode changes by state events: sliding forward, ``w_a`` falling through 0 sticks the gear; stuck, it breaks
-    away forward when ``sa`` rises above the forward loss torque and backward when it falls below the backward one
-    (checked again right after it sticks, so a gear whose load reverses the motion passes straight through).
-    ``loss_power = tau_loss w_a >= 0`` in every mode. Starting at rest or moving forward needs nothing; a gear that
-    starts moving backward needs ``StickSlipGear(forward=0)``.
+    the gear, breaking away when it leaves the band between the two sliding values (the stick/slip machine of
+    :class:`~acausal.partials.PartialFriction`, modes ``stuck`` and ``forward``, path parameter ``sa``).
+    ``loss_power = tau_loss w_a >= 0`` in every mode. A gear that starts moving backward needs
+    ``StickSlipGear(forward=0)``.
     """
 
     eta = Parameter(1.0, unit="1", min=1e-6, max=1.0, doc="mesh efficiency, power from flange_a to flange_b")
@@ -322,11 +316,8 @@ class StickSlipGear(PartialGear):
     tau_bf = Parameter(0.0, unit="N.m", min=0.0, doc="bearing friction torque at flange_a")
     w_a = Variable(unit="rad/s", doc="input speed")
     a_a = Variable(unit="rad/s2", doc="input acceleration")
-    sa = Variable(doc="path parameter: holding torque [N m] while stuck, acceleration [rad/s2] while sliding")
     tau_loss = Variable(unit="N.m", doc="torque consumed by mesh and bearing, referred to flange_a")
     loss_power = Variable(unit="W", doc="mesh and bearing loss tau_loss w_a (>= 0)")
-    stuck = Discrete(start=0.0, doc="1 while stuck")
-    forward = Discrete(start=1.0, doc="1 while sliding forward (w_a > 0), 0 backward (meaningless while stuck)")
 
     def build(self):
         if "eta_b" not in self._values:
@@ -339,26 +330,14 @@ class StickSlipGear(PartialGear):
         return fwd, bwd
 
     def equations(self):
-        S, F = self.stuck, self.forward
         fwd, bwd = self._loss()
-        return [*super().equations(), Eq(self.w_a, der(self.phi_a)), Eq(self.a_a, der(self.w_a)),
+        return [*super().equations(), Eq(self.w_a, der(self.phi_a)),
                 Eq(self.tau_loss, self.flange_a.tau + self.flange_b.tau / self.ratio),
-                Eq(self.tau_loss, S * self.sa + (1 - S) * (F * fwd + (1 - F) * bwd)),
-                Eq(self.a_a, (1 - S) * self.sa),
+                *self.friction_equations(self.w_a, self.a_a, self.tau_loss, fwd, bwd),
                 Eq(self.loss_power, self.tau_loss * self.w_a)]
 
     def events(self):
-        S, F = self.stuck, self.forward
-        fwd, bwd = self._loss()
-        sliding_fwd, sliding_bwd = (1 - S) * F, (1 - S) * (1 - F)
-        # forward side: the speed while sliding forward, the margin to breaking away forward while stuck,
-        # -1 while sliding backward (no crossing there); the backward side mirrors it
-        z_fwd = S * (self.sa - fwd) + sliding_fwd * self.w_a - sliding_bwd
-        z_bwd = S * (self.sa - bwd) + sliding_bwd * self.w_a + sliding_fwd
-        return [Event(z_fwd, on_rising={S: 0, F: 1}, on_falling={S: S + sliding_fwd},
-                      doc="forward: stops (sticks) or breaks away"),
-                Event(z_bwd, on_falling={S: 0, F: 0}, on_rising={S: S + sliding_bwd},
-                      doc="backward: stops (sticks) or breaks away")]
+        return self.friction_events(self.w_a, *self._loss())
 
 
 class Gearbox(Model):

@@ -233,3 +233,68 @@ def test_no_crossing_is_lost_in_long_steps_and_the_first_of_several_is_found(met
     expected = (np.arange(1, 11) - 0.3 / np.pi) / 10  # sin(10 pi t + 0.3) = 0
     assert [round(t, 9) for t, _, _ in res.events] == pytest.approx(list(expected), abs=1e-9)
     assert [d for _, _, d in res.events] == ["falling", "rising"] * 5
+
+
+# ------------------------------------------------------------------ Brake and Clutch: the same stick/slip machine
+class _Braked(Model):
+    """J = 2 coasting at 10 rad/s; the brake closes at 1 s (sliding 0.4 * 0.1 * 100 = 4 N m, holding 6 N m);
+    a torque of 5 N m from 7 s (held), 7 N m from 8 s (breaks away)."""
+
+    def build(self):
+        from acausal import Start, time
+        from acausal.library.blocks import SignalSource
+        from acausal.library.friction import Brake
+        from acausal.library.rotational import Inertia, TorqueSource
+        self.J = Inertia(J=2.0, phi=Start(0.0), w=Start(10.0))
+        self.brake = Brake(mu=0.4, peak=1.5, cgeo=0.1, fn_max=100.0)
+        self.f = SignalSource(signal=sp.Piecewise((0.0, time < 1), (1.0, True)))
+        self.T = TorqueSource(tau=sp.Piecewise((0.0, time < 7), (5.0, time < 8), (7.0, True)))
+        connect(self.T.flange, self.J.flange_a)
+        connect(self.J.flange_b, self.brake.flange_a)
+        connect(self.f.y, self.brake.f_normalized)
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_brake_slides_sticks_holds_and_breaks_away(method):
+    res = compile_model(_Braked()).simulate(10.0, method=method, n_points=1001, rtol=1e-9, atol=1e-12)
+    t, w = res.t, res["J.w"]
+    expect = np.where(t < 1, 10.0, np.where(t < 6, 10.0 - 2.0 * (t - 1), np.where(t < 8, 0.0, 1.5 * (t - 8))))
+    assert np.allclose(w, expect, atol=1e-6)
+    assert np.all(res["brake.stuck"][(t > 6.01) & (t < 7.99)] == 1)  # 5 N m < 6 N m holding: stuck
+    assert np.allclose(res["brake.tau"][(t > 7.01) & (t < 7.99)], 5.0)  # the brake holds what is applied
+    assert [round(e[0], 6) for e in res.events] == [6.0, 8.0]
+    assert np.all(res["brake.loss_power"] >= -1e-9) and abs(res.energy_balance().residual) < 1e-8
+
+
+class _Clutched(Model):
+    """Clutch (slides at mu cgeo fn = 2 N m, holds 2.4 N m) between J1 = 1, at rest and driven by 3 N m, and
+    J2 = 2 spinning at 5 rad/s."""
+
+    def build(self):
+        from acausal import Start
+        from acausal.library.blocks import SignalSource
+        from acausal.library.friction import Clutch
+        from acausal.library.rotational import Inertia, TorqueSource
+        self.T = TorqueSource(tau=3.0)
+        self.J1 = Inertia(J=1.0, phi=Start(0.0), w=Start(0.0))
+        self.clutch = Clutch(mu=0.2, peak=1.2, cgeo=0.1, fn_max=100.0)
+        self.J2 = Inertia(J=2.0, phi=Start(0.0), w=Start(5.0))
+        self.f = SignalSource(signal=1.0)
+        connect(self.T.flange, self.J1.flange_a)
+        connect(self.J1.flange_b, self.clutch.flange_a)
+        connect(self.clutch.flange_b, self.J2.flange_a)
+        connect(self.f.y, self.clutch.f_normalized)
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_clutch_slips_until_the_speeds_meet_then_locks(method):
+    """Slipping (w_rel = w2 - w1 > 0): J1 gains 3 + 2 N m (5 rad/s2), J2 loses 2 N m (1 rad/s2); the speeds meet
+    at 5/6 s, then the clutch locks: both accelerate at 3 / 3 = 1 rad/s2 and it passes -2 N m, inside its 2.4."""
+    res = compile_model(_Clutched()).simulate(2.0, method=method, n_points=201, rtol=1e-9, atol=1e-12)
+    t, t_lock = res.t, 5.0 / 6.0
+    w1 = np.where(t < t_lock, 5.0 * t, 25.0 / 6.0 + (t - t_lock))
+    w2 = np.where(t < t_lock, 5.0 - t, 25.0 / 6.0 + (t - t_lock))
+    assert np.allclose(res["J1.w"], w1, atol=1e-7) and np.allclose(res["J2.w"], w2, atol=1e-7)
+    assert np.allclose(res["clutch.tau"][t < t_lock - 1e-3], 2.0) and np.allclose(res["clutch.tau"][t > t_lock], -2.0)
+    assert [round(e[0], 7) for e in res.events] == [round(t_lock, 7)]
+    assert np.all(res["clutch.loss_power"] >= -1e-9) and abs(res.energy_balance().residual) < 1e-8
