@@ -156,6 +156,7 @@ class CodeGenerator:
             elif isinstance(st, LinearSolve):
                 A = [[self._signal_symbols(e) for e in row] for row in st.A]
                 b = [self._signal_symbols(e) for e in st.b]
+                self._label(k, st)
                 self._emit_linear(k, st.vars, A, b, items)
                 if track:
                     ys = [var_symbol(v) for v in st.vars]
@@ -180,19 +181,28 @@ class CodeGenerator:
             items.append(("assign", b_names[i], b[i]))
         targets = ", ".join(self.names[var_symbol(v)] for v in vars_)
         rows = "[" + ", ".join("[" + ", ".join(r) + "]" for r in a_names) + "]"
-        items.append(("code", f"{targets}, = _linsolve({rows}, [{', '.join(b_names)}])", set()))
+        items.append(("code", f"{targets}, = _linsolve({rows}, [{', '.join(b_names)}], _labels[{k}], t)", set()))
+
+    def _label(self, k, st):
+        """Describe numeric block ``k`` (its variables, the components of its equations and its start values) for
+        the error messages of :mod:`acausal.runtime`; generated code passes ``_labels[k]`` with its time."""
+        if k not in self._labels:
+            self._labels[k] = runtime.Block("nonlinear" if isinstance(st, NewtonSolve) else "linear", st.vars,
+                                            sorted(set(st.origins)), getattr(st, "guesses", ()))
 
     def _emit_newton(self, k, st, items):
         """Call the residual/Jacobian function of Newton block ``k``; the function itself is generated once
-        (every generated entry point that needs the block shares it)."""
-        if k not in self._labels:
+        (every generated entry point that needs the block shares it). The call passes the entry point's time
+        ``t``, which a failure message names."""
+        if k not in self._newton_args:
+            self._label(k, st)
             self._define_newton(k, st)
         ext = self._newton_args[k]
         args = ", ".join(self.names[s] for s in ext)
         targets = ", ".join(self.names[var_symbol(v)] for v in st.vars)
         guesses = ", ".join(repr(float(g)) for g in st.guesses)
         items.append(("code", f"{targets}, = _newton(_newton_block{k}, ({guesses},), ({args}{',' if args else ''}), "
-                              f"_labels[{k}])", set(ext)))
+                              f"_labels[{k}], t=t)", set(ext)))
 
     def _define_newton(self, k, st):
         ys = [var_symbol(v) for v in st.vars]
@@ -217,8 +227,6 @@ class CodeGenerator:
         lines.append(f"    return ({rr},), ({jj},)")
         self._blocks.append("\n".join(lines))
         self._newton_args[k] = ext
-        self._labels[k] = (f"the nonlinear block of {', '.join(repr(v) for v in st.vars)} "
-                           f"(equations from {', '.join(sorted(set(st.origins)))})")
 
     def _jac_assign(self, sym, expr, D, items):
         d = {}
@@ -272,7 +280,8 @@ class CodeGenerator:
                 D[y][c] = js
                 targets.append(name)
             rows = "[" + ", ".join("[" + ", ".join(r) + "]" for r in jn) + "]"
-            items.append(("code", f"{', '.join(targets)}, = _linsolve({rows}, [{', '.join(w)}])", set()))
+            items.append(("code", f"{', '.join(targets)}, = _linsolve({rows}, [{', '.join(w)}], _labels[{k}], t)",
+                          set()))
 
     # ------------------------------------------------------------------ emission
     def _render(self, fname, items, result_lines, extra_used=()):

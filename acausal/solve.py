@@ -4,8 +4,8 @@
 * one nonlinear equation with a single closed-form sympy solution: that solution;
 * a block of several equations is torn (see :func:`_tear`): a linear block usually becomes explicit
   assignments; what cannot be torn is solved by sympy LU (linear, up to :data:`SYMBOLIC_LINEAR_MAX` unknowns),
-  a numeric linear solve ``A y = b`` at run time (larger linear), or Newton's method with the exact sympy
-  Jacobian of the torn residuals (nonlinear).
+  a numeric linear solve ``A y = b`` at run time (larger linear), or damped Newton with the exact sympy
+  Jacobian of the torn residuals (nonlinear; :func:`acausal.runtime.newton`).
 
 A coefficient that depends on discrete modes and vanishes for some of their values (:func:`_may_vanish`) is never
 a pivot: the unknown is left to the block's numeric solve, which pivots on the values of the present mode. So an
@@ -35,7 +35,7 @@ class LinearSolve:
     vars: list
     A: list  # rows of expressions
     b: list
-    origins: list
+    origins: list  # the components of every equation of the block (the torn ones too), as error messages name them
 
 
 @dataclass
@@ -43,8 +43,8 @@ class NewtonSolve:
     vars: list  # tear variables iterated by Newton
     residuals: list
     jac: list
-    origins: list
-    guesses: list
+    origins: list  # the components of every equation of the block (eliminated ones are inside the residuals)
+    guesses: list  # start values of the tear variables: every evaluation starts Newton from them
 
 
 def solve_blocks(system: EquationSystem, starts: dict, modes=()) -> EquationSystem:
@@ -177,7 +177,7 @@ def _tear(rs, ys, unknowns, orig, starts, modes=frozenset()):
         if sol is not None and not any(_may_vanish(sp.fraction(sp.together(x))[1], modes) for x in sol):
             head = [Assign(u, sol[i]) for i, u in enumerate(tear)]
         else:  # large, or sympy's LU divides by a pivot that is zero in some mode: numpy pivots per sample
-            head = [LinearSolve(tear, jac, b, [orig[e] for e in eqs])]
+            head = [LinearSolve(tear, jac, b, list(orig))]
     else:
-        head = [NewtonSolve(tear, res, jac, [orig[e] for e in eqs], [starts.get(u, 0.0) for u in tear])]
+        head = [NewtonSolve(tear, res, jac, list(orig), [starts.get(u, 0.0) for u in tear])]
     return head + list(reversed(elim))
