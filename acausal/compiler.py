@@ -16,12 +16,12 @@ import sympy as sp
 from .alias import eliminate_aliases
 from .codegen import CodeGenerator
 from .errors import ModelError, SignalError, UnknownNameError
-from .flatten import FlatModel, flatten
+from .flatten import DiscreteInfo, FlatEvent, FlatModel, flatten
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import LinearSolve, NewtonSolve, solve_blocks
 from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
-from .symbols import split_der, time
+from .symbols import par_symbol, split_der, time
 
 
 def compile_model(model) -> "CompiledModel":
@@ -29,6 +29,7 @@ def compile_model(model) -> "CompiledModel":
     t0 = _time.perf_counter()
     flat = flatten(model)
     eliminate_aliases(flat)
+    _time_events(flat)
     system = EquationSystem.from_flat(flat)
     _check_symbols(flat, system)
     system = reduce_index(check_balance(system))
@@ -39,6 +40,53 @@ def compile_model(model) -> "CompiledModel":
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)
     return CompiledModel(flat, system, gen, funcs, zeros, _time.perf_counter() - t0, energy_accounts(model))
+
+
+_TIME_EVENT = "time_event"  # prefix of the discrete modes that stand for relations of time
+
+
+def _time_events(flat: FlatModel) -> None:
+    """Time events, as Modelica has them: every relation of time with a threshold of parameters in the equations
+    (``time < start_time`` in a Step's Piecewise) becomes a mode ``time_event<k>`` (1 from the threshold on) set
+    by a state event on ``time - threshold``, and the relation reads the mode. So the integrator stops exactly at
+    the threshold and restarts there (a jump or a kink in time is not stepped over), and the relation changes
+    value only at that event, on both simulation paths and in an exported FMU."""
+    params = set(flat.parameters)
+    thresholds: dict = {}
+
+    def convert(rel):
+        if not isinstance(rel, (sp.StrictLessThan, sp.LessThan, sp.StrictGreaterThan, sp.GreaterThan)):
+            return None
+        e = sp.expand(rel.lhs - rel.rhs)
+        slope = e.diff(time)
+        if not e.has(time) or not slope.is_number or slope == 0:
+            return None
+        rest = e - slope * time
+        if rest.has(time) or any(sym.name not in params for sym in rest.free_symbols):
+            return None
+        c = sp.nsimplify(-rest / slope) if rest.is_number else -rest / slope
+        if c not in thresholds:
+            name = f"{_TIME_EVENT}{len(thresholds)}"
+            thresholds[c] = par_symbol(name)
+            flat.discretes[name] = DiscreteInfo(name, "(time events)", 0.0, f"1 from t = {c} s on")
+            flat.time_events[name] = c
+            flat.events.append(FlatEvent(time - c, {thresholds[c]: 1}, {thresholds[c]: 0}, f"time event t = {c}"))
+        after = thresholds[c] > sp.Rational(1, 2)  # time >= c
+        before = thresholds[c] < sp.Rational(1, 2)
+        upward = isinstance(rel, (sp.StrictGreaterThan, sp.GreaterThan))  # e > 0
+        return after if upward == (slope > 0) else before
+
+    def rewrite(expr):
+        expr = sp.sympify(expr)
+        if not expr.has(time) or not expr.atoms(sp.Rel):
+            return expr
+        rep = {r: c for r in expr.atoms(sp.Rel) if (c := convert(r)) is not None}
+        return expr.xreplace(rep) if rep else expr
+
+    for eq in flat.equations:
+        eq.residual = rewrite(eq.residual)
+    for name in list(flat.aliases):
+        flat.aliases[name] = rewrite(flat.aliases[name])
 
 
 def _resolve(expr, flat: FlatModel):
@@ -424,7 +472,7 @@ class CompiledModel:
         t = np.asarray(t, dtype=float)
         p = params if isinstance(params, np.ndarray) else self.param_vector(params)
         u = self.input_tuple(inputs, p)
-        d = self.discrete_start() if discrete is None else discrete
+        d = self.time_modes(t, p, self.discrete_start()) if discrete is None else discrete
         if x is None:
             if self.state_names:
                 raise ModelError(f"model {self.flat.name} has states {self.state_names}; pass x or simulate")
@@ -448,6 +496,19 @@ class CompiledModel:
             else:
                 raise self.unknown_name_error(n, "variable", self.names())
         return picked
+
+    def time_modes(self, t, p, d) -> np.ndarray:
+        """The modes ``d`` with every time event's mode (:func:`_time_events`: 1 from its threshold on) set for the
+        time(s) ``t`` under parameters ``p``: one column per time for an array ``t``."""
+        if not self.flat.time_events:
+            return d
+        t = np.asarray(t, dtype=float)
+        out = np.repeat(np.asarray(d, dtype=float)[:, None], t.size, axis=1) if t.ndim else \
+            np.asarray(d, dtype=float).copy()
+        for name, c in self.flat.time_events.items():
+            flag = (t >= float(self.eval_expr(c, None, p))).astype(float)
+            out[self._discrete_index[name]] = flag.ravel() if t.ndim else flag
+        return out
 
     def sensitivities(self, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
                       *, t_start: float = 0.0, starts: dict | None = None, method: str = "auto"):

@@ -92,6 +92,7 @@ class FlatModel:
     # a capacitor voltage clamped by a source): name -> fixed start, checked at initialisation
     fixed_constants: dict = field(default_factory=dict)
     written: list = field(default_factory=list)  # the equations as written, before alias elimination
+    time_events: dict = field(default_factory=dict)  # mode name -> threshold time (expression of parameters)
 
     def equations_of(self, component: str | None = None) -> list:
         """The equations as written (:class:`FlatEquation`, ``text`` set) of the component at path

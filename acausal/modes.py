@@ -164,9 +164,9 @@ def settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
 
 
 #: a zero function within this of zero [SI unit of the function] is at its switching point: when the modes
-#: after an event cycle and every zero function that flips in the cycle was this small in the modes it flipped
-#: out of (an ideal diode at its knee, where the switching variable is round-off of either sign; a brake breaking
-#: away at exactly zero speed), those modes are consistent and the cascade keeps the present one
+#: after an event would cycle and the zero functions that would close the cycle are this small in the present
+#: modes (an ideal diode at its knee, where the switching variable is round-off of either sign; a brake breaking
+#: away at exactly zero speed), the present modes are consistent and the cascade keeps them
 KNEE = 1e-6
 
 
@@ -174,10 +174,10 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20, hits=()):
     """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
     those events' assignments, and repeat, until nothing flips (Modelica's event iteration).
 
-    The modes visited are remembered. Returning to one of them is a cycle: if every zero function that flipped
-    within it was within :data:`KNEE` of zero in the modes it flipped out of, it sits at its switching point
-    (round-off decides its sign, and differs per mode and per generated code), so the present modes are kept;
-    otherwise no mode is consistent and
+    The modes visited are remembered. Returning to one of them is a cycle: if the zero functions whose flips would
+    close it are within :data:`KNEE` of zero in the present modes, they sit at their switching point (round-off
+    decides their sign, and differs per mode and per generated code), so the present modes are kept; otherwise
+    no mode is consistent and
     the run stops with a :class:`SimulationError` naming the events' components, their values and the time.
     ``hits``: the crossings that caused the event (``(time, event index, rising?)``); a crossing zero function
     located exactly at zero counts as on the side it crossed to, so a new mode that puts it back is a flip."""
@@ -201,10 +201,10 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20, hits=()):
             return d
         flips.append([(i, abs(z[i])) for i in flipped])  # how inconsistent the mode being left is
         back = [k for k, s in enumerate(seen) if np.array_equal(new, s)]
-        if back:  # a cycle: the flips since that visit
-            cycle = [f for step in flips[back[0]:] for f in step]
-            if all(size <= KNEE for _, size in cycle):
+        if back:  # a cycle: the modes it would leave are consistent if only round-off said otherwise
+            if all(size <= KNEE for _, size in flips[-1]):
                 return d
+            cycle = [f for step in flips[back[0]:] for f in step]
             culprits = sorted({cm.flat.events[i].origin for i, size in cycle if size > KNEE})
             break
         seen.append(np.asarray(new, dtype=float).copy())
@@ -224,6 +224,6 @@ def algebraic_modes(cm, t, p, d, u):
     x = np.zeros(0)
     cur = d
     for k, tk in enumerate(t):
-        cur = settle_modes(cm, tk, x, p, cur, u)
+        cur = settle_modes(cm, tk, x, p, cm.time_modes(tk, p, cur), u)  # a time event's mode is 1 from its time on
         out[:, k] = cur
     return out

@@ -3,8 +3,8 @@ inverse-model constraint.
 
 Sources are expressions of time and of their parameters, so their parameters change per run without recompiling
 and index reduction differentiates them exactly where the structure needs it. A Step's jump (and a Ramp's or a
-delayed Sine's kink) is a discontinuity in time the integrator meets inside a step: put an output time at
-``start_time`` (or pass it in the run's output times) when the exact instant matters.
+delayed Sine's kink) is a time event: the compiler turns each relation of time into a mode switched by an event at
+its threshold, so the integrator stops there exactly.
 """
 import sympy as sp
 from sympy import Eq

@@ -138,7 +138,7 @@ def test_pid_law_by_hand_at_given_states(step_loop):
     values = {"J.w": "w", "L.i": "i", "damper.phi_rel": "phi", "pid.I": "I", "pid.x_d": "x_d"}
     assert sorted(names) == sorted(values)
     X = np.array([[pt[values[n]] for pt in points] for n in names])
-    res = Result(cm, t, X, p, cm.input_tuple(), cm.discrete_start(), events=[])
+    res = Result(cm, t, X, p, cm.input_tuple(), cm.time_modes(t, p, cm.discrete_start()), events=[])
     for k, pt in enumerate(points):
         e = 1.0 - pt["phi"]
         Dd = -KD * (pt["phi"] - pt["x_d"]) / TD

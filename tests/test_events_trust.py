@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from acausal import (Component, Discrete, Eq, Event, Model, SimulationError, Variable, compile_model, connect,
-                     der)
+from acausal import (Component, Discrete, Eq, Event, Model, Parameter, SimulationError, Variable, compile_model,
+                     connect, der)
 
 
 class _Trip(Component):
@@ -262,7 +262,12 @@ def test_brake_slides_sticks_holds_and_breaks_away(method):
     assert np.allclose(w, expect, atol=1e-6)
     assert np.all(res["brake.stuck"][(t > 6.01) & (t < 7.99)] == 1)  # 5 N m < 6 N m holding: stuck
     assert np.allclose(res["brake.tau"][(t > 7.01) & (t < 7.99)], 5.0)  # the brake holds what is applied
-    assert [round(e[0], 6) for e in res.events] == [6.0, 8.0]
+    origin = [res.model.flat.events[i].origin for _, i, _ in res.events]
+    # the stop is a crossing; the breakaway comes with the time event at 8 s (the torque jumps past the holding
+    # torque), in the event iteration that follows it
+    assert [round(e[0], 6) for e, o in zip(res.events, origin) if o.startswith("Brake")] == [6.0]
+    assert np.all(res["brake.stuck"][t > 8.0] == 0)
+    assert [round(e[0], 9) for e, o in zip(res.events, origin) if o.startswith("time event")] == [1.0, 7.0, 8.0]
     assert np.all(res["brake.loss_power"] >= -1e-9) and abs(res.energy_balance().residual) < 1e-8
 
 
@@ -298,3 +303,34 @@ def test_clutch_slips_until_the_speeds_meet_then_locks(method):
     assert np.allclose(res["clutch.tau"][t < t_lock - 1e-3], 2.0) and np.allclose(res["clutch.tau"][t > t_lock], -2.0)
     assert [round(e[0], 7) for e in res.events] == [round(t_lock, 7)]
     assert np.all(res["clutch.loss_power"] >= -1e-9) and abs(res.energy_balance().residual) < 1e-8
+
+
+class _Stepped(Component):
+    """x' = a Step of 2 at start_time (a parameter): x = 2 (t - start_time) after it."""
+
+    start_time = Parameter(0.3, unit="s")
+    x = Variable(start=0.0, fixed=True)
+
+    def equations(self):
+        from acausal import time
+        return [Eq(der(self.x), sp.Piecewise((0.0, time < self.start_time), (2.0, True)))]
+
+
+class _SteppedModel(Model):
+    def build(self):
+        self.c = _Stepped()
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF", "LSODA"])
+def test_a_step_in_time_is_a_time_event_the_integrator_stops_at(method):
+    """The relation time < start_time becomes a mode set by an event at start_time exactly (per run, from the
+    parameter), so the kink is not stepped over: x is exact to round-off at loose tolerances."""
+    sim = compile_model(_SteppedModel())
+    assert "time_event0" in sim.discrete_names
+    for t0 in (0.3, 0.7123):
+        res = sim.simulate(1.0, method=method, n_points=11, rtol=1e-3, atol=1e-6, params={"c.start_time": t0})
+        assert [e[0] for e in res.events] == [pytest.approx(t0, abs=1e-12)]
+        assert np.allclose(res["c.x"], 2.0 * np.clip(res.t - t0, 0.0, None), rtol=0, atol=1e-9)
+    # evaluate() without modes sets the time events' modes from t
+    vals = sim.evaluate(np.array([0.2, 0.5]), x=np.zeros((1, 2)), names=["der(c.x)"])
+    assert list(vals["der(c.x)"]) == [0.0, 2.0]
