@@ -7,7 +7,7 @@ import sympy as sp
 from acausal import Model, compile_model, connect, time
 from acausal.library.blocks import SignalSource
 from acausal.library.electrical import Ground, NonRegenerativeRectifier, Resistor, Supply
-from acausal.library.drives import EPOS2, DCMotor, PWMDriver
+from acausal.library.drives import EPOS2, DCMotor
 from acausal.library.rotational import Gearbox, Inertia, LossyGear, Position, TorqueSource
 
 

@@ -1,7 +1,6 @@
 """MSL-style sources (Step, Ramp, Sine, Product) against their closed forms, run-time parameters included; the ideal
 diode's knee voltage (MSL ``IdealDiode.Vknee``) against the piecewise-linear characteristic."""
 import numpy as np
-import pytest
 import sympy as sp
 
 from acausal import Model, compile_model, connect, time
