@@ -1,4 +1,4 @@
-"""``compile_model``: flatten -> aliases -> balance -> index reduction -> BLT -> solve -> code.
+"""``compile_model``: flatten -> aliases -> time events -> balance -> index reduction -> BLT -> solve -> code.
 
 The result, :class:`CompiledModel`, is compiled once and simulated many times with other parameter values,
 start values or input signals. ``report()`` tells what the compiler did: states, index, blocks.
@@ -16,12 +16,13 @@ import sympy as sp
 from .alias import eliminate_aliases
 from .codegen import CodeGenerator
 from .errors import ModelError, SignalError, UnknownNameError
-from .flatten import DiscreteInfo, FlatEvent, FlatModel, flatten
+from .flatten import FlatModel, flatten
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
-from .solve import LinearSolve, NewtonSolve, solve_blocks
+from .solve import solve_blocks
 from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
-from .symbols import par_symbol, split_der, time
+from .time_events import time_events
+from .symbols import split_der, time
 
 
 def compile_model(model) -> "CompiledModel":
@@ -29,7 +30,7 @@ def compile_model(model) -> "CompiledModel":
     t0 = _time.perf_counter()
     flat = flatten(model)
     eliminate_aliases(flat)
-    _time_events(flat)
+    time_events(flat)
     system = EquationSystem.from_flat(flat)
     _check_symbols(flat, system)
     system = reduce_index(check_balance(system))
@@ -40,53 +41,6 @@ def compile_model(model) -> "CompiledModel":
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)
     return CompiledModel(flat, system, gen, funcs, zeros, _time.perf_counter() - t0, energy_accounts(model))
-
-
-_TIME_EVENT = "time_event"  # prefix of the discrete modes that stand for relations of time
-
-
-def _time_events(flat: FlatModel) -> None:
-    """Time events, as Modelica has them: every relation of time with a threshold of parameters in the equations
-    (``time < start_time`` in a Step's Piecewise) becomes a mode ``time_event<k>`` (1 from the threshold on) set
-    by a state event on ``time - threshold``, and the relation reads the mode. So the integrator stops exactly at
-    the threshold and restarts there (a jump or a kink in time is not stepped over), and the relation changes
-    value only at that event, on both simulation paths and in an exported FMU."""
-    params = set(flat.parameters)
-    thresholds: dict = {}
-
-    def convert(rel):
-        if not isinstance(rel, (sp.StrictLessThan, sp.LessThan, sp.StrictGreaterThan, sp.GreaterThan)):
-            return None
-        e = sp.expand(rel.lhs - rel.rhs)
-        slope = e.diff(time)
-        if not e.has(time) or not slope.is_number or slope == 0:
-            return None
-        rest = e - slope * time
-        if rest.has(time) or any(sym.name not in params for sym in rest.free_symbols):
-            return None
-        c = sp.nsimplify(-rest / slope) if rest.is_number else -rest / slope
-        if c not in thresholds:
-            name = f"{_TIME_EVENT}{len(thresholds)}"
-            thresholds[c] = par_symbol(name)
-            flat.discretes[name] = DiscreteInfo(name, "(time events)", 0.0, f"1 from t = {c} s on")
-            flat.time_events[name] = c
-            flat.events.append(FlatEvent(time - c, {thresholds[c]: 1}, {thresholds[c]: 0}, f"time event t = {c}"))
-        after = thresholds[c] > sp.Rational(1, 2)  # time >= c
-        before = thresholds[c] < sp.Rational(1, 2)
-        upward = isinstance(rel, (sp.StrictGreaterThan, sp.GreaterThan))  # e > 0
-        return after if upward == (slope > 0) else before
-
-    def rewrite(expr):
-        expr = sp.sympify(expr)
-        if not expr.has(time) or not expr.atoms(sp.Rel):
-            return expr
-        rep = {r: c for r in expr.atoms(sp.Rel) if (c := convert(r)) is not None}
-        return expr.xreplace(rep) if rep else expr
-
-    for eq in flat.equations:
-        eq.residual = rewrite(eq.residual)
-    for name in list(flat.aliases):
-        flat.aliases[name] = rewrite(flat.aliases[name])
 
 
 def _resolve(expr, flat: FlatModel):
@@ -206,7 +160,8 @@ class CompiledModel:
         names = set(self.state_names) | set(self.unknown_names) | set(self.flat.aliases)
         if parameters:
             names |= set(self.param_names)
-        return _filtered(sorted(names), pattern)
+        from .introspect import filtered
+        return filtered(sorted(names), pattern)
 
     def equations(self, component: str | None = None, solved: bool = False):
         """The model's equations, one per line under the component (or connection) they come from; ``print``
@@ -218,27 +173,8 @@ class CompiledModel:
         (what structural analysis works on: connected potentials and flows merged, ``0 = residual``) with the
         component's eliminated aliases. A path that is no component is a :class:`ModelError` with suggestions.
         """
-        from .components import Listing
-        if component and component not in self.flat.components:
-            raise self.unknown_name_error(component, "component", [c for c in self.flat.components if c])
-        if solved:
-            eqs = [e for e in self.flat.equations if not component or e.origin in
-                   {w.origin for w in self.flat.equations_of(component)}]
-            rows = [(e.origin, f"0 = {sp.sstr(e.residual)}") for e in eqs]
-            inside = (component + ".") if component else ""
-            rows += [("aliases (eliminated)", f"{n} = {sp.sstr(v)}") for n, v in sorted(self.flat.aliases.items())
-                     if n.startswith(inside)]
-        else:
-            rows = [(e.origin, e.text) for e in self.flat.equations_of(component)]
-        lines = [f"model {self.flat.name}" + (f", {component}" if component else "") + (
-            ": equations after alias elimination" if solved else ": equations as written") + f" ({len(rows)})"]
-        last = None
-        for origin, text in rows:
-            if origin != last:
-                lines.append(f"  {origin}:")
-                last = origin
-            lines.append(f"    {text}")
-        return Listing("\n".join(lines))
+        from .introspect import equations_listing
+        return equations_listing(self, component, solved)
 
     def rate_expr(self, name: str):
         """d/dt of variable or alias ``name`` as a sympy expression in quantities the model computes (states,
@@ -247,42 +183,8 @@ class CompiledModel:
         computes the variable (``gear.phi_b = motor.phi / ratio`` gives ``der(motor.phi) / ratio``), repeatedly;
         a variable from a numeric block or an assignment with a non-smooth function (Min, Max, Abs, Piecewise)
         has none. Energies of flanges use it (``tau der(phi)``), so they are integrated, not differenced."""
-        from .symbols import der, var_symbol
-        cache = self.__dict__.setdefault("_rate_cache", {})
-        if name in cache:
-            return cache[name]
-        known = set(self.unknown_names) | set(self.state_names)
-        if name in known:
-            expr = var_symbol(name)
-        elif name in self.flat.aliases:
-            expr = sp.sympify(self.flat.aliases[name])
-        else:
-            cache[name] = None
-            return None
-        assigned = self.__dict__.setdefault("_assigned", {st.var: st.expr for st in self.steps if
-                                                          type(st).__name__ == "Assign"})
-        d = der(expr)
-        out = None
-        for _ in range(16):
-            missing = {s for s in d.free_symbols if s.name.startswith("der(") and s.name not in known}
-            if not missing:
-                out = d
-                break
-            sub = {}
-            for s in missing:
-                base, order = split_der(s.name)
-                src = assigned.get(base) if order == 1 else None
-                if src is None or src.has(sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside):
-                    sub = None
-                    break
-                sub[s] = der(src)
-            if sub is None:
-                break
-            d = d.xreplace(sub)
-        if out is not None and out.has(sp.Derivative, sp.Subs, sp.DiracDelta, sp.Heaviside):
-            out = None
-        cache[name] = out
-        return out
+        from .introspect import rate_expr
+        return rate_expr(self, name)
 
     def parametric_inputs(self) -> dict:
         """Inputs rebuilt from the run's parameters (:class:`~acausal.signals.ParametricSignal`, e.g. a planned
@@ -498,7 +400,7 @@ class CompiledModel:
         return picked
 
     def time_modes(self, t, p, d) -> np.ndarray:
-        """The modes ``d`` with every time event's mode (:func:`_time_events`: 1 from its threshold on) set for the
+        """The modes ``d`` with every time event's mode (:func:`acausal.time_events.time_events`: 1 from its threshold on) set for the
         time(s) ``t`` under parameters ``p``: one column per time for an array ``t``."""
         if not self.flat.time_events:
             return d
@@ -525,52 +427,13 @@ class CompiledModel:
 
     # ------------------------------------------------------------------ report
     def report(self) -> str:
-        red = self.reduction
-        n_num = sum(isinstance(s, (LinearSolve, NewtonSolve)) for s in self.steps)
-        sizes = [len(b[0]) for b in self.blocks]
-        lines = [
-            f"model {self.flat.name}: compiled in {self.compile_seconds * 1e3:.0f} ms",
-            f"  variables after alias elimination: {len(self.flat.variables)} "
-            f"({len(self.flat.aliases)} aliases removed)",
-            f"  equations after index reduction: {len(red.residuals)} "
-            f"({len(red.residuals) - len(self.flat.equations)} differentiated)",
-            f"  differential index: {red.index} (equations differentiated up to {red.differentiations} times)",
-            f"  states ({len(self.state_names)}): {', '.join(self.state_names) or 'none'}",
-            f"  dummy derivatives: {', '.join(sorted(red.dummies)) or 'none'}",
-            f"  BLT blocks: {len(self.blocks)} (largest {max(sizes, default=0)}), numeric blocks: {n_num}",
-        ]
-        for s in self.steps:
-            if isinstance(s, NewtonSolve):
-                lines.append(f"    Newton on {s.vars} (from {sorted(set(s.origins))})")
-            elif isinstance(s, LinearSolve):
-                lines.append(f"    linear solve for {s.vars}")
-        lines.append(f"  simulation path: {self.simulation_path()}")
-        for n, used in self.parametric_inputs().items():
-            lines.append(f"  input {n} is rebuilt from the parameters {', '.join(used)}")
-        dev = self.device_defaults()
-        if dev:
-            lines.append(f"  left at a device's datasheet default ({len(dev)}; set them for your device, at "
-                         "construction or per run with params=...):")
-            for device in dict.fromkeys(d for _, _, d in dev.values()):
-                lines.append(f"    {device}: " + ", ".join(
-                    f"{n} = {v:g} {u}" for n, (v, u, d) in dev.items() if d == device))
-        if self.generator.signal_orders:
-            lines.append("  input derivatives used: " + ", ".join(
-                f"{k} up to order {v}" for k, v in sorted(self.generator.signal_orders.items())))
-        return "\n".join(lines)
+        """What the compiler did (states, index, dummy derivatives, blocks), the simulation path, the inputs
+        rebuilt from parameters and the parameters left at a device's default (:func:`acausal.introspect.report`)."""
+        from .introspect import report
+        return report(self)
 
     def __repr__(self):
         return f"<CompiledModel {self.flat.name}: {len(self.state_names)} states, {len(self.unknown_names)} unknowns>"
-
-
-def _filtered(names: list, pattern: str | None) -> list:
-    """``names`` matching ``pattern`` (a shell-style wildcard, or a substring when it has no wildcard)."""
-    if not pattern:
-        return names
-    if any(ch in pattern for ch in "*?["):
-        import fnmatch
-        return [n for n in names if fnmatch.fnmatchcase(n, pattern)]
-    return [n for n in names if pattern in n]
 
 
 def _mapping(value, what: str) -> dict:
