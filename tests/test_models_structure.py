@@ -77,10 +77,16 @@ def test_accounts_of_the_paper_actuator_are_found_by_convention(replay):
 
 
 class _RC(Model):
+    """A source (10 sin(2 pi t) V unless ``v_ref`` says otherwise) charging C = 0.05 F through R = 2 ohm."""
+
+    def __init__(self, v_ref=None, **kw):
+        super().__init__(**kw)
+        self._v_ref = v_ref
+
     def build(self):
         import sympy as sp
         from acausal import time
-        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * time))
+        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * time) if self._v_ref is None else self._v_ref)
         self.R = Resistor(R=2.0)
         self.C = Capacitor(C=0.05, v=Start(0.0))
         self.gnd = Ground()
@@ -148,17 +154,7 @@ def test_sankey_of_a_model_without_power_sensors_draws_its_balance():
 
 def test_efficiency_between_two_named_ports():
     """Capacitor charged through R from 0 V by a constant source: half the delivered energy is stored."""
-    class Charge(Model):
-        def build(self):
-            self.src = PrescribedVoltage(v_ref=10.0)
-            self.R = Resistor(R=2.0)
-            self.C = Capacitor(C=0.05, v=Start(0.0))
-            self.gnd = Ground()
-            connect(self.src.p, self.R.p)
-            connect(self.R.n, self.C.p)
-            connect(self.C.n, self.src.n, self.gnd.p)
-
-    res = compile_model(Charge()).simulate(3.0, rtol=1e-10, atol=1e-12)  # 30 time constants
+    res = compile_model(_RC(v_ref=10.0)).simulate(3.0, rtol=1e-10, atol=1e-12)  # 30 time constants
     assert res.efficiency("src", "C") == pytest.approx(0.5, rel=1e-6)  # port signs do not matter
     assert res.efficiency("src", "R.loss_power") == pytest.approx(0.5, rel=1e-6)
     b = res.energy_balance(between=("src", "C"))
