@@ -30,8 +30,7 @@ hundred times closer (the error is the integrator's, not the model's). Every ref
 hundred times tighter than the tolerance it checks. Energies are quadratic in the states, so the energy balance
 closes to twice the state tolerance, or to 1e-5 (ten times rtol) where that is larger. Where a signal moves fast
 around a switching instant the tolerance is stated from that slope.
-Findings (library defects the suite exposes) are in ``tests/msl_conformance_findings.md``; the checks they break
-are marked ``xfail(strict=True)``.
+Findings (library defects the suite exposed, and how they were fixed) are in ``tests/msl_conformance_findings.md``.
 """
 from functools import lru_cache
 
@@ -393,7 +392,8 @@ def rectifier_reference(t_end, n_points, t_off=np.inf):
         C vC1' = sum(i_upper) - IDC,   C vC2' = sum(i_lower) - IDC
 
     A diode switches where v_d - Vk crosses zero (the sign of the MSL's curve parameter in both modes), found as a
-    terminal event of the integration; the run restarts in the new modes. Returns (t, X, events) with X the states
+    terminal event of the integration; the other diodes whose sign the switch reverses (the lower diode in series
+    with an upper one whose current dies) switch at the same instant, and the run restarts in the new modes. Returns (t, X, events) with X the states
     at ``n_points`` output times from 0 to ``t_end`` and events [(t, diode name, turned on)]."""
     P = RECT
     V, C, L, Vk, Goff, I = P["VAC"] * np.sqrt(2 / 3), 2 * P["CDC"], P["LAC"], P["Vknee"], P["Goff"], P["IDC"]
@@ -444,6 +444,13 @@ def rectifier_reference(t_end, n_points, t_off=np.inf):
             on = on.copy()
             on[k] = not on[k]
             events.append((t, RECT_DIODES[k], bool(on[k])))
+            for _ in range(6):  # the other diodes whose curve parameter the switch reversed follow at once
+                now = knee(x, on) > 0
+                now[k] = on[k]
+                if np.array_equal(now, on):
+                    break
+                events += [(t, RECT_DIODES[j], bool(now[j])) for j in np.flatnonzero(now != on)]
+                on = now
     return t_out, X, events
 
 
@@ -522,15 +529,14 @@ def test_rectifier_b6_bridge_follows_the_piecewise_linear_reference(rectifier_si
     assert sum(len(v) for v in diode_events(rectifier_sim, res).values()) >= 60
 
 
-@pytest.mark.xfail(condition=_compiled_path_available(), strict=True, raises=AssertionError,
-                   reason="finding 2 (tests/msl_conformance_findings.md): on the compiled path, a diode that turns on "
-                          "and off within one output interval, while another diode also crosses in it, keeps its "
-                          "'on' mode: acausal.compiled.events._locate masks a zero function for the rest of the "
-                          "interval once a hit of it changed no mode; D3 stays on with s = -3800 A, uDC off by 357 V")
 def test_rectifier_with_coarse_output_loses_no_event(rectifier_sim):
     """The MSL Rectifier with 11 outputs (10 ms apart, a half-period): the integrator takes long steps between
-    them, and every switching must still be found (the same checks as at 501 outputs)."""
+    them, and every switching must still be found (the same checks as at 501 outputs). On the compiled path this
+    is the case of a diode turning on and off again inside one output interval while another diode crosses in it
+    too (finding 2 of ``tests/msl_conformance_findings.md``)."""
     res = rectifier_sim.simulate(0.1, n_points=11)
+    if _compiled_path_available():
+        assert "compiled path" in res.solver, res.solver
     check_rectifier(rectifier_sim, res, 0.1, 11)
 
 
@@ -543,14 +549,7 @@ def rectifier_off_sim():
     return compile_model(Rectifier(t_off=T_OFF))
 
 
-@pytest.mark.parametrize("method", [
-    pytest.param("auto", marks=pytest.mark.xfail(
-        condition=_compiled_path_available(), strict=True, raises=AssertionError,
-        reason="finding 1 (tests/msl_conformance_findings.md): on the compiled path with 0.2 s between outputs the "
-               "first switching (D5 on, 2.968e-5 s) is placed at 1.21e-7 s, a spurious root of the cubic Hermite "
-               "interpolant across the 1.2e-7 s leakage transient after t = 0, and D3's 1.4 ms conduction pulse "
-               "that follows is lost")),
-    "BDF"])
+@pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_rectifier_switched_off_runs_long_steps_without_losing_an_event(rectifier_off_sim, method):
     """Issue 21: "No event is lost in a test built to make long steps". The MSL Rectifier with its AC sources
     switched off by a Step at 0.04 s, run to 100 s at the default 501 outputs (0.2 s apart): two periods of

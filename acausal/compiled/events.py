@@ -37,6 +37,7 @@ WINDOW = 64  # output times per CVODES run at most: an event restarts the run, s
 WINDOW_STEPS = 4_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
 LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tighter than the window's
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
+LOCATE_DEPTH = 3  # runs of runs' brackets where the cubic between two output times cannot be trusted
 
 
 def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
@@ -152,7 +153,7 @@ def _zero_values(cm, times, states, p, d, u) -> np.ndarray:
                      for v in cm.funcs["zeros"](times, states, p, d, u)])
 
 
-def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args):
+def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0):
     """The crossing(s) in ``(a, b]`` by Brent's method (:func:`acausal.modes.crossings`, the scipy path's own);
     None when they change no mode.
 
@@ -164,30 +165,48 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args):
     run starts the solver cold, at order one and a tiny step. If that solution no longer shows the sign change that
     the window's run showed at ``b``, the crossing is at ``b`` within the tolerance and the window's state there,
     on the far side, is taken.
+
+    A bracket the cubic cannot represent (a transient much faster than the node spacing, such as the settling of
+    a leakage path right after a switch: :meth:`_Dense.smooth`) is located on a run of its own across that bracket,
+    recursively (:data:`LOCATE_DEPTH` levels). A crossing that changes no mode hides its zero function only up to
+    its bracket: a later crossing of the same function in the interval (a diode that turned on at ``a`` turning off
+    again) is still found.
     """
     run = _Dense(cm, path, a, b, xa, p, d, u, args)
     zn = _zero_values(cm, run.nodes, run.states, p, d, u)
-    handled: set = set()  # crossings that changed no mode: a later one in the same interval may
+    handled: dict = {}  # zero function -> last node up to which its crossings changed no mode
     while True:
         zm, zb_m = zn.copy(), np.asarray(zb, dtype=float).copy()
-        for i in handled:  # the same nonzero value everywhere: no crossing
-            zm[i] = zb_m[i] = 1.0
+        for i, upto in handled.items():  # no crossing up to that node: its value there, constant
+            if upto >= DENSE:
+                zm[i] = zb_m[i] = 1.0
+            else:
+                zm[i, :upto] = zm[i, upto]
         brackets = np.flatnonzero(np.any(_crossed(zm[:, :-1], zm[:, 1:]), axis=0))
         if brackets.size:  # a crossing between the ends shows between two neighbouring outputs
             j = int(brackets[0])  # the first
+            crossing = np.flatnonzero(_crossed(zm[:, j], zm[:, j + 1]))
+            if depth < LOCATE_DEPTH and not run.smooth(j, args):
+                hit = _locate(cm, path, run.nodes[j], run.nodes[j + 1], run.states[:, j], run.states[:, j + 1],
+                              zn[:, j], zn[:, j + 1], p, d, u, args, depth + 1)
+                if hit is not None:
+                    return hit
+                handled.update({int(i): j + 1 for i in crossing})
+                continue
             hits = crossings(cm, run.sol, run.nodes[j], run.nodes[j + 1], zm[:, j], zm[:, j + 1], p, d, u)
             t_e = hits[0][0] if hits else run.nodes[j + 1]
             x_e = run.sol(t_e)
+            upto = j + 1
         else:
             hits = [(b, i, bool(zm[i, 0] < 0) if zm[i, 0] != 0 else bool(zb_m[i] > 0))
                     for i in np.flatnonzero(_crossed(zm[:, 0], zb_m))]
-            t_e, x_e = b, xb
+            t_e, x_e, upto = b, xb, DENSE
         if not hits:
             return None
         d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
         if not np.array_equal(d_new, d):
             return t_e, x_e, hits, d_new
-        handled |= {i for _, i, _ in hits}  # a crossing that changes no mode needs no restart
+        handled.update({int(i): upto for _, i, _ in hits})  # a crossing that changes no mode needs no restart
 
 
 class _Dense:
@@ -209,6 +228,19 @@ class _Dense:
             self.rates[k] = np.asarray(self.cm.funcs["rhs"](float(self.nodes[k]), self.states[:, k].tolist(),
                                                             self.p.tolist(), self.d.tolist(), self.u), dtype=float)
         return self.rates[k]
+
+    def smooth(self, k, args) -> bool:
+        """Whether the cubic between nodes ``k`` and ``k + 1`` can stand for the solution: each state's end slopes
+        predict a change over the bracket that differs from the actual one by no more than that change itself (or
+        the run's tolerance). A smooth solution sampled finer than its time scale passes; a transient that settles
+        within the bracket (slopes thousands of times the secant) does not, and the cubic through it overshoots into
+        roots that are not there."""
+        h = self.nodes[k + 1] - self.nodes[k]
+        xa, xb = self.states[:, k], self.states[:, k + 1]
+        change = np.abs(xb - xa)
+        tol = args[1] + args[0] * np.maximum(np.abs(xa), np.abs(xb))
+        worst = np.maximum(np.abs(h * self.rate(k) - (xb - xa)), np.abs(h * self.rate(k + 1) - (xb - xa)))
+        return bool(np.all(worst <= change + tol))
 
     def sol(self, tt):
         tt = float(tt)
