@@ -1,13 +1,14 @@
 """FMU export (issue 19): exported FMI 2.0 Model Exchange FMUs validated and simulated by fmpy, compared with
 ``simulate()``. Each FMU is exported (C compiled) once per module."""
 import ctypes
+import re
 import zipfile
 
 import numpy as np
 import pytest
 import sympy as sp
 
-from acausal import Model, Parameter, Start, compile_model, connect, time
+from acausal import Model, Parameter, SimulationError, Start, compile_model, connect, time
 from acausal.export import ExportError, export_fmu
 from acausal.export.fmu import find_compiler
 from acausal.library.electrical import (EMF, Capacitor, ConstantVoltage, Ground, IdealDiode, Inductor,
@@ -16,6 +17,7 @@ from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Positi
 from acausal.signals import PeriodicSpline, SampledSignal, Signal
 
 from .drive_models import MotorGearLoad, MotorGearLoadInverse
+from .test_events_trust import _Chatter, _TripModel
 
 fmpy = pytest.importorskip("fmpy", reason="the FMU tests run the exported FMUs in fmpy (pip install fmpy, in the "
                                           "test extra)")
@@ -184,6 +186,100 @@ def test_rectifier_switches_through_its_events_as_simulate_does(rectifier):
     assert relative_error(res["C.v"], ref["C.v"]) < 1e-6
     differ = np.flatnonzero(res["D.off"] != ref.modes[cm.discrete_names.index("D.off")])
     assert differ.size <= 2  # at most an output sample at a switch, where the two runs' times differ by < 1e-6 s
+
+
+
+class Bridge6(Model):
+    """Three-phase six-pulse diode bridge (100 V, 50 Hz) on 20 ohm || 100 uF, the capacitor empty at the start
+    (tests/test_events_trust.py's): six ideal diodes whose commutations cascade, some at their knee."""
+
+    def build(self):
+        self.gnd = Ground()
+        for k in range(3):
+            setattr(self, f"src{k}", PrescribedVoltage(v_ref=100.0 * sp.sin(2 * sp.pi * 50 * time - 2 * sp.pi * k / 3)))
+            setattr(self, f"up{k}", IdealDiode())
+            setattr(self, f"lo{k}", IdealDiode())
+        self.R, self.C = Resistor(R=20.0), Capacitor(C=1e-4, v=Start(0.0))
+        for k in range(3):
+            s, up, lo = getattr(self, f"src{k}"), getattr(self, f"up{k}"), getattr(self, f"lo{k}")
+            connect(s.p, up.p, lo.n)
+            connect(s.n, self.gnd.p) if k == 0 else connect(s.n, self.src0.n)
+        connect(self.up0.n, self.up1.n, self.up2.n, self.R.p, self.C.p)
+        connect(self.lo0.p, self.lo1.p, self.lo2.p, self.R.n, self.C.n)
+
+
+def _logged_events(messages):
+    """``(time, event index, direction)`` of the FMU's logEvents messages, as ``Result.events``."""
+    found = [re.match(r"t = (\S+) s: event (\d+) \(.*\) (rising|falling)$", m) for m in messages]
+    return [(float(f[1]), int(f[2]), f[3]) for f in found if f]
+
+
+def test_three_phase_bridge_switches_as_simulate_does(tmp_path):
+    """Six ideal diodes commutate 60 times in 0.1 s; each commutation cascades (a diode turning on makes its
+    neighbour's current reverse) and some close a cycle only through round-off-small flips at the knee, where
+    acausal.modes keeps the present modes. After the start the FMU logs the same crossings as simulate()'s
+    events (same events, directions and order; times within 1e-6 s), and its modes and capacitor voltage between
+    the events equal simulate()'s, the modes from the start on. At t = 0 two diodes sit exactly at zero and leave
+    it (the FMU switches them at t = 0 as simulate() does, not at the end of the first step); whether one of them
+    already switches while the modes settle, or only at that start event, is up to round-off (-9e-16 in the C,
+    exactly zero in the Python), so the events at t = 0 are not compared one by one."""
+    cm = compile_model(Bridge6())
+    path = export_fmu(cm, tmp_path / "bridge.fmu")
+    got, logger = _messages()
+    modes = list(cm.discrete_names)
+    res = simulate_fmu(str(path), stop_time=0.1, relative_tolerance=1e-8, output_interval=1e-4,
+                       output=["C.v", *modes], record_events=False, debug_logging=True, logger=logger)
+    ref = cm.simulate(0.1, t_eval=res["time"], rtol=1e-10, atol=1e-12)
+    events = [e for e in _logged_events(got) if e[0] > 0]
+    assert [e for e in _logged_events(got) if e[0] == 0] == [(0.0, 0, "falling")]
+    assert len(ref.events) >= 60 and [e[0] for e in ref.events[:2]] == [0.0, 0.0]
+    assert len(events) == len(ref.events) - 2, (events[:12], ref.events[:12])
+    assert any(m.startswith("t = 0.0149999") and "keeps the present modes (the flip of event 5 (IdealDiode 'up2'"
+               in m for m in got), got  # the knee rule at work
+    for (t, i, direction), (t_ref, i_ref, d_ref) in zip(events, ref.events[2:]):
+        assert (i, direction) == (i_ref, d_ref) and abs(t - t_ref) < 1e-6, ((t, i, direction), (t_ref, i_ref, d_ref))
+    t_events = np.array([e[0] for e in ref.events])
+    between = np.min(np.abs(res["time"][:, None] - t_events[None, :]), axis=1) > 1e-6
+    for n in modes:
+        assert np.array_equal(res[n][between], ref[n][between]), n
+    assert relative_error(res["C.v"], ref["C.v"]) < 1e-6
+
+
+def test_modes_with_no_consistent_value_are_an_error_naming_the_component(tmp_path):
+    """At t = 1 the zero x - 1 - 2 m rises and sets m = 1, which makes it -2: the event iteration returns to the
+    modes it started from through a flip far from the knee. The FMU stops with fmi2Error and the message
+    simulate() raises (the component, the time, the modes), instead of keeping m = 1 silently."""
+    path = export_fmu(_Chatter(), tmp_path / "chatter.fmu")
+    with pytest.raises(SimulationError) as python:
+        compile_model(_Chatter()).simulate(2.0)
+    got, logger = _messages()
+    with pytest.raises(Exception, match="fmi2NewDiscreteStates"):
+        simulate_fmu(str(path), stop_time=2.0, logger=logger)
+    assert str(python.value) in got, (str(python.value), got)
+    assert re.search(r"do not settle after an event at t = 1 s: the events of _NoConsistentMode 'c' switch back "
+                     r"and forth.*chatters\); modes c.m = 1$", str(python.value))
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered")
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_a_nan_zero_function_is_an_error_naming_the_event(tmp_path):
+    """sqrt(x) - 0.5 with x falling through zero: from t = 1 the zero function is NaN, which has no sign. The FMU
+    reports it (fmi2Error, a message of simulate()'s form naming the event's component, its zero function, the
+    time and the modes) instead of running on without events; before that it switched at t = 0.75 as simulate()
+    does. fmi2GetEventIndicators fails too, but fmpy ignores errors inside CVODE's root function (the warning
+    filtered here): the run stops at the step's fmi2CompletedIntegratorStep."""
+    path = export_fmu(_TripModel(), tmp_path / "trip.fmu")
+    got, logger = _messages()
+    with pytest.raises(Exception, match="fmi2CompletedIntegratorStep failed with status 3"):
+        simulate_fmu(str(path), stop_time=3.0, logger=logger, debug_logging=True)
+    pattern = (r"the zero function of an event of _Trip 'trip' is nan at t = (\S+) s: sqrt\(trip.x\) - 0.5 \(modes "
+               r"trip.flag = (\d)\); a NaN or infinite switching value has no sign to switch on \(a division by a "
+               r"coefficient that is zero in this mode, or a function used outside its domain\)$")
+    found = [f for f in (re.match(pattern, m) for m in got) if f]
+    assert found and 1.0 <= float(found[0][1]) <= 1.1 and found[0][2] == "0", got
+    with pytest.raises(SimulationError, match=pattern):
+        compile_model(_TripModel()).simulate(3.0)
+    assert _logged_events(got) == [(pytest.approx(0.75, abs=1e-9), 0, "falling")]
 
 
 class SplineReplay(MotorGearLoad):

@@ -302,7 +302,8 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     order = []
     for st in cm.steps:
         order.extend([st.var] if isinstance(st, Assign) else list(st.vars))
-    out += [f"#define NT {len(targets)}", f"#define NPT {len(tabulated)}",
+    origins = sorted({ev.origin for ev in cm.flat.events})  # the events' components, sorted as modes.py's messages
+    out += [f"#define NT {len(targets)}", f"#define NPT {len(tabulated)}", f"#define NO {len(origins)}",
             _array("double", "start_values", start, _c_double),
             _array("char *const", "var_names", [*lay.params, *lay.states, *lay.unknowns, *lay.aliases,
                                                  *lay.discretes], _c_string),
@@ -315,8 +316,9 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
             _array("int", "tabulated_vr", [lay.index[n] for n in tabulated]),
             _array("double", "tabulated_value", list(tabulated.values()), _c_double),
             _array("int", "order_vr", [lay.index[n] for n in order if n in lay.index]),
-            _array("char *const", "event_origins", [f"{ev.origin}: {ev.zero}" for ev in cm.flat.events],
-                   _c_string),
+            _array("char *const", "origin_names", origins, _c_string),
+            _array("int", "event_origin", [origins.index(ev.origin) for ev in cm.flat.events]),
+            _array("char *const", "event_zero", [str(z) for z in cm.event_zeros], _c_string),
             _array("char *const", "bound_message", [cm._bound_message(n) if n in cm._bound else None
                                                      for n in lay.params],
                    lambda m: "NULL" if m is None else _c_string(m))]
@@ -342,11 +344,12 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
 
 
 def source(head: str, tail: str) -> str:
-    """The FMU's one C file: the FMI 2.0 declarations, the model's data, the runtime and the model's functions."""
+    """The FMU's one C file: the FMI 2.0 declarations, the model's data, the runtime (its events part after the
+    rest, which declares the functions it defines) and the model's functions."""
     from importlib import resources
     folder = resources.files("acausal.export") / "templates"
     return "\n".join([(folder / "fmi2_declarations.h").read_text(), head, (folder / "fmi2_runtime.c").read_text(),
-                      tail])
+                      (folder / "fmi2_events.c").read_text(), tail])
 
 
 def _functions(cm, lay, printer, names, signals, described) -> str:

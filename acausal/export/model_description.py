@@ -198,8 +198,12 @@ def documentation(cm, layout, start, tabulated, *, description: str, doc: str, i
         "the event indicators and the states initialised again, as <code>simulate()</code> does.</p>",
         "<h2>Events</h2>",
         ("<ul>" + "".join(events) + "</ul><p>An indicator that crosses zero applies its rising or falling "
-         "assignments in <code>fmi2NewDiscreteStates</code>; mode changes that flip other indicators cascade, one "
-         "call per step (<code>newDiscreteStatesNeeded</code>).</p>") if events else "<p>None.</p>",
+         "assignments in <code>fmi2NewDiscreteStates</code>; mode changes that flip other indicators cascade until "
+         "nothing flips, in the same call, as in <code>simulate()</code> (acausal.modes). A return to modes "
+         "already visited keeps the present modes when the flips that close it are within 1e-6 of zero (a "
+         "switching point); otherwise no mode is consistent, and the call fails (<code>fmi2Error</code>) with a "
+         "message naming the components. A NaN or infinite indicator is an error naming its event.</p>")
+        if events else "<p>None.</p>",
         "<h2>Inputs compiled in</h2>", ("<ul>" + "".join(inputs) + "</ul>") if inputs else "<p>None.</p>",
         "<h2>Parameters</h2>",
         "<table border=\"1\"><tr><th>name</th><th>value</th><th>unit</th><th>bounds</th><th>description</th></tr>"

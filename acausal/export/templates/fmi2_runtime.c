@@ -14,16 +14,15 @@
  * set through fmi2SetReal; the modes are settled by the signs of the event indicators, and the states initialised
  * again with the settled modes.
  *
- * Events (fmi2NewDiscreteStates) follow acausal.modes: an indicator that crossed zero since the last event
- * applies its rising or falling assignments; a mode change that flips the sign of another indicator applies that
- * one's, until nothing flips (each iteration is one call: newDiscreteStatesNeeded says when another is due).
+ * Events (fmi2NewDiscreteStates) follow acausal.modes, in fmi2_events.c (after this file): the crossings since the
+ * last event apply their assignments, and the event iteration runs to its end in the same call (a cycle of modes
+ * is kept at the knee or is an error naming the components; a NaN or infinite indicator is an error naming it).
  * --------------------------------------------------------------------------------------------------------- */
 
 #define NX1 (NX > 0 ? NX : 1)
 #define NZ1 (NZ > 0 ? NZ : 1)
 #define ND1 (ND > 0 ? ND : 1)
 #define NT1 (NT > 0 ? NT : 1)
-#define MAX_SETTLE 20
 
 enum { PHASE_INSTANTIATED, PHASE_INIT, PHASE_EVENT, PHASE_CONTINUOUS, PHASE_TERMINATED, PHASE_ERROR };
 
@@ -36,7 +35,7 @@ typedef struct {
     int given[NX1];          /* state start set through fmi2SetReal: fixed at initialisation */
     int phase;
     int valid;               /* r holds unknowns, aliases and indicators of the current inputs */
-    int event_iter;
+    int initial;             /* the next fmi2NewDiscreteStates is the initial event update */
     int logging;
     fmi2CallbackLogger logger;
     fmi2CallbackFreeMemory free_memory;
@@ -49,11 +48,15 @@ static void model_bound_parameters(Inst *m);
 static int model_check_parameter(Inst *m, int vr);
 static int model_evaluate(Inst *m);
 static void model_event(Inst *m, int i, int rising);
+static int check_indicators(Inst *m);  /* fmi2_events.c */
+static int settle_modes(Inst *m);
+static int event_update(Inst *m, int initial);
+static int crossed(double a, double b);
 
 #include <stdarg.h>
 
 static void log_msg(Inst *m, fmi2Status status, const char *category, const char *fmt, ...) {
-    char text[1024], escaped[2048];
+    char text[4096], escaped[8192];
     va_list ap;
     size_t i, k = 0;
     if (!m || !m->logger || (status == fmi2OK && !m->logging)) return;
@@ -184,50 +187,6 @@ static int first_non_finite(Inst *m) {
     return -1;
 }
 
-static int apply_event(Inst *m, int i, int rising) {
-    if (ensure(m)) return 1;
-    model_event(m, i, rising);
-    m->valid = 0;
-    return 0;
-}
-
-/* acausal.modes.crossings' rule between an indicator's value a at the last event and b now: 1 rising, 0 falling,
- * -1 no crossing; leaving an exact zero takes the direction of b, reaching one the direction from a */
-static int crossed(double a, double b) {
-    if (a == 0.0) return b != 0.0 ? b > 0 : -1;
-    if ((a < 0 && b >= 0) || (a > 0 && b <= 0)) return a < 0;
-    return -1;
-}
-
-static int modes_differ(const double *a, const double *b) {
-    int k;
-    for (k = 0; k < ND; k++) if (a[k] != b[k]) return 1;
-    return 0;
-}
-
-/* acausal.modes.settle_modes: every event's assignments by the sign of its indicator until nothing changes */
-static int settle_modes(Inst *m) {
-    int it, i;
-    double before[ND1], zs[NZ1];
-    for (it = 0; it < MAX_SETTLE; it++) {
-        if (ensure(m)) return 1;
-        memcpy(before, m->r + OFF_D, sizeof(double) * ND);
-        memcpy(zs, m->z, sizeof(double) * NZ);
-        for (i = 0; i < NZ; i++) {
-            if (!isfinite(zs[i])) {
-                log_msg(m, fmi2Error, "logStatusError", "the event indicator %d (%s) is %g at t = %.9g s: a NaN or "
-                        "infinite switching value has no sign to switch on", i, event_origins[i], zs[i], m->time);
-                return 1;
-            }
-            if (zs[i] > 0 && apply_event(m, i, 1)) return 1;
-            if (zs[i] < 0 && apply_event(m, i, 0)) return 1;
-        }
-        if (!modes_differ(before, m->r + OFF_D)) return 0;
-    }
-    log_msg(m, fmi2Error, "logStatusError", "discrete modes do not settle at t = %.9g s", m->time);
-    return 1;
-}
-
 /* acausal.simulate.initialize: states at their start values; fixed starts of other variables (targets) met by
  * a minimum-norm Gauss-Newton iteration on the free states (finite-difference Jacobian). */
 static int initialize_states(Inst *m) {
@@ -350,7 +309,7 @@ static void reset_instance(Inst *m) {
     m->time = 0.0;
     m->phase = PHASE_INSTANTIATED;
     m->valid = 0;
-    m->event_iter = 0;
+    m->initial = 0;
     model_bound_parameters(m);
 }
 
@@ -423,7 +382,7 @@ FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     }
     if (ensure(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
     memcpy(m->z_pre, m->z, sizeof(double) * NZ);
-    m->event_iter = 0;
+    m->initial = 1;
     m->phase = PHASE_EVENT;
     return fmi2OK;
 }
@@ -585,14 +544,12 @@ FMI2_EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2V
 FMI2_EXPORT fmi2Status fmi2EnterEventMode(fmi2Component c) {
     CHECK_INST;
     INST->phase = PHASE_EVENT;
-    INST->event_iter = 0;
     return fmi2OK;
 }
 
 FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
     Inst *m = INST;
-    double before[ND1], zs[NZ1];
-    int i, hits = 0;
+    int initial;
     CHECK_INST;
     info->newDiscreteStatesNeeded = fmi2False;
     info->terminateSimulation = fmi2False;
@@ -600,41 +557,10 @@ FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *inf
     info->valuesOfContinuousStatesChanged = fmi2False;
     info->nextEventTimeDefined = fmi2False;
     info->nextEventTime = 0.0;
+    initial = m->initial;
+    m->initial = 0;
     if (NZ == 0) return fmi2OK;
-    if (ensure(m)) return fmi2Error;
-    memcpy(before, m->r + OFF_D, sizeof(double) * ND);
-    memcpy(zs, m->z, sizeof(double) * NZ);
-    for (i = 0; i < NZ; i++) {
-        double a = m->z_pre[i], b = zs[i];
-        int rising = -1;
-        if (!isfinite(b))
-            FAIL("the event indicator %d (%s) is %g at t = %.9g s: a NaN or infinite switching value has no sign "
-                 "to switch on", i, event_origins[i], b, m->time);
-        if (m->event_iter == 0) {  /* acausal.modes.crossings: since the last event */
-            rising = crossed(a, b);
-        } else if (b != 0.0 && a != 0.0 && (a > 0) != (b > 0)) {  /* acausal.modes.cascade: flipped by a mode */
-            rising = b > 0;
-        }
-        if (rising >= 0) {
-            double modes[ND1];
-            memcpy(modes, m->r + OFF_D, sizeof(double) * ND);
-            if (apply_event(m, i, rising)) return fmi2Error;
-            if (modes_differ(modes, m->r + OFF_D))  /* as Result.events: the crossings that switch a mode */
-                log_msg(m, fmi2OK, "logEvents", "t = %.17g s: event %d (%s) %s", m->time, i, event_origins[i],
-                        rising ? "rising" : "falling");
-            hits++;
-        }
-    }
-    memcpy(m->z_pre, zs, sizeof(double) * NZ);
-    m->event_iter++;
-    if (hits && modes_differ(before, m->r + OFF_D)) {
-        if (m->event_iter > MAX_SETTLE)
-            FAIL("discrete modes do not settle after an event at t = %.9g s", m->time);
-        info->newDiscreteStatesNeeded = fmi2True;
-        return fmi2OK;
-    }
-    if (ensure(m)) return fmi2Error;
-    memcpy(m->z_pre, m->z, sizeof(double) * NZ);
+    if (event_update(m, initial)) { m->phase = PHASE_ERROR; return fmi2Error; }
     return fmi2OK;
 }
 
@@ -655,7 +581,7 @@ FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean 
     *enterEventMode = fmi2False;
     *terminateSimulation = fmi2False;
     if (NZ == 0) return fmi2OK;
-    if (ensure(INST)) return fmi2Error;
+    if (ensure(INST) || check_indicators(INST)) return fmi2Error;
     for (i = 0; i < NZ; i++)
         if (crossed(INST->z_pre[i], INST->z[i]) >= 0) *enterEventMode = fmi2True;
     return fmi2OK;
@@ -694,7 +620,7 @@ FMI2_EXPORT fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventInd
     if (NZ == 0) return fmi2OK;
     if (ensure(INST)) return fmi2Error;
     memcpy(eventIndicators, INST->z, sizeof(double) * NZ);
-    return fmi2OK;
+    return check_indicators(INST) ? fmi2Error : fmi2OK;
 }
 
 FMI2_EXPORT fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
