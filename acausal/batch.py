@@ -66,7 +66,9 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
             raise SimulationError("compiled path: non-finite states in a batch member")
         nodes = cm.compiled_path.gauss_states(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
             if dense_output and t_out.size > 1 else None
-        out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q,
+        later = cm.compiled_path.quadratures_later(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
+            if nodes is not None else None
+        out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q, more_integrals=later,
                           solver=f"{cm.compiled_path.integrator_name(us[0])} (compiled path, CasADi; batch of "
                                  f"{len(sets)} on {n_threads} threads)"))
     return out

@@ -22,12 +22,14 @@ class Result:
     """
 
     def __init__(self, cm, t, X, p, u, D, events, segments=None, exact_time_function=False, nodes=None,
-                 integrals=None, solver: str = ""):
+                 integrals=None, solver: str = "", more_integrals=None):
         self.model = cm
         self.solver = solver  # which integrator ran, and on which path (see CompiledModel.simulate)
         self._segments = segments or []
         self._given_nodes = nodes  # compiled path: () -> (breakpoints, states at their Gauss nodes)
         self._integrals = integrals or {}  # name -> integral from the start at t, integrated with the states
+        self._more_integrals = more_integrals  # compiled path: names -> such integrals, by running again
+        self._asked: set = set()  # names already run again for
         self._exact_time_function = exact_time_function
         self.t = np.asarray(t)
         self.states = X
@@ -162,9 +164,10 @@ class Result:
         Integrated as accurately as the simulation itself: 5-point Gauss-Legendre on every solver step, with
         the states taken from the integrator's dense output (steps end at events, so mode switches are exact).
         On the compiled path the model's energy accounts (sources, boundary ports, losses, power sensors) are
-        integrated by CVODES with the states; anything else by the same rule on the output intervals (states at
-        their Gauss nodes). A model without states is integrated the same way on the output grid with exact
-        values at the nodes.
+        integrated by CVODES with the states; anything else with a compiled form is integrated the same way by
+        one more run of the same integration the first time it is asked for (with ``dense_output=False``, and for
+        what has no compiled form, by the Gauss rule on the output intervals). A model without states is
+        integrated the same way on the output grid with exact values at the nodes.
         """
         return self._cumulative(what)
 
@@ -192,15 +195,15 @@ class Result:
         :class:`ModelError`.
         """
         k0, k1 = self._window(t0, t1)
+        self._integrate_with_states(self._through(a) + self._through(b))  # one more run for both, if any
         ea, eb = (self._passed(x, k0, k1) for x in (a, b))
         if ea == 0.0:
             raise ModelError(f"efficiency {a} -> {b}: no net energy passed {a!r} between {self.t[k0]:g} and "
                              f"{self.t[k1]:g} s")
         return abs(eb) / abs(ea)
 
-    def _passed(self, name: str, k0: int, k1: int) -> float:
-        """Net energy [J] through ``name`` between samples ``k0`` and ``k1``: what :meth:`energy` integrates,
-        or for a component with several ports the power into it through all of its physical ports."""
+    def _through(self, name: str) -> list:
+        """What :meth:`_passed` integrates for ``name``: ``name`` itself, or a component's physical ports."""
         cm = self.model
         if name in cm.flat.components and name not in self and not (f"{name}.v" in self and f"{name}.i" in self):
             known = set(self.names())
@@ -208,9 +211,13 @@ class Result:
                      and ({f"{p}.v", f"{p}.i"} <= known or {f"{p}.phi", f"{p}.tau"} <= known
                           or f"{p}.Q_flow" in known)]
             if ports:
-                return float(sum(self.energy(p)[k1] - self.energy(p)[k0] for p in ports))
-        e = self.energy(name)
-        return float(e[k1] - e[k0])
+                return ports
+        return [name]
+
+    def _passed(self, name: str, k0: int, k1: int) -> float:
+        """Net energy [J] through ``name`` between samples ``k0`` and ``k1``: what :meth:`energy` integrates,
+        or for a component with several ports the power into it through all of its physical ports."""
+        return float(sum(self.energy(p)[k1] - self.energy(p)[k0] for p in self._through(name)))
 
     def sankey(self, ax=None, t0: float | None = None, t1: float | None = None, title: str | None = None):
         """Sankey diagram between output times ``t0`` and ``t1``: the energy passed on at each power sensor (in
@@ -275,8 +282,19 @@ class Result:
         self._nodes = (bps, tn.shape, half, wg, sub)
         return self._nodes
 
+    def _integrate_with_states(self, names) -> None:
+        """On the compiled path: the integrals of ``names`` not yet integrated with the states, by one more run
+        of the same integration with them as quadratures (an output interval may hold a transient that its Gauss
+        nodes do not resolve; the integrator's steps do)."""
+        names = [n for n in dict.fromkeys(names) if n not in self._integrals and n not in self._asked]
+        if self._more_integrals is None or not names:
+            return
+        self._asked.update(names)
+        self._integrals.update(self._more_integrals(names))
+
     def _cumulative(self, what):
         t = self.t
+        self._integrate_with_states([what])
         if what in self._integrals:
             q = self._integrals[what]
             return q - q[0]

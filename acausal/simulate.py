@@ -187,7 +187,8 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
     if not np.all(np.isfinite(X)):
         raise SimulationError("compiled path: non-finite states")
-    return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals,
+    later = path.quadratures_later(t_start, x0, t_out, p, d, u, *args) if nodes is not None else None
+    return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals, more_integrals=later,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi)")
 
 

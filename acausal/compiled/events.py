@@ -41,15 +41,20 @@ LOCATE_DEPTH = 3  # runs of runs' brackets where the cubic between two output ti
 
 
 def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
-                         dense_output, starts=None):
-    """The run of a model with state events on the compiled path; returns the Result."""
+                         dense_output, starts=None, integrals=None):
+    """The run of a model with state events on the compiled path; returns the Result. ``integrals``: the names
+    integrated as quadratures with the states (default: the energy accounts, with ``dense_output``); the Result
+    runs the same integration again for a name it is asked the energy of that is not among them."""
     from ..energy import account_integrals
     from ..result import Result
     from ..simulate import initialize
 
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
-    names = account_integrals(cm.accounts) if dense_output and cm.accounts is not None else []
+    if integrals is None:
+        integrals = account_integrals(cm.accounts) if dense_output and cm.accounts is not None else []
+    names = path.integrable(integrals, u) if integrals else []
+    x_start, d_start = x0, d
     d = settle_modes(cm, t_start, x0, p, d, u)
     x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
     n, N = len(x0), t_out.size
@@ -98,7 +103,12 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hits)
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
-    return Result(cm, t_out, X, p, u, D, events=events, integrals=Q,
+    def later(more):  # the same run again, those integrated with the states
+        run = simulate_with_events(cm, t_start, x_start, t_out, p, d_start, u, rtol, atol, max_step, first_step,
+                                   max_events, False, starts, integrals=list(more))
+        return run._integrals
+
+    return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi; events located between its runs)")
 
 

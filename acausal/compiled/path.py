@@ -14,6 +14,11 @@ and says why. State events are handled in :mod:`acausal.compiled.events`.
 """
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
+
 import numpy as np
 
 from ..errors import SimulationError
@@ -181,11 +186,17 @@ class CompiledPath:
                 if key not in self._integrators:
                     self._integrators[key] = integ.map(B, "thread", threads) if threads > 1 else integ.map(B)
                 integ = self._integrators[key]
-            try:
-                out = integ(**call)
-            except RuntimeError as exc:
+            with _solver_messages() as said:
+                try:
+                    out = integ(**call)
+                except RuntimeError as exc:
+                    failed = _first_line(exc)
+                else:
+                    failed = None
+            if failed is not None:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
-                                      f"{t_start:g} s to {t_end:g} s failed: {_first_line(exc)}") from None
+                                      f"{t_start:g} s to {t_end:g} s failed: {failed}"
+                                      + (f" (SUNDIALS: {said()})" if said() else "")) from None
             X[:, :, ~at_start] = np.asarray(out["xf"]).reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
                 Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
@@ -195,6 +206,23 @@ class CompiledPath:
     def _algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
         vals = self.cm.funcs["all_values"](t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u)
         return np.array([float(vals[i]) for i in entry["z_index"]])
+
+    def integrable(self, names, u) -> list:
+        """The names among ``names`` whose integrand has a compiled form (what CVODES can integrate as a
+        quadrature beside the states)."""
+        return list(self._quadratures(self._rhs_entry(u), tuple(names))[0])
+
+    def quadratures_later(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
+        """A function ``names -> {name: integral from t_start at t_out}`` that runs the integration again with
+        those names as quadratures (what :meth:`Result.energy <acausal.result.Result.energy>` asks of a name that
+        is not one of the accounts integrated with the run: its integral to the integrator's accuracy, not to
+        the output grid's)."""
+        def integrals(names):
+            names = self.integrable(names, u)
+            if not names:
+                return {}
+            return self.integrate(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, integrals=names)[1]
+        return integrals
 
     def gauss_states(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
         """A function returning ``(t_out, states at the 5 Gauss-Legendre nodes of every output interval)``,
@@ -335,3 +363,32 @@ def _rate(expr, entry):
         dz = -ca.solve(ca.jacobian(r, z), ca.mtimes(ca.jacobian(r, x), f) + ca.jacobian(r, t))
         rate = rate + ca.mtimes(ca.jacobian(expr, z), dz)
     return rate
+
+
+@contextlib.contextmanager
+def _solver_messages():
+    """What SUNDIALS prints on the process's standard error during the block (IDAS's consistent-initialisation
+    line search reports its failures there, bypassing Python), captured: the block gets a function returning the
+    text, which the caller puts into its own error where the run failed (runs that succeed print nothing). One
+    scratch file per process takes the text, emptied after each block."""
+    if not _SINK:
+        _SINK.append(tempfile.TemporaryFile(mode="w+b"))
+    sink = _SINK[0].fileno()
+    sys.stderr.flush()
+    saved = os.dup(2)
+    os.dup2(sink, 2)
+    text = []
+    try:
+        yield lambda: text[0] if text else ""
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        size = os.lseek(sink, 0, os.SEEK_END)
+        if size:
+            os.lseek(sink, 0, os.SEEK_SET)
+            text.append(" ".join(os.read(sink, size).decode(errors="replace").split()))
+            os.ftruncate(sink, 0)
+            os.lseek(sink, 0, os.SEEK_SET)
+
+
+_SINK: list = []  # the scratch file of _solver_messages, opened on first use
