@@ -11,11 +11,14 @@ from scipy import optimize
 from .errors import SimulationError
 
 
-def zeros(cm, t, x, p, d, u):
+def zeros(cm, t, x, p, d, u, check: bool = True):
     """The zero functions at one point (time ``t`` [s], states ``x``, modes ``d``); a NaN or infinite value is a
-    :class:`SimulationError` (:func:`check_zeros`), never a crossing."""
+    :class:`SimulationError` (:func:`check_zeros`), never a crossing. ``check=False``: the values as they are
+    (the end of a solver step, where :func:`crossings_in_step` first looks for a crossing before the value went
+    bad)."""
     z = np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
-    check_zeros(cm, t, z, d)
+    if check:
+        check_zeros(cm, t, z, d)
     return z
 
 
@@ -81,21 +84,47 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
     its sign at both ends agrees, and of several crossings in one step the first is found (Brent's method on the
     whole step would find any one of them). Zero functions faster than the states (a fast source) can still
     cross twice between two of these points: bound the step (``max_step``) below half their shortest switching
-    interval on this path."""
-    if substeps <= 0 or not len(z0):
-        return crossings(cm, sol, t0, t1, z0, z1, p, d, u)
-    ts = t0 + (t1 - t0) * np.arange(1, substeps + 1) / (substeps + 1)
-    X = np.asarray(sol(ts))
-    Z = np.array([np.broadcast_to(np.asarray(v, dtype=float), ts.shape) for v in cm.funcs["zeros"](ts, X, p, d, u)])
-    check_zeros(cm, ts, Z, d)
+    interval on this path.
+
+    A zero function may turn NaN or infinite within the step (``z1`` unchecked: ``sqrt(x)`` with ``x`` falling
+    through zero): the step is then searched up to the last time its values are finite (bisection), and only
+    when no crossing comes before it is the bad value an error (:func:`check_zeros`, at the first bad time)."""
+    ts = t0 + (t1 - t0) * np.arange(1, max(substeps, 0) + 1) / (max(substeps, 0) + 1)
+    if ts.size and len(z0):
+        X = np.asarray(sol(ts))
+        Z = np.array([np.broadcast_to(np.asarray(v, dtype=float), ts.shape)
+                      for v in cm.funcs["zeros"](ts, X, p, d, u)])
+    else:
+        Z = np.zeros((len(z0), 0))
+    times = np.append(ts, t1)
+    Z = np.concatenate([Z, np.asarray(z1, dtype=float).reshape(-1, 1)], axis=1)
+    bad = np.flatnonzero(~np.all(np.isfinite(Z), axis=0))
+    if bad.size:  # cut the step at the last finite values before the first bad ones
+        k = int(bad[0])
+        lo, hi = (times[k - 1] if k else t0), times[k]
+        z_hi = Z[:, k]
+        for _ in range(100):
+            if hi - lo <= 1e-13 * max(1.0, abs(hi)):
+                break
+            mid = 0.5 * (lo + hi)
+            z_mid = zeros(cm, mid, sol(mid), p, d, u, check=False)
+            if np.all(np.isfinite(z_mid)):
+                lo = mid
+            else:
+                hi, z_hi = mid, z_mid
+        z_lo = zeros(cm, lo, sol(lo), p, d, u, check=False) if lo > t0 else np.asarray(z0, dtype=float)
+        times = np.append(times[:k], lo) if lo > t0 else times[:0]
+        Z = np.concatenate([Z[:, :k], z_lo.reshape(-1, 1)], axis=1) if lo > t0 else Z[:, :0]
     za, ta = np.asarray(z0, dtype=float), t0
-    for k in range(substeps):
+    for k in range(times.size):
         zb = Z[:, k]
-        found = crossings(cm, sol, ta, ts[k], za, zb, p, d, u)
+        found = crossings(cm, sol, ta, times[k], za, zb, p, d, u)
         if found:
             return found
-        za, ta = zb, ts[k]
-    return crossings(cm, sol, ta, t1, za, z1, p, d, u)
+        za, ta = zb, times[k]
+    if bad.size:
+        check_zeros(cm, hi, z_hi, d)
+    return []
 
 
 def _finite(cm, i, t, value, d):
