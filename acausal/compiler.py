@@ -479,8 +479,11 @@ def _param_plan(flat) -> list:
 def _check_param(info, v) -> bool:
     """Check one parameter value (a number, or an array of values for a batch of runs) for finiteness and
     against the parameter's bounds; True when it is an array of values. Numbers take the fast path."""
-    if isinstance(v, (float, int)):
+    if isinstance(v, (float, int)) and not isinstance(v, bool):
         finite, low, high, batch = math.isfinite(v), v, v, False
+    elif isinstance(v, (str, bytes, bool, np.bool_)):  # "0.5" or True would pass np.asarray as numbers
+        raise ModelError(f"parameter {info.name!r} of {info.owner}: {v!r} is a {type(v).__name__}, not a number "
+                         f"[{info.unit}]")
     else:
         try:
             arr = np.asarray(v, dtype=float)

@@ -312,6 +312,10 @@ class Component:
         for key, value in values.items():
             d = decl.get(key)
             if isinstance(d, Parameter):
+                if isinstance(value, (str, bytes, bool)):  # "0.5" would be parsed, True taken as 1
+                    raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is a "
+                                     f"{type(value).__name__}; give a number [{d.unit}] or an expression of "
+                                     f"parameters")
                 self._values[key] = value
             elif isinstance(d, (Variable, Discrete)):
                 self._starts[key] = value if isinstance(value, Start) else Start(float(value), getattr(d, "fixed", False))

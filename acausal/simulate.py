@@ -53,6 +53,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
                                        n_points)
     p = cm.param_vector(params)
+    if p.dtype == object:  # an array of values: a batch of runs
+        batch = [name for name, value in (params or {}).items() if np.ndim(value) > 0]
+        raise ModelError(f"simulate runs one parameter set, but {', '.join(map(repr, batch))} "
+                         f"{'is an array' if len(batch) == 1 else 'are arrays'} of values: give numbers, or run the "
+                         f"sets with sim.simulate_many(t_end, [{{...}}, ...]) or acausal.sweep.sweep")
     u = cm.input_tuple(inputs, p)
     d = cm.discrete_start()
     n = len(cm.state_names)
@@ -118,7 +123,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
             sol = solver.dense_output() if (need_out or has_events or dense_output) else None
             hit = None
             if has_events:
-                z_new = zeros(cm, t_new, solver.y, p, d, u)
+                z_new = zeros(cm, t_new, solver.y, p, d, u, check=False)  # a bad value: after any crossing
                 hits = crossings_in_step(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
                 z_old = z_new
                 if hits:
