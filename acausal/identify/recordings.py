@@ -11,7 +11,9 @@ unknown unit (``time_ms`` where ``time_s`` is declared), values that are not num
 not strictly increasing (duplicated or going back), JSON that misses a required key, has an unknown key, a value
 of the wrong type or a non-positive value where a positive one is required, and CSV and JSON files that do not
 pair up. Nothing is dropped or guessed: extra CSV columns are kept (``Recording.extra``) and otherwise ignored.
-A file separated by semicolons or tabs is named as such; extensions may be upper-case.
+A file separated by semicolons or tabs is named as such; extensions may be upper-case. A JSON key given twice is
+an error (a parser would silently keep the last value), and so is a gap in time wider than
+``RecordingFormat.max_gap`` median sample intervals (rows dropped: a smoothed replay cannot bridge them).
 
 Torn and mixed sets: a format may declare the span a recording must cover (``RecordingFormat.expected_span``, e.g.
 strides x stride time), and a writer of a whole set writes ``manifest.json`` (:func:`write_manifest`: first as not
@@ -79,6 +81,11 @@ class RecordingFormat:
     #: ``meta -> seconds or None``: the time the recording must span according to its JSON (e.g. strides x
     #: stride time); a recording that covers less (truncated) or more is an error. ``None``: no such check
     expected_span: Callable | None = None
+    #: the widest interval allowed between two samples, in median sample intervals: a wider gap means rows were
+    #: dropped (a buffer overrun, a cut) and is an error naming the line. The default lets one dropped sample pass
+    #: (a gap of 2), as jittery loggers come close to it (the XL330 recordings reach 1.75), and refuses two (a gap
+    #: of 3). ``None``: gaps allowed (a format for data recorded in bursts)
+    max_gap: float | None = 2.5
 
     def column(self, name: str) -> Column:
         return next(c for c in self.columns if c.name == name)
@@ -210,26 +217,55 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
         raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
     meta, notes = _load_meta(json_path, fmt)
     columns, extra = _load_csv(csv_path, fmt)
+    if fmt.max_gap is not None:
+        _check_gaps(csv_path, columns[fmt.time_column], fmt.max_gap, fmt.time_column)
     if fmt.expected_span is not None:
         _check_span(csv_path, columns[fmt.time_column], fmt.expected_span(meta))
     return Recording(csv_path.stem, columns, meta, extra, csv_path, notes)
 
 
+def _check_gaps(path: Path, t: np.ndarray, max_gap: float, column: str):
+    """No interval between samples wider than ``max_gap`` median intervals (rows dropped)."""
+    if t.size < 3:
+        return
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    k = int(np.argmax(dt))
+    if dt[k] > max_gap * med:
+        raise DataError(f"{path}, line {k + 3}, column {column!r}: a gap of {dt[k]:.4g} s after t = {float(t[k])!r} "
+                        f"s, {dt[k] / med:.1f} times the median sample interval {med:.4g} s: rows are missing "
+                        "(dropped samples or a cut in the file)")
+
+
 def _check_span(path: Path, t: np.ndarray, span):
-    """The samples cover ``span`` seconds (to within two sample intervals)."""
+    """The samples cover ``span`` seconds to within one sample interval (a logger may write both ends, t = 0 and
+    t = span); two or more samples less is a truncated file."""
     if span is None or t.size < 2:
         return
     dt = float(np.median(np.diff(t)))
     covered = float(t[-1] - t[0]) + dt
-    if abs(covered - span) > 2 * dt:
+    if abs(covered - span) > 1.5 * dt:
         why = "truncated (an interrupted write?)" if covered < span else "longer than declared"
         raise DataError(f"{path}: the samples cover {covered:.4g} s ({t.size} rows) but its JSON declares "
                         f"{span:.4g} s: {why}")
 
 
+def _no_duplicate_keys(path: Path):
+    """A JSON object hook that refuses a key given twice in one object (``json`` would keep the last silently)."""
+    def hook(pairs):
+        seen = {}
+        for k, v in pairs:
+            if k in seen:
+                raise DataError(f"{path}: key {k!r} appears twice (values {seen[k]!r} and {v!r}); which one is "
+                                "meant is not for the loader to guess")
+            seen[k] = v
+        return seen
+    return hook
+
+
 def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
     try:
-        raw = json.loads(path.read_text())
+        raw = json.loads(path.read_text(), object_pairs_hook=_no_duplicate_keys(path))
     except json.JSONDecodeError as e:
         raise DataError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
     if not isinstance(raw, dict):
@@ -314,8 +350,8 @@ def _load_csv(path: Path, fmt: RecordingFormat):
     if (dt <= 0).any():
         r = int(np.argmax(dt <= 0))
         what = "is duplicated" if dt[r] == 0 else "goes back"
-        raise DataError(f"{path}, line {r + 3}, column {fmt.time_column!r}: time {what} ({t[r + 1]!r} after "
-                        f"{t[r]!r}); time must increase strictly")
+        raise DataError(f"{path}, line {r + 3}, column {fmt.time_column!r}: time {what} ({float(t[r + 1])!r} after "
+                        f"{float(t[r])!r}); time must increase strictly")
     declared = {c.name for c in fmt.columns}
     return ({c.name: cols[c.name] for c in fmt.columns}, {h: v for h, v in cols.items() if h not in declared})
 

@@ -60,6 +60,12 @@ class SmoothingSpline(Signal):
         inner = np.linspace(t[0], t[-1], n_int + 1)
         knots = np.r_[[t[0]] * degree, inner, [t[-1]] * degree]
         bspl = _least_squares_spline(t, y, knots, degree)
+        if not np.all(np.isfinite(bspl.c)):  # a knot span without samples: the fit is not unique
+            dt = np.diff(t)
+            k = int(np.argmax(dt))
+            raise DataError(f"{name}: no unique smooth curve through the samples: the widest gap between samples is "
+                            f"{dt[k]:.4g} s after t = {t[k]:.6g} s, for a knot spacing of {spacing:.4g} s (rows "
+                            "missing?)")
         self._pp = [PPoly.from_spline(bspl)]
         for _ in range(self.max_order):
             self._pp.append(self._pp[-1].derivative())
