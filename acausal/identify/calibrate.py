@@ -18,7 +18,13 @@ squares.
 
 Uncertainty: the covariance ``s^2 (J^T J)^-1`` at the optimum, with ``s^2`` the residual variance; it assumes
 white residuals, so it is optimistic when the model misses something systematic (see the residual analysis).
-Quality: RMSE per signal and experiment on the training and held-out samples.
+Quality: RMSE per signal and experiment on the training and held-out samples, and ``Calibration.warnings``:
+what the screening (:mod:`~.screening`) finds suspect in the data or the fit (a dead sensor, a reversed sign, a
+recording far off the others, readings that repeat at another cycle than ``Experiment.period``, a held-out RMSE many
+times the noise), on the fitted signals and on every other signal the experiments both record and predict. A
+signal that reads one constant value in every experiment is an error: there is nothing to fit on it and its noise
+level cannot be estimated. A model error while predicting an experiment (e.g. a setting of its recording outside a
+parameter's bounds) names the experiment.
 """
 from __future__ import annotations
 
@@ -28,7 +34,8 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..errors import DataError
+from ..errors import AcausalError, DataError
+from .screening import screen
 
 #: the robust losses of :func:`scipy.optimize.least_squares` (``"linear"``: plain least squares)
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -47,6 +54,9 @@ class Experiment:
     #: optional exact derivatives: ``sensitivity(values, names) -> (predicted, sens)`` with ``sens[signal]`` of
     #: shape ``(len(names), N)``; when every experiment has one, :func:`calibrate` uses it as the Jacobian
     sensitivity: Callable | None = None
+    #: the cycle the recorded motion repeats with, in seconds (e.g. the stride time from the recording's settings):
+    #: the screening checks the readings repeat with it. None: not cyclic, or not checked
+    period: float | None = None
 
 
 @dataclass(frozen=True)
@@ -80,6 +90,8 @@ class Calibration:
     rmse_test: dict
     start: dict
     counts: dict = field(default_factory=dict)  # "train"/"test" -> (experiment, signal) -> number of samples
+    #: what the screening found suspect in the data or the fit (sentences; empty: nothing), :mod:`~.screening`
+    warnings: list = field(default_factory=list)
 
     def rmse(self, signal: str, which: str = "test") -> float:
         """RMSE of one signal over all experiments (pooled samples)."""
@@ -102,13 +114,53 @@ def _check_mask(mask: str) -> str:
 def noise_scales(experiments, signals) -> dict:
     """Noise standard deviation of each measured signal, from its second differences: for white noise of level
     sigma, ``y[k+1] - 2 y[k] + y[k-1]`` has standard deviation ``sqrt(6) sigma`` while a smooth signal sampled
-    fast contributes little; the median absolute value makes it robust (``MAD / 0.6745``)."""
+    fast contributes little; the median absolute value makes it robust (``MAD / 0.6745``). Experiments whose
+    reading never changes are left out (a dead sensor's zeros would make the noise look small); where most second
+    differences are zero the non-zero ones give the level. A signal constant in every experiment is a DataError."""
     out = {}
     for s in signals:
-        d2 = np.concatenate([np.diff(e.measured[s], 2) for e in experiments])
+        live = [e for e in experiments if np.ptp(e.measured[s]) > 0]  # a dead sensor's zeros would bias it low
+        if not live:
+            raise DataError(f"{_dead_everywhere(experiments, s)}; there is nothing to fit on it")
+        d2 = np.concatenate([np.diff(e.measured[s], 2) for e in live])
         sigma = float(np.median(np.abs(d2)) / 0.6745 / np.sqrt(6.0))
-        out[s] = sigma if sigma > 0 else float(np.sqrt(np.mean(np.concatenate([e.measured[s] for e in experiments]) ** 2))) or 1.0
+        if sigma == 0:  # most readings equal their neighbours (a coarse quantisation, or a sensor stuck most of the
+            changes = d2[d2 != 0]  # time): the size of the changes that do occur, not the size of the signal
+            sigma = float(np.sqrt(np.mean(changes**2)) / np.sqrt(6.0)) if changes.size else 0.0
+        out[s] = sigma or 1.0
     return out
+
+
+def _dead_everywhere(experiments, s: str) -> str:
+    values = sorted({float(e.measured[s][0]) for e in experiments})
+    return (f"signal {s!r} reads one constant value ({', '.join(f'{v:g}' for v in values[:3])}) throughout every "
+            f"experiment ({', '.join(e.name for e in experiments)}): a dead or disconnected sensor, or an empty column")
+
+
+def _screen(experiments, preds, signals, scales, period) -> list:
+    """:func:`~.screening.screen` on the fitted signals and on every other signal that all experiments both record
+    and predict (a wrong setting can show where the fit does not look, e.g. in the torque of a current fit)."""
+    others = sorted(set.intersection(*(set(e.measured) & set(preds[e.name]) for e in experiments)) - set(signals))
+    out, scales = [], dict(scales)
+    for s in others:
+        if all(np.ptp(e.measured[s]) == 0 for e in experiments):
+            out.append(f"{_dead_everywhere(experiments, s)} (a signal not fitted)")
+        elif s not in scales:
+            scales.update(noise_scales(experiments, [s]))
+    checked = list(signals) + [s for s in others if s in scales]
+    return screen(experiments, preds, checked, scales, period=period, who="the calibrated model",
+                  misfit_hint="the model misses an effect (`acausal diagnose` names it), or the data is wrong") + out
+
+
+def _named(e: Experiment, fn, *args):
+    """``fn(*args)`` for experiment ``e``; an error of the model (e.g. a setting of the recording outside a
+    parameter's bounds) is re-raised naming the experiment."""
+    try:
+        return fn(*args)
+    except AcausalError as err:
+        if str(err).startswith(f"experiment {e.name!r}"):
+            raise
+        raise type(err)(f"experiment {e.name!r}: {err}") from err
 
 
 def residual_vector(experiments, values, signals, weights, scales, mask="train") -> np.ndarray:
@@ -117,7 +169,7 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
         m = getattr(e, _check_mask(mask))
         if not m.any():  # no samples of this kind (e.g. a recording held out whole): nothing to predict
             continue
-        pred = e.predict(values)
+        pred = _named(e, e.predict, values)
         for s in signals:
             parts.append(np.sqrt(weights.get(s, 1.0)) * (pred[s][m] - e.measured[s][m]) / scales[s])
     return np.concatenate(parts)
@@ -181,8 +233,9 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     values = values_of(sol.x)
     std = {k: float(np.sqrt(max(cov[i, i], 0.0))) for i, k in enumerate(names)}
     rmse_train, rmse_test, counts = {}, {}, {"train": {}, "test": {}}
+    preds = {}
     for e in experiments:
-        pred = e.predict(values)
+        pred = preds[e.name] = _named(e, e.predict, values)
         for s in signals:
             for which, table in (("train", rmse_train), ("test", rmse_test)):
                 msk = getattr(e, which)
@@ -192,6 +245,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
                       {f.name: f.start for f in free}, counts)
+    cal.warnings = _screen(experiments, preds, signals, scales, lambda e: e.period)
     return cal
 
 
@@ -205,7 +259,7 @@ def jacobian_matrix(experiments, values, names, signals, weights=None, scales=No
         m = getattr(e, _check_mask(mask))
         if not m.any():
             continue
-        _, sens = e.sensitivity(values, list(names))
+        _, sens = _named(e, e.sensitivity, values, list(names))
         for s in signals:
             parts.append(np.sqrt(weights.get(s, 1.0)) * sens[s][:, m].T / scales[s])
     return np.concatenate(parts)
@@ -215,7 +269,7 @@ def rmse_table(experiments, values: dict, signals, mask: str = "test") -> dict:
     """RMSE per (experiment, signal) of the predictions with ``values`` on the ``mask`` samples."""
     out = {}
     for e in experiments:
-        pred = e.predict(values)
+        pred = _named(e, e.predict, values)
         msk = getattr(e, _check_mask(mask))
         for s in signals:
             out[(e.name, s)] = float(np.sqrt(np.mean((pred[s][msk] - e.measured[s][msk]) ** 2)))

@@ -43,6 +43,7 @@ from scipy.stats import binom
 from ..errors import AcausalError, DataError
 from .calibrate import Calibration, Free, calibrate, jacobian_matrix, noise_scales, residual_vector
 from .residuals import cross_correlations, leave_one_group_out, phase_profile, whiteness
+from .screening import screen as screen_fit
 
 
 @dataclass(frozen=True)
@@ -387,36 +388,15 @@ def screen(problem: Problem, fit: Fit, scales: dict, thresholds: Thresholds = Th
     """What is wrong with the data or the fit, as sentences (empty when nothing is): per recording and signal, a
     dead sensor (the reading is constant while the model's varies), a reversed sign (reading and prediction
     anti-correlated), a recording far off the others (RMSE ``outlier`` times the set's median: swapped columns, a
-    wrong setting in its JSON such as the stride time, another rig); and for the whole fit, a held-out RMSE many
-    noise levels (``misfit``) above the noise: the model misses something no candidate covers, or the data is
-    wrong. A verdict is never a silent ``none`` on data its own model cannot follow."""
-    out = []
+    wrong setting in its JSON such as the stride time, another rig), readings that repeat at another cycle than
+    ``problem.period`` (a wrong stride time); and for the whole fit, a held-out RMSE many noise levels
+    (``misfit``) above the noise: the model misses something no candidate covers, or the data is wrong
+    (:func:`~.screening.screen`). A verdict is never a silent ``none`` on data its own model cannot follow."""
     preds = {e.name: e.predict(fit.values) for e in fit.exps}
-    for s in problem.signals:
-        rows = []
-        for e in fit.exps:
-            inner = e.train | e.test
-            m, p = np.asarray(e.measured[s])[inner], np.asarray(preds[e.name][s])[inner]
-            rows.append((e, m, p, float(np.sqrt(np.mean((p - m) ** 2)))))
-        median = float(np.median([r for *_, r in rows]))
-        for e, m, p, rmse in rows:
-            where = f"{e.name}, {s}"
-            if np.std(m) <= 1e-12 * max(1.0, abs(float(np.mean(m)))) and np.std(p) > 3 * scales[s]:
-                out.append(f"{where}: the reading is constant while the model's varies by {np.std(p):.3g}: a dead "
-                           "or disconnected sensor")
-            elif np.std(m) > 0 and np.std(p) > 0 and np.corrcoef(m, p)[0, 1] < -0.5:
-                out.append(f"{where}: reading and prediction are anti-correlated (r = {np.corrcoef(m, p)[0, 1]:.2f}): "
-                           "a reversed sign (sensor or column)")
-            elif len(rows) > 2 and rmse > thresholds.outlier * median and rmse > 3 * scales[s]:
-                out.append(f"{where}: RMSE {rmse:.3g} is {rmse / median:.1f} times the set's median {median:.3g}: "
-                           "swapped columns, a wrong setting in its JSON, or another rig")
-    worst = max(problem.signals, key=lambda s: fit.test_rmse[s] / scales[s])
-    level = fit.test_rmse[worst] / scales[worst]
-    if level > thresholds.misfit:
-        out.append(f"the final model's held-out RMSE of {worst} is {level:.0f} times its noise level: "
-                   + ("no candidate explains it; the model misses an effect outside the candidates, or the data "
-                      "is wrong" if not fit.effects else "the named effects do not explain everything"))
-    return out
+    hint = ("no candidate explains it; the model misses an effect outside the candidates, or the data is wrong"
+            if not fit.effects else "the named effects do not explain everything")
+    return screen_fit(fit.exps, preds, problem.signals, scales, thresholds.outlier, thresholds.misfit,
+                      period=problem.period, who="the final model", misfit_hint=hint)
 
 
 def residual_analysis(problem: Problem, fit: Fit, bins: int = 50, max_lag: int = 50) -> dict:
