@@ -51,12 +51,14 @@ class Accounts:
     sensors: tuple  # power-sensor readings ("P_source.P", ...), build order
     stages: dict = field(default_factory=dict)  # sensor reading -> loss variables between it and the previous one;
     # "" -> losses after the last sensor (or of a model without sensors)
+    heat: dict = field(default_factory=dict)  # loss variable -> heat ports of its component: the part of the loss
+    # that leaves through them stays in the model (the thermal network stores it or passes it to its boundary)
 
 
 def accounts(model: Component) -> Accounts:
     """The accounts of a built model instance (a compiled model keeps them as ``CompiledModel.accounts``)."""
     model._ensure_built()
-    losses, stored, sources, boundary, sensors = [], [], [], [], []
+    losses, stored, sources, boundary, sensors, heat = [], [], [], [], [], {}
     segments: list = [[]]  # losses between consecutive sensors: segments[i] comes before sensors[i]
 
     def visit(parent):
@@ -72,6 +74,8 @@ def accounts(model: Component) -> Accounts:
             keep = [f"{c.path}.{n}" for n in names if _is_stored(n)]
             src = [f"{c.path}.{n}" for n in names if n == SOURCE]
             if own or keep or src:
+                ports = [ch.path for ch in c._children.values() if isinstance(ch, Connector) and ch.domain == "thermal"]
+                heat.update({n: tuple(ports) for n in own if ports})
                 losses.extend(own)
                 segments[-1].extend(own)
                 stored.extend(keep)
@@ -90,7 +94,7 @@ def accounts(model: Component) -> Accounts:
         stages[sensors[0]] = []
     if segments[-1]:
         stages[""] = segments[-1]  # after the last sensor (or no sensor at all): no stage
-    return Accounts(tuple(losses), tuple(stored), tuple(sources), tuple(boundary), tuple(sensors), stages)
+    return Accounts(tuple(losses), tuple(stored), tuple(sources), tuple(boundary), tuple(sensors), stages, heat)
 
 
 @dataclass
@@ -105,6 +109,8 @@ class Balance:
     losses: dict
     stored: dict
     efficiency: tuple | None = None  # (from, to, ratio) when asked for (Result.energy_balance(between=...))
+    heat: dict = field(default_factory=dict)  # (loss variable, heat ports) -> J of that loss passed on as heat into
+    # the model's thermal network (not in ``losses``: counted where the network stores it or passes it on)
 
     @property
     def delivered(self) -> float:
@@ -125,6 +131,8 @@ class Balance:
         lines = [f"energy balance over {self.t0:g} .. {self.t1:g} s [J]"]
         lines += [f"  {kind:<21} {k:<{width}} {v:12.6g}" for kind, k, v in rows]
         lines.append(f"  relative residual {self.residual:.2e}")
+        for (loss, ports), v in self.heat.items():
+            lines.append(f"  ({loss}: {v:.6g} J more, passed on as heat through {', '.join(ports)})")
         if self.efficiency is not None:
             a, b, eta = self.efficiency
             lines.append(f"  efficiency {a} -> {b}: {eta:.4g}")
@@ -171,9 +179,11 @@ def balance(res, acc: Accounts, k0: int = 0, k1: int = -1) -> Balance:
     for comp, ports in acc.boundary:
         delivered = -sum(between(p) for p in ports)
         boundary[comp] = delivered
+    passed = {n: -sum(between(p) for p in ports) for n, ports in acc.heat.items()}  # heat out of the component
     return Balance(float(res.t[k0]), float(res.t[k1]), {n: between(n) for n in acc.sources}, boundary,
-                   {n: between(n) for n in acc.losses},
-                   {n: float(np.asarray(res[n])[k1] - np.asarray(res[n])[k0]) for n in acc.stored})
+                   {n: between(n) - passed.get(n, 0.0) for n in acc.losses},
+                   {n: float(np.asarray(res[n])[k1] - np.asarray(res[n])[k0]) for n in acc.stored},
+                   heat={(n, ports): passed[n] for n, ports in acc.heat.items()})
 
 
 def draw_sankey(res, acc: Accounts, ax=None, k0: int = 0, k1: int = -1, title: str | None = None):
@@ -240,5 +250,6 @@ def integrand_expr(cm, what: str):
 def account_integrals(acc: Accounts) -> list:
     """Every name whose energy the balance and the Sankey diagram integrate (sources, boundary ports, losses,
     power sensors), once each."""
-    names = list(acc.sources) + [p for _, ports in acc.boundary for p in ports] + list(acc.losses) + list(acc.sensors)
+    names = list(acc.sources) + [p for _, ports in acc.boundary for p in ports] + list(acc.losses) + list(acc.sensors) \
+        + [p for ports in acc.heat.values() for p in ports]
     return list(dict.fromkeys(names))
