@@ -16,6 +16,7 @@ from .errors import (AcausalError, ConnectError, DataError, ModelError, SignalEr
 from .result import Result
 from .signals import Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline, SampledSignal, Signal
 from .symbols import der, time
+from .trust import UntrustedResult, UntrustedResultWarning
 
 __version__ = "0.1.0"
 
@@ -25,4 +26,5 @@ __all__ = [
     "Pin", "Flange", "HeatPort", "RealInput", "RealOutput",
     "Signal", "Constant", "ExpressionSignal", "ParametricSignal", "PeriodicSpline", "SampledSignal", "FourierSeries",
     "AcausalError", "ModelError", "ConnectError", "StructureError", "SignalError", "SimulationError", "DataError",
+    "UntrustedResult", "UntrustedResultWarning",
 ]

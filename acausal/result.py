@@ -25,6 +25,7 @@ class Result:
                  integrals=None, solver: str = "", more_integrals=None):
         self.model = cm
         self.solver = solver  # which integrator ran, and on which path (see CompiledModel.simulate)
+        self.trust: list = []  # what the trust checks found (acausal.trust): empty when the result passed
         self._segments = segments or []
         self._given_nodes = nodes  # compiled path: () -> (breakpoints, states at their Gauss nodes)
         self._integrals = integrals or {}  # name -> integral from the start at t, integrated with the states

@@ -32,12 +32,14 @@ IMPLICIT = {"BDF", "Radau", "LSODA"}
 COMPILED = "CVODES"  # the compiled path's integrator (method="CVODES" asks for it explicitly)
 FALLBACK = "LSODA"  # what method="auto" uses on the scipy path (ROBUST for a model with state events)
 ROBUST = "BDF"  # models with events, and a failed compiled run run again (its failure report names the step)
+MAX_STEPS = 2_000_000  # scipy steps of an implicit integrator at most (about 3 minutes of stepping)
+MAX_STEPS_EXPLICIT = 200_000  # of an explicit one: more means the model is stiff for it
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
              starts: dict | None = None, method: str = "auto", rtol: float = 1e-6, atol: float = 1e-9,
              t_eval=None, n_points: int = 501, max_step: float = np.inf, first_step: float | None = None,
-             max_events: int = 10_000, dense_output: bool = True):
+             max_events: int = 10_000, dense_output: bool = True, trust: str = "raise", max_steps: int | None = None):
     """Simulate a :class:`~acausal.compiler.CompiledModel` and return a :class:`~acausal.result.Result`.
 
     ``params``: parameter overrides by name (no recompilation). ``inputs``: replacement :class:`Signal` s for
@@ -46,12 +48,30 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     the model allows it, else scipy's LSODA), ``"CVODES"`` (the compiled path or a ModelError saying why not) or a
     scipy integrator name. ``dense_output``: keep what :meth:`Result.energy` needs to integrate to solver
     accuracy (every step's interpolant; on the compiled path the states at Gauss nodes); set False for the
-    fastest runs (energies then use Simpson's rule on the output grid).
+    fastest runs (energies then use Simpson's rule on the output grid, and the energy balance is not checked).
+    ``trust``: what the trust checks (:mod:`acausal.trust`: conditioning of every variable on the states'
+    tolerances, the energy balance) do with a result they reject: ``"raise"`` an
+    :class:`~acausal.trust.UntrustedResult`, ``"warn"``, or ``"off"``; their findings are ``res.trust``.
+    ``max_steps``: steps of a scipy integrator at most (default :data:`MAX_STEPS` for an implicit method,
+    :data:`MAX_STEPS_EXPLICIT` for an explicit one: a stiff model on RK45 stops with an error saying so instead of
+    running for hours).
     """
+    from .trust import check, check_mode
+
+    check_mode(trust)
+    res = _simulate(cm, t_end, t_start=t_start, params=params, inputs=inputs, starts=starts, method=method,
+                    rtol=rtol, atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step,
+                    first_step=first_step, max_events=max_events, dense_output=dense_output, max_steps=max_steps)
+    check(res, rtol, atol, trust, dense_output)
+    return res
+
+
+def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,
+              first_step, max_events, dense_output, max_steps):
     from .result import Result
 
     t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
-                                       n_points)
+                                       n_points, max_steps)
     p = cm.param_vector(params)
     if p.dtype == object:  # an array of values: a batch of runs
         batch = [name for name, value in (params or {}).items() if np.ndim(value) > 0]
@@ -93,6 +113,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     n_out = t_out.size
     solver_cls = METHODS[method]
     has_events = bool(cm.event_zeros)
+    steps_left = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
     while True:
         fun, jac = _make_functions(cm, p, d, u)
         opts = dict(rtol=rtol, atol=atol, max_step=max_step)
@@ -117,6 +138,9 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
                 bad = _find_non_finite(cm, solver, t_prev, p, d, u)
                 raise bad if bad is not None else _failure(cm, solver, msg, p, d, u, rtol, atol)
             t_new = solver.t
+            steps_left -= 1
+            if steps_left < 0:
+                raise _too_many_steps(cm, method, max_steps, t_prev, t_new, t_start, t_end)
             if t_new == t_prev:
                 continue
             need_out = k_out < n_out and t_out[k_out] <= t_new
@@ -153,6 +177,14 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
         X[:, k_out:] = solver.y[:, None]
         D[:, k_out:] = d[:, None]
     return Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label)
+
+
+def _too_many_steps(cm, method, max_steps, t_prev, t_new, t_start, t_end) -> SimulationError:
+    limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
+    hint = (f"the model is stiff for the explicit {method}: use method='auto' or 'BDF'" if method not in IMPLICIT
+            else "a stiff or chattering model: look at the fastest state, or raise max_steps")
+    return SimulationError(f"simulate {cm.flat.name}: {method} took {limit} steps and reached t = {t_new:.6g} s of "
+                           f"{t_start:g}..{t_end:g} s (last step {t_new - t_prev:.3g} s): {hint}")
 
 
 def _choose_path(cm, method, u, rtol, atol):
@@ -197,7 +229,8 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi)")
 
 
-def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points):
+def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points,
+               max_steps=None):
     """The checked run settings of :func:`simulate`: ``(t_start, t_end, output times)``; a ModelError naming the
     setting at fault otherwise."""
     if method not in METHODS and method not in ("auto", COMPILED):
@@ -213,6 +246,8 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
     for what, step in (("max_step", max_step), ("first_step", first_step)):
         if step is not None and not _number(step, what) > 0:
             raise ModelError(f"simulate: {what} must be positive, got {step}")
+    if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or max_steps < 1):
+        raise ModelError(f"simulate: max_steps must be a positive integer, got {max_steps!r}")
     if not isinstance(max_events, (int, np.integer)) or max_events < 0:
         raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
     if t_eval is None:

@@ -71,9 +71,9 @@ class Bridge6(Model):
         connect(self.lo0.p, self.lo1.p, self.lo2.p, self.R.n, self.C.n)
 
 
-res = compile_model(Bridge6()).simulate(0.1, method=sys.argv[1], n_points=201)
+res = compile_model(Bridge6()).simulate(0.1, method=sys.argv[1], n_points=201, trust="warn")
 print(json.dumps({"events": [[t, i, d] for t, i, d in res.events], "v": res["C.v"].tolist(),
-                  "residual": res.energy_balance().residual}))
+                  "residual": res.energy_balance().residual, "flagged": bool(res.trust)}))
 '''
 
 
@@ -94,6 +94,15 @@ def test_a_three_phase_bridge_switches_the_same_way_in_every_process(tmp_path, m
     assert all(o == outs[0] for o in outs[1:])
     first = outs[0]
     assert len(first["events"]) >= 60 and first["v"][-1] == pytest.approx(100 * np.sqrt(3), rel=1e-3)
+    if method == "BDF":  # the scipy path's energies of stiff switched currents miss by 1 %: flagged, not silent
+        assert first["flagged"] and abs(first["residual"]) > 1e-3
+    elif _compiled():
+        assert not first["flagged"] and abs(first["residual"]) < 1e-5
+
+
+def _compiled() -> bool:
+    from acausal.compiled import available
+    return available()
 
 
 # ------------------------------------------------------------------ StickSlipGear: MSL LossyGear's modes

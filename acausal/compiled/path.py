@@ -372,8 +372,10 @@ def _solver_messages():
     text, which the caller puts into its own error where the run failed (runs that succeed print nothing). One
     scratch file per process takes the text, emptied after each block."""
     if not _SINK:
-        _SINK.append(tempfile.TemporaryFile(mode="w+b"))
-    sink = _SINK[0].fileno()
+        fd, name = tempfile.mkstemp(prefix="acausal-sundials-")
+        os.unlink(name)  # nameless: gone with the process
+        _SINK.append(fd)
+    sink = _SINK[0]
     sys.stderr.flush()
     saved = os.dup(2)
     os.dup2(sink, 2)
@@ -391,4 +393,4 @@ def _solver_messages():
             os.lseek(sink, 0, os.SEEK_SET)
 
 
-_SINK: list = []  # the scratch file of _solver_messages, opened on first use
+_SINK: list = []  # the descriptor of _solver_messages's scratch file, opened on first use

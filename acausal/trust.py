@@ -1,0 +1,177 @@
+"""Trust checks on every simulation: a result that the integrator's own accuracy cannot vouch for is flagged.
+
+Two checks run after each :func:`~acausal.simulate.simulate` (``trust="raise"``, the default: a
+:class:`UntrustedResult` error; ``"warn"``: a :class:`UntrustedResultWarning`; ``"off"``: none). What they found
+is kept as :attr:`Result.trust <acausal.result.Result.trust>` (an empty list when the result passed).
+
+* **Conditioning of the energy accounts.** Every loss power, source power and stored energy is a function of the
+  states. At a sample of output times each state is moved by its own error tolerance (``atol + rtol |x|``, what
+  the integrator lets it be off by) and these variables evaluated again: one that moves by more than
+  :data:`CONDITION_LIMIT` of its range over the run is not determined by the integration (the loss of a 1 nohm
+  resistor, whose current is the difference of two nearly equal potentials divided by the resistance: the states
+  are right to 1e-6 V, the current is off by amperes). The message names the variables, their equations, the
+  state they hang on and the parameters in the equations. Other variables are not checked: an acceleration that
+  is zero at every output (a drive in steady state) is, relative to itself, just as undetermined, and harmless.
+* **Energy balance** (models with energy accounts, runs with ``dense_output``): source = losses + output +
+  change in stored energy, relative to the largest energy that moved, within :func:`balance_limit` of the run's
+  ``rtol`` (1000 ``rtol``, at least 1e-5; a run moving less than 1e-12 J is not checked). An integrator that took steps its error test should not have accepted
+  (a stiff system on an explicit or a badly conditioned implicit method) breaks it.
+
+The step-count guard of the scipy path (``max_steps``) is in :mod:`acausal.simulate`: a run that would take
+longer than any sensible one (a stiff model on an explicit method) stops with an error instead of running on.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .errors import SimulationError
+
+CONDITION_LIMIT = 0.1  # a variable may move by this fraction of its range when the states move by their tolerance
+SAMPLES = 21  # output times at which the conditioning is checked (evenly spread, both ends included)
+MODES = ("raise", "warn", "off")
+ENERGY_FLOOR = 1e-12  # J: a run that moves less energy than this has no balance to check
+
+
+class UntrustedResult(SimulationError):
+    """A simulation whose result the trust checks reject (see :mod:`acausal.trust`)."""
+
+
+class UntrustedResultWarning(UserWarning):
+    """A simulation whose result the trust checks flag, run with ``trust="warn"``."""
+
+
+def check_mode(trust) -> str:
+    if trust not in MODES:
+        from .errors import ModelError
+        raise ModelError(f"simulate: trust must be one of {', '.join(map(repr, MODES))}, got {trust!r}")
+    return trust
+
+
+def balance_limit(rtol: float) -> float:
+    """The largest relative energy-balance residual a run at ``rtol`` may leave: 1000 rtol, at least 1e-5 (an
+    oscillator's energy, passed back and forth for many periods, gathers the local errors of every step)."""
+    return max(1000.0 * float(np.max(rtol)), 1e-5)
+
+
+def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
+    """Run the checks on ``res`` and act on ``trust``; the findings go to ``res.trust``."""
+    res.trust = []
+    if trust == "off":
+        return
+    findings = conditioning(res, rtol, atol)
+    if dense_output:
+        findings += energy_balance(res, rtol)
+    res.trust = findings
+    if not findings:
+        return
+    head = f"simulate {res.model.flat.name} ({res.solver or 'no integrator'}): the result cannot be trusted: "
+    text = head + "; ".join(findings)
+    if trust == "raise":
+        raise UntrustedResult(text + ' (simulate(..., trust="warn") returns it with a warning)')
+    warnings.warn(text, UntrustedResultWarning, stacklevel=4)
+
+
+def conditioning(res, rtol, atol) -> list:
+    """The variables that move by more than :data:`CONDITION_LIMIT` of their range when a state moves by its
+    error tolerance: one finding naming the worst three, their equations and the states they hang on."""
+    cm = res.model
+    n = len(cm.state_names)
+    acc = cm.accounts
+    index = {name: i for i, name in enumerate(cm.unknown_names)}
+    watched = [] if acc is None else [index[v] for v in dict.fromkeys(acc.losses + acc.sources + acc.stored)
+                                      if v in index]
+    if n == 0 or res.t.size == 0 or not watched:
+        return []
+    k = np.unique(np.linspace(0, res.t.size - 1, min(SAMPLES, res.t.size)).astype(int))
+    t, X = res.t[k], np.asarray(res.states, dtype=float)[:, k]
+    D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
+    f = cm.funcs["all_values"]
+
+    def values(Xs):
+        rows = f(t, Xs, res.params, D, res.inputs)
+        return np.array([np.broadcast_to(np.asarray(r, dtype=float), t.shape) for r in rows])
+
+    with np.errstate(all="ignore"):
+        base = values(X)
+        tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
+            np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(X)
+        moved = np.zeros_like(base)
+        worst_state = np.zeros(base.shape, dtype=int)
+        for j in range(n):
+            Xj = X.copy()
+            Xj[j] += tol[j]
+            dj = np.abs(values(Xj) - base)
+            dj[~np.isfinite(dj)] = 0.0
+            worst_state = np.where(dj > moved, j, worst_state)
+            moved = np.maximum(moved, dj)
+    rows = {i: np.asarray(res[cm.unknown_names[i]], dtype=float) for i in watched}
+    span = {i: float(np.nanmax(r) - np.nanmin(r)) if r.size else 0.0 for i, r in rows.items()}
+    size = {i: float(np.nanmax(np.abs(r))) if r.size else 0.0 for i, r in rows.items()}
+    power = set(index[v] for v in acc.losses + acc.sources if v in index)
+    floor = {True: max([span[i] for i in watched if i in power] + [0.0]),
+             False: max([span[i] for i in watched if i not in power] + [0.0])}
+    # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
+    # stored energies) in the model, a millionth of it (an inductor that never carries current)
+    scale = {i: max(span[i], 1e-3 * size[i], 1e-6 * floor[i in power]) for i in watched}
+    ratio = {i: moved[i].max() / scale[i] if scale[i] > 0 else 0.0 for i in watched}
+    duration = float(res.t[-1] - res.t[0]) or 1.0
+    negligible = {i: moved[i].max() * (duration if i in power else 1.0) < ENERGY_FLOOR for i in watched}
+    bad = [i for i in sorted(watched, key=lambda i: -ratio[i]) if ratio[i] > CONDITION_LIMIT and not negligible[i]]
+    if not bad:
+        return []
+    items, states, params = [], [], set()
+    for i in bad[:3]:
+        col = int(np.argmax(moved[i]))
+        j = int(worst_state[i, col])
+        name = cm.unknown_names[i]
+        expr, used = _solved(cm, name)
+        params |= used
+        for sym in getattr(expr, "free_symbols", ()):  # one level down: a loss v*i, its i = v/R
+            params |= _solved(cm, str(sym))[1]
+        states.append(f"{cm.state_names[j]!r} by {tol[j, col]:.3g}")
+        items.append(f"{name!r} by {moved[i, col]:.3g} (its range {scale[i]:.3g}; at t = {t[col]:.6g} s"
+                     f"{'; ' + name + ' = ' + str(expr) if expr is not None else ''})")
+    more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
+    culprits = f"; parameters in these equations: {', '.join(sorted(params))}" if params else ""
+    return [f"variables not determined by the integration: {', '.join(items)}{more} move by more than "
+            f"{CONDITION_LIMIT:g} of their range when a state moves by its error tolerance "
+            f"({', '.join(dict.fromkeys(states))}): tighten atol/rtol, or make the model less stiff{culprits}"]
+
+
+def _solved(cm, name: str):
+    """``(expression, its parameters)`` of the solved equation of ``name`` (the usual culprit of an
+    ill-conditioned variable: a tiny resistance, a huge gain), or ``(None, set())`` when it is solved in a block."""
+    from .solve import Assign
+    expr = next((st.expr for st in cm.steps if isinstance(st, Assign) and str(st.var) == name), None)
+    if expr is None:
+        return None, set()
+    return expr, {str(s) for s in expr.free_symbols if cm.has_parameter(str(s))}
+
+
+def energy_balance(res, rtol) -> list:
+    """The energy balance residual relative to the largest energy that moved, if over :func:`balance_limit`."""
+    acc = res.model.accounts
+    if acc is None or not (acc.sources or acc.boundary) or (not acc.losses and not acc.stored):
+        return []
+    b = res.energy_balance()
+    terms = list(b.sources.values()) + list(b.boundary.values()) + list(b.losses.values())
+    swing = [float(np.nanmax(res[n]) - np.nanmin(res[n])) for n in acc.stored]
+    sources = [float(np.nanmax(np.abs(res.energy(n)))) for n in acc.sources]
+    scale = max([abs(v) for v in terms] + swing + sources + [0.0])
+    if scale < ENERGY_FLOOR or not np.isfinite(scale):
+        return []
+    total = sum(b.sources.values()) + sum(b.boundary.values()) - sum(b.losses.values()) - sum(b.stored.values())
+    rel = abs(total) / scale
+    limit = balance_limit(rtol)
+    if rel <= limit:
+        return []
+    if "compiled path" in (res.solver or ""):
+        hint = "the integrator accepted steps it should not have (a stiff model): tighten rtol/atol"
+    else:
+        hint = ("the scipy path integrates energies on its steps' interpolants, which a stiff model (a switch "
+                "through a tiny resistance) leaves uncertain: the compiled path (method='auto', with CasADi) "
+                "integrates them under the integrator's error control; or tighten rtol/atol")
+    return [f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
+            f"the limit at rtol {float(np.max(rtol)):g}): {hint}"]
