@@ -206,6 +206,12 @@ class _ClassOrInstanceMethod:
         return lambda *a, **k: self.fn(owner, obj, *a, **k)
 
 
+def _within(d: Parameter, value: float) -> bool:
+    """Whether a number given to parameter ``d`` is finite and lies within its declared bounds."""
+    return not (value != value or abs(value) == float("inf") or (d.min is not None and value < d.min)
+                or (d.max is not None and value > d.max))
+
+
 def _number(v) -> str:
     return "-" if v is None else f"{v:g}" if isinstance(v, (int, float)) else str(v)
 
@@ -316,6 +322,11 @@ class Component:
                     raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is a "
                                      f"{type(value).__name__}; give a number [{d.unit}] or an expression of "
                                      f"parameters")
+                if isinstance(value, (int, float)) and not _within(d, value):  # refused where it is given
+                    raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is "
+                                     + ("not finite" if value != value or abs(value) == float("inf") else
+                                        f"outside its bounds [{d.min if d.min is not None else '-inf'}, "
+                                        f"{d.max if d.max is not None else 'inf'}] {d.unit}"))
                 self._values[key] = value
             elif isinstance(d, (Variable, Discrete)):
                 self._starts[key] = value if isinstance(value, Start) else Start(float(value), getattr(d, "fixed", False))

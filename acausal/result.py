@@ -159,8 +159,9 @@ class Result:
             return self[what]
 
     def energy(self, what: str) -> np.ndarray:
-        """Cumulative time integral [J] of a port's power (``what`` a port) or of a power variable, at the
-        output times.
+        """Cumulative time integral [J] of a port's power (``what`` a port), of the power into a component
+        through all of its physical ports (``what`` a component such as a damper), or of a power variable, at
+        the output times.
 
         Integrated as accurately as the simulation itself: 5-point Gauss-Legendre on every solver step, with
         the states taken from the integrator's dense output (steps end at events, so mode switches are exact).
@@ -170,6 +171,10 @@ class Result:
         what has no compiled form, by the Gauss rule on the output intervals). A model without states is
         integrated the same way on the output grid with exact values at the nodes.
         """
+        parts = self._through(what)
+        if parts != [what]:  # a component with several ports: the power into it through all of them
+            self._integrate_with_states(parts)
+            return sum(self._cumulative(p) for p in parts)
         return self._cumulative(what)
 
     def energy_balance(self, t0: float | None = None, t1: float | None = None, between: tuple | None = None):

@@ -49,3 +49,17 @@ def test_an_array_given_to_simulate_points_to_the_batch_api(sim, value):
 def test_numpy_numbers_are_numbers(sim):
     res = sim.simulate(0.1, params={"R.R": np.float32(2.0), "C.C": np.int64(1)})
     assert res["C.v"][-1] == pytest.approx(1 - np.exp(-0.1 / 2.0), rel=1e-5)
+
+
+@pytest.mark.parametrize("value, why", [(-0.4, r"outside its bounds \[0.0, inf\] Ohm"), (float("nan"), "not finite"),
+                                        (float("inf"), "not finite")])
+def test_a_number_outside_the_bounds_is_refused_where_it_is_given(value, why):
+    with pytest.raises(ModelError, match=rf"Resistor: parameter 'R' = .* is {why}"):
+        Resistor(R=value)
+
+
+def test_the_energy_of_a_component_is_the_power_into_it_through_all_its_ports(sim):
+    """``res.energy("R")`` of a two-pin resistor: what flows in at p and out at n, its loss (``efficiency`` took
+    the same name already)."""
+    res = sim.simulate(1.0, rtol=1e-10, atol=1e-12)
+    assert res.energy("R")[-1] == pytest.approx(res.energy("R.loss_power")[-1], rel=1e-6)
