@@ -105,6 +105,11 @@ def report(cm) -> str:
         for device in dict.fromkeys(d for _, _, d in dev.values()):
             lines.append(f"    {device}: " + ", ".join(
                 f"{n} = {v:g} {u}" for n, (v, u, d) in dev.items() if d == device))
+    free = [e.origin.split("'")[1] for e in cm.flat.written
+            if e.origin.startswith("unconnected port ")]
+    if free:
+        lines.append(f"  unconnected ports ({len(free)}; their flows are zero: an open pin, a free flange, an "
+                     f"adiabatic heat port): {', '.join(sorted(dict.fromkeys(free)))}")
     if cm.generator.signal_orders:
         lines.append("  input derivatives used: " + ", ".join(
             f"{k} up to order {v}" for k, v in sorted(cm.generator.signal_orders.items())))

@@ -128,6 +128,26 @@ def test_report_lists_parameters_left_at_a_device_default():
     assert "load.d" not in "".join(report.splitlines()[-4:])  # a value the user gave is not listed
 
 
+def test_report_names_unconnected_ports():
+    """A port left open is legal (its flow is zero, as in Modelica) but is usually a forgotten connect: the report
+    names every one (new-user trial: a motor left unconnected to its load ran at no-load speed, unreported)."""
+    from acausal import Model, connect
+    from acausal.library.electrical import Capacitor, ConstantVoltage, Ground, Resistor
+
+    class Open(Model):
+        def build(self):
+            self.src, self.R, self.C, self.g = ConstantVoltage(V=1.0), Resistor(R=1.0), Capacitor(C=1.0), Ground()
+            self.R2 = Resistor(R=3.0)
+            connect(self.src.p, self.R.p)
+            connect(self.R.n, self.C.p, self.R2.p)
+            connect(self.C.n, self.src.n, self.g.p)
+
+    line = [ln for ln in compile_model(Open()).report().splitlines() if "unconnected ports" in ln]
+    assert line and line[0].endswith("): R2.n")
+    closed = compile_model(_Bench(driver_cls=EPOS2)).report()
+    assert "R2.n" not in closed
+
+
 def test_a_generic_pwm_driver_is_lossless_and_the_epos2_has_the_papers_losses():
     generic = compile_model(_Bench()).simulate(0.3)
     assert np.max(np.abs(generic["driver.loss_power"])) == 0.0
