@@ -65,15 +65,17 @@ def balance_sankey(ax, inflows: dict, outflows: dict, title: str, small: float =
     """One Sankey diagram of an energy balance with no measurement points: every ``inflows`` entry (J > 0:
     sources, boundary work delivered, stored energy released) enters from the left or the top, every
     ``outflows`` entry (J > 0: losses, energy stored, boundary work absorbed) leaves to the right (the largest)
-    or downwards. Entries below ``small`` of the total are summed into one "other" arrow, so that every joule
-    is drawn. Returns the residual (in - out) it could not draw, in J."""
+    or downwards. Entries below ``small`` of the total are summed into one "other" arrow, labelled with the
+    (largest three) entries it holds, so that every joule is drawn. Returns the residual (in - out) it could not draw, in J."""
     total = sum(inflows.values()) or 1.0
 
     def grouped(flows):
         big = {k: v for k, v in flows.items() if v >= small * total}
-        rest = sum(v for k, v in flows.items() if k not in big)
-        if rest > 0:
-            big["other"] = rest
+        rest = {k: v for k, v in flows.items() if k not in big}
+        if sum(rest.values()) > 0:  # named, so that a small loss is not mistaken for a stored energy
+            names = sorted(rest, key=lambda k: -rest[k])
+            big["other: " + ", ".join(names[:3]) + (f" +{len(names) - 3}" if len(names) > 3 else "")] = \
+                sum(rest.values())
         return dict(sorted(big.items(), key=lambda kv: -kv[1]))
 
     ins, outs = grouped(inflows), grouped(outflows)
