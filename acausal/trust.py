@@ -87,57 +87,65 @@ def conditioning(res, rtol, atol) -> list:
     k = np.unique(np.linspace(0, res.t.size - 1, min(SAMPLES, res.t.size)).astype(int))
     t, X = res.t[k], np.asarray(res.states, dtype=float)[:, k]
     D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
-    f = cm.funcs["all_values"]
-
-    def values(Xs):
-        rows = f(t, Xs, res.params, D, res.inputs)
-        return np.array([np.broadcast_to(np.asarray(r, dtype=float), t.shape) for r in rows])
-
+    m = t.size
+    tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
+        np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(X)
+    # one evaluation of every perturbed point: the samples, then the samples with state j moved, for each j
+    Xs = np.tile(X, (1, n + 1))
+    for j in range(n):
+        Xs[j, (j + 1) * m:(j + 2) * m] += tol[j]
+    Ds = D if np.ndim(D) == 1 else np.tile(D, (1, n + 1))
     with np.errstate(all="ignore"):
-        base = values(X)
-        tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
-            np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(X)
-        moved = np.zeros_like(base)
-        worst_state = np.zeros(base.shape, dtype=int)
-        for j in range(n):
-            Xj = X.copy()
-            Xj[j] += tol[j]
-            dj = np.abs(values(Xj) - base)
-            dj[~np.isfinite(dj)] = 0.0
-            worst_state = np.where(dj > moved, j, worst_state)
-            moved = np.maximum(moved, dj)
-    rows = {i: np.asarray(res[cm.unknown_names[i]], dtype=float) for i in watched}
-    span = {i: float(np.nanmax(r) - np.nanmin(r)) if r.size else 0.0 for i, r in rows.items()}
-    size = {i: float(np.nanmax(np.abs(r))) if r.size else 0.0 for i, r in rows.items()}
-    power = set(index[v] for v in acc.losses + acc.sources if v in index)
-    floor = {True: max([span[i] for i in watched if i in power] + [0.0]),
-             False: max([span[i] for i in watched if i not in power] + [0.0])}
+        rows = cm.funcs["all_values"](np.tile(t, n + 1), Xs, res.params, Ds, res.inputs)
+        vals = _rows([rows[i] for i in watched], (n + 1) * m)
+        dv = np.abs(vals[:, m:].reshape(len(watched), n, m) - vals[:, None, :m])  # [variable, state, sample]
+    dv[~np.isfinite(dv)] = 0.0
+    worst = dv.argmax(axis=1)  # [variable, sample]: the state that moves it most
+    moved = dv.max(axis=1)  # [variable, sample]
+    R = _rows([res[cm.unknown_names[i]] for i in watched], res.t.size)
+    with np.errstate(all="ignore"):
+        span, size = R.max(axis=1) - R.min(axis=1), np.abs(R).max(axis=1)
+    span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
+    power = np.array([cm.unknown_names[i] in acc.losses or cm.unknown_names[i] in acc.sources for i in watched])
     # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
     # stored energies) in the model, a millionth of it (an inductor that never carries current)
-    scale = {i: max(span[i], 1e-3 * size[i], 1e-6 * floor[i in power]) for i in watched}
-    ratio = {i: moved[i].max() / scale[i] if scale[i] > 0 else 0.0 for i in watched}
+    floor = np.where(power, span[power].max(initial=0.0), span[~power].max(initial=0.0))
+    scale = np.maximum.reduce([span, 1e-3 * size, 1e-6 * floor])
+    peak = moved.max(axis=1)
+    ratio = np.divide(peak, scale, out=np.zeros_like(peak), where=scale > 0)
     duration = float(res.t[-1] - res.t[0]) or 1.0
-    negligible = {i: moved[i].max() * (duration if i in power else 1.0) < ENERGY_FLOOR for i in watched}
-    bad = [i for i in sorted(watched, key=lambda i: -ratio[i]) if ratio[i] > CONDITION_LIMIT and not negligible[i]]
+    negligible = peak * np.where(power, duration, 1.0) < ENERGY_FLOOR
+    bad = [q for q in np.argsort(-ratio, kind="stable") if ratio[q] > CONDITION_LIMIT and not negligible[q]]
     if not bad:
         return []
     items, states, params = [], [], set()
-    for i in bad[:3]:
-        col = int(np.argmax(moved[i]))
-        j = int(worst_state[i, col])
-        name = cm.unknown_names[i]
+    for q in bad[:3]:
+        col = int(np.argmax(moved[q]))
+        j = int(worst[q, col])
+        name = cm.unknown_names[watched[q]]
         expr, used = _solved(cm, name)
         params |= used
         for sym in getattr(expr, "free_symbols", ()):  # one level down: a loss v*i, its i = v/R
             params |= _solved(cm, str(sym))[1]
         states.append(f"{cm.state_names[j]!r} by {tol[j, col]:.3g}")
-        items.append(f"{name!r} by {moved[i, col]:.3g} (its range {scale[i]:.3g}; at t = {t[col]:.6g} s"
+        items.append(f"{name!r} by {moved[q, col]:.3g} (its range {scale[q]:.3g}; at t = {t[col]:.6g} s"
                      f"{'; ' + name + ' = ' + str(expr) if expr is not None else ''})")
     more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
     culprits = f"; parameters in these equations: {', '.join(sorted(params))}" if params else ""
     return [f"variables not determined by the integration: {', '.join(items)}{more} move by more than "
             f"{CONDITION_LIMIT:g} of their range when a state moves by its error tolerance "
             f"({', '.join(dict.fromkeys(states))}): tighten atol/rtol, or make the model less stiff{culprits}"]
+
+
+def _rows(values, length: int) -> np.ndarray:
+    """Values of the generated code (arrays, or numbers for constants) as one float array of rows."""
+    try:
+        out = np.array(values, dtype=float)
+        if out.shape == (len(values), length):
+            return out
+    except ValueError:  # rows of different shapes (a constant among arrays)
+        pass
+    return np.array([np.broadcast_to(np.asarray(v, dtype=float), (length,)) for v in values])
 
 
 def _solved(cm, name: str):
