@@ -209,16 +209,24 @@ class Result:
         return abs(eb) / abs(ea)
 
     def _through(self, name: str) -> list:
-        """What :meth:`_passed` integrates for ``name``: ``name`` itself, or a component's physical ports."""
+        """What :meth:`_passed` integrates for ``name``: ``name`` itself (a variable, a port, a one-port), or a
+        component's physical ports."""
         cm = self.model
-        if name in cm.flat.components and name not in self and not (f"{name}.v" in self and f"{name}.i" in self):
-            known = set(self.names())
-            ports = [p for p in cm.flat.components if p.startswith(name + ".") and "." not in p[len(name) + 1:]
-                     and ({f"{p}.v", f"{p}.i"} <= known or {f"{p}.phi", f"{p}.tau"} <= known
-                          or f"{p}.Q_flow" in known)]
-            if ports:
-                return ports
-        return [name]
+        if name not in cm.flat.components:
+            return [name]
+        known = self._known_names()
+        if name in known or {f"{name}.v", f"{name}.i"} <= known or {f"{name}.phi", f"{name}.tau"} <= known \
+                or f"{name}.Q_flow" in known:
+            return [name]
+        ports = [p for p in cm.flat.components if p.startswith(name + ".") and "." not in p[len(name) + 1:]
+                 and ({f"{p}.v", f"{p}.i"} <= known or {f"{p}.phi", f"{p}.tau"} <= known or f"{p}.Q_flow" in known)]
+        return ports or [name]
+
+    def _known_names(self) -> set:
+        """The names this result answers, as a set (built once)."""
+        if "known names" not in self._cache:
+            self._cache["known names"] = set(self.names())
+        return self._cache["known names"]
 
     def _passed(self, name: str, k0: int, k1: int) -> float:
         """Net energy [J] through ``name`` between samples ``k0`` and ``k1``: what :meth:`energy` integrates,
