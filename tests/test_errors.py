@@ -210,9 +210,22 @@ def test_parameter_below_its_minimum_given_at_construction():
             connect(self.src.p, self.R.p)
             connect(self.src.n, self.R.n, self.gnd.p)
 
-    sim = compile_model(BadR())  # the value is checked on every run, where it may be overridden
+    with pytest.raises(ModelError, match=r"Resistor: parameter 'R' = -1.0 is outside its bounds \[0.0, inf\] Ohm"):
+        BadR()._ensure_built()  # refused where the number is given, before anything is compiled
+
+
+def test_parameter_below_its_minimum_given_per_run():
+    class GoodR(Model):
+        def build(self):
+            self.src = ConstantVoltage(V=1.0)
+            self.R = Resistor(R=1.0)
+            self.gnd = Ground()
+            connect(self.src.p, self.R.p)
+            connect(self.src.n, self.R.n, self.gnd.p)
+
+    sim = compile_model(GoodR())  # a run's value is checked on that run
     with pytest.raises(ModelError) as exc:
-        sim.simulate(0.1)
+        sim.simulate(0.1, params={"R.R": -1.0})
     assert "'R.R'" in str(exc.value) and "minimum" in str(exc.value)
     assert sim.simulate(0.1, params={"R.R": 2.0})["R.i"][0] == pytest.approx(0.5)
 
