@@ -395,6 +395,9 @@ def test_a_wrong_stride_time_without_strides_is_named(clean, tmp_path):
         code, so, _ = run(command, data, tmp_path / f"out_{command}")
         assert code == 0 and re.search(r"warning: P18.0mm_T1.2s: its readings repeat every 1\.(19|20?)\d* s .*"
                                        r"analysed with a cycle of 1.32 s: a wrong stride time", so), so
+    from acausal.models.bench import calibration
+    cal, _ = calibration.fit(data, "R,J,b")  # the Python result says it too (its experiments carry the period)
+    assert any("P18.0mm_T1.2s" in w and "wrong stride time" in w for w in cal.warnings), cal.warnings
     path.write_text(json.dumps({**meta, "stride_time_s": 1.215}))
     code, so, _ = run("fit", data, tmp_path / "out_fit")
     assert code == 0 and "warning:" not in so, so

@@ -126,7 +126,8 @@ def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = Non
         return {col: np.asarray(res[var]) for col, var in wanted.items()}
 
     return Experiment(rec.name, t, measured, predict, inner & ~held, inner & held, stride,
-                      info={"meta": rec.meta, "inputs": inputs, "params": base, "effects": tuple(effects)})
+                      info={"meta": rec.meta, "inputs": inputs, "params": base, "effects": tuple(effects)},
+                      period=T)
 
 
 def experiments(recordings, effects=(), split: Split = Split(), fixed: dict | None = None) -> list:
