@@ -16,6 +16,7 @@ from acausal.library.electrical import (EMF, Capacitor, ConstantVoltage, Ground,
 from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Position
 from acausal.signals import PeriodicSpline, SampledSignal, Signal
 
+from .circuit_models import Bridge6
 from .drive_models import MotorGearLoad, MotorGearLoadInverse
 from .test_events_trust import _Chatter, _TripModel
 
@@ -187,25 +188,6 @@ def test_rectifier_switches_through_its_events_as_simulate_does(rectifier):
     differ = np.flatnonzero(res["D.off"] != ref.modes[cm.discrete_names.index("D.off")])
     assert differ.size <= 2  # at most an output sample at a switch, where the two runs' times differ by < 1e-6 s
 
-
-
-class Bridge6(Model):
-    """Three-phase six-pulse diode bridge (100 V, 50 Hz) on 20 ohm || 100 uF, the capacitor empty at the start
-    (tests/test_events_trust.py's): six ideal diodes whose commutations cascade, some at their knee."""
-
-    def build(self):
-        self.gnd = Ground()
-        for k in range(3):
-            setattr(self, f"src{k}", PrescribedVoltage(v_ref=100.0 * sp.sin(2 * sp.pi * 50 * time - 2 * sp.pi * k / 3)))
-            setattr(self, f"up{k}", IdealDiode())
-            setattr(self, f"lo{k}", IdealDiode())
-        self.R, self.C = Resistor(R=20.0), Capacitor(C=1e-4, v=Start(0.0))
-        for k in range(3):
-            s, up, lo = getattr(self, f"src{k}"), getattr(self, f"up{k}"), getattr(self, f"lo{k}")
-            connect(s.p, up.p, lo.n)
-            connect(s.n, self.gnd.p) if k == 0 else connect(s.n, self.src0.n)
-        connect(self.up0.n, self.up1.n, self.up2.n, self.R.p, self.C.p)
-        connect(self.lo0.p, self.lo1.p, self.lo2.p, self.R.n, self.C.n)
 
 
 def _logged_events(messages):

@@ -12,6 +12,9 @@ import pytest
 from acausal import Model, ModelError, ParametricSignal, Start, compile_model, connect
 from acausal.library.electrical import Capacitor, Ground, PrescribedVoltage, Resistor
 from acausal.models.ankle.actuator import AnkleActuator
+
+from .circuit_models import RC
+
 from acausal.models.ankle.planning import planned_arm_angle
 from acausal.models.ankle.protocol import Condition, compiled, run_condition
 
@@ -76,28 +79,9 @@ def test_accounts_of_the_paper_actuator_are_found_by_convention(replay):
                         "output": ["link.loss_power"]}
 
 
-class _RC(Model):
-    """A source (10 sin(2 pi t) V unless ``v_ref`` says otherwise) charging C = 0.05 F through R = 2 ohm."""
-
-    def __init__(self, v_ref=None, **kw):
-        super().__init__(**kw)
-        self._v_ref = v_ref
-
-    def build(self):
-        import sympy as sp
-        from acausal import time
-        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * time) if self._v_ref is None else self._v_ref)
-        self.R = Resistor(R=2.0)
-        self.C = Capacitor(C=0.05, v=Start(0.0))
-        self.gnd = Ground()
-        connect(self.src.p, self.R.p)
-        connect(self.R.n, self.C.p)
-        connect(self.C.n, self.src.n, self.gnd.p)
-
-
 def test_energy_balance_of_any_model():
     """A user's model with no accounts listed: the source's boundary work = resistor loss + capacitor energy."""
-    res = compile_model(_RC()).simulate(1.3, rtol=1e-9, atol=1e-12)
+    res = compile_model(RC()).simulate(1.3, rtol=1e-9, atol=1e-12)
     b = res.energy_balance()
     assert set(b.boundary) >= {"src"} and list(b.losses) == ["R.loss_power"] and list(b.stored) == ["C.energy"]
     assert abs(b.residual) < 1e-6
@@ -142,7 +126,7 @@ def test_sankey_of_a_model_without_power_sensors_draws_its_balance():
     """No measurement points: the balance itself as one diagram, every account drawn (small ones as "other")."""
     import matplotlib
     matplotlib.use("Agg")
-    res = compile_model(_RC()).simulate(0.2, rtol=1e-9, atol=1e-12)  # the capacitor is still charging
+    res = compile_model(RC()).simulate(0.2, rtol=1e-9, atol=1e-12)  # the capacitor is still charging
     b = res.energy_balance()
     ins, outs = b.flows()
     assert ins == {"src (boundary)": pytest.approx(b.boundary["src"])}
@@ -154,7 +138,7 @@ def test_sankey_of_a_model_without_power_sensors_draws_its_balance():
 
 def test_efficiency_between_two_named_ports():
     """Capacitor charged through R from 0 V by a constant source: half the delivered energy is stored."""
-    res = compile_model(_RC(v_ref=10.0)).simulate(3.0, rtol=1e-10, atol=1e-12)  # 30 time constants
+    res = compile_model(RC(v_ref=10.0)).simulate(3.0, rtol=1e-10, atol=1e-12)  # 30 time constants
     assert res.efficiency("src", "C") == pytest.approx(0.5, rel=1e-6)  # port signs do not matter
     assert res.efficiency("src", "R.loss_power") == pytest.approx(0.5, rel=1e-6)
     b = res.energy_balance(between=("src", "C"))
@@ -174,7 +158,7 @@ def test_efficiency_follows_the_integrator_not_the_output_grid(switched):
     import sympy as sp
     from acausal import time
     v_ref = sp.Piecewise((10.0, time >= 0.5), (0.0, True)) if switched else 10.0
-    sim = compile_model(_RC(v_ref=v_ref))
+    sim = compile_model(RC(v_ref=v_ref))
     for method in ("auto", "BDF"):
         res = sim.simulate(3.0, n_points=4, method=method)
         assert res.efficiency("src", "C") == pytest.approx(0.5, rel=1e-5), (method, res.solver)

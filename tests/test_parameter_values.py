@@ -5,24 +5,15 @@ numpy."""
 import numpy as np
 import pytest
 
-from acausal import Model, ModelError, Start, compile_model, connect
-from acausal.library.electrical import Capacitor, Ground, PrescribedVoltage, Resistor
+from acausal import ModelError, compile_model
+from acausal.library.electrical import Resistor
 
-
-class _RC(Model):
-    def build(self):
-        self.src = PrescribedVoltage(v_ref=1.0)
-        self.R = Resistor(R=2.0)
-        self.C = Capacitor(C=0.05, v=Start(0.0))
-        self.gnd = Ground()
-        connect(self.src.p, self.R.p)
-        connect(self.R.n, self.C.p)
-        connect(self.C.n, self.src.n, self.gnd.p)
+from .circuit_models import RC
 
 
 @pytest.fixture(scope="module")
 def sim():
-    return compile_model(_RC())
+    return compile_model(RC(v_ref=1.0))
 
 
 @pytest.mark.parametrize("value", ["0.5", "0.5 ohm", True, b"1"])
