@@ -45,7 +45,9 @@ def time_events(flat: FlatModel) -> None:
         expr = sp.sympify(expr)
         if not expr.has(time) or not expr.atoms(sp.Rel):
             return expr
-        rep = {r: c for r in expr.atoms(sp.Rel) if (c := convert(r)) is not None}
+        # in a canonical order (not the set's, which differs per hash seed): the events' numbers are part of the
+        # result (res.events, the generated code, an FMU's event indicators)
+        rep = {r: c for r in sorted(expr.atoms(sp.Rel), key=sp.default_sort_key) if (c := convert(r)) is not None}
         return expr.xreplace(rep) if rep else expr
 
     for eq in flat.equations:

@@ -16,8 +16,8 @@ period (20 ms, 14 events), DiodeBridge2Pulse to one period, First and SeriesReso
 reports ``hash()`` of a fixed string, so the test sees that the seeds took effect.
 
 Two tests on the same ten processes: the results, events compared by their zero function, must be byte-identical
-(they are); and the events' numbers too, which they are not (finding 5: a Ramp's two time events swap their numbers
-with the hash seed; xfail). Measured: about 5 s per process, the pair of tests 42-47 s on a two-core machine.
+(they are); and the events' numbers too (finding 5, fixed: a Ramp's two time events swapped their numbers with the
+hash seed). Measured: about 5 s per process, the pair of tests 42-47 s on a two-core machine.
 """
 from __future__ import annotations
 
@@ -147,12 +147,10 @@ def test_msl_examples_give_the_same_results_in_ten_processes_with_different_hash
         assert same, f"PYTHONHASHSEED={seed} against {SEEDS[0]}: {_first_difference(reference, other)}"
 
 
-@pytest.mark.xfail(strict=True, reason="finding 5 (tests/msl_conformance_findings.md): the time events of one "
-                                       "expression (a Ramp's start and end) are numbered in the order of a set of "
-                                       "sympy relations, which differs per hash seed")
 def test_msl_examples_number_their_events_alike_in_ten_processes(records):
     """The same, with each event's number (its index in ``sim.event_zeros``, the order of the generated zero
-    functions and of an exported FMU's event indicators) compared too."""
+    functions and of an exported FMU's event indicators) compared too (finding 5: a Ramp's two time events used to
+    swap their numbers with the hash seed; they are now numbered in sympy's canonical order)."""
     reference = records[SEEDS[0]]["examples"]
     for seed in SEEDS[1:]:
         other = records[seed]["examples"]
