@@ -10,6 +10,9 @@ from scipy import optimize
 
 from .errors import SimulationError
 
+SETTLE_ITER = 20  # rounds of settle_modes at most (at a start)
+CASCADE_ITER = 20  # rounds of the event iteration at most (cascade)
+
 
 def zeros(cm, t, x, p, d, u, check: bool = True):
     """The zero functions at one point (time ``t`` [s], states ``x``, modes ``d``); a NaN or infinite value is a
@@ -101,20 +104,12 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
     bad = np.flatnonzero(~np.all(np.isfinite(Z), axis=0))
     if bad.size:  # cut the step at the last finite values before the first bad ones
         k = int(bad[0])
-        lo, hi = (times[k - 1] if k else t0), times[k]
-        z_hi = Z[:, k]
-        for _ in range(100):
-            if hi - lo <= 1e-13 * max(1.0, abs(hi)):
-                break
-            mid = 0.5 * (lo + hi)
-            z_mid = zeros(cm, mid, sol(mid), p, d, u, check=False)
-            if np.all(np.isfinite(z_mid)):
-                lo = mid
-            else:
-                hi, z_hi = mid, z_mid
-        z_lo = zeros(cm, lo, sol(lo), p, d, u, check=False) if lo > t0 else np.asarray(z0, dtype=float)
-        times = np.append(times[:k], lo) if lo > t0 else times[:0]
-        Z = np.concatenate([Z[:, :k], z_lo.reshape(-1, 1)], axis=1) if lo > t0 else Z[:, :0]
+        lo, hi, z_hi = _last_finite(cm, sol, times[k - 1] if k else t0, times[k], Z[:, k], p, d, u)
+        if lo > t0:
+            times = np.append(times[:k], lo)
+            Z = np.concatenate([Z[:, :k], zeros(cm, lo, sol(lo), p, d, u, check=False).reshape(-1, 1)], axis=1)
+        else:
+            times, Z = times[:0], Z[:, :0]
     za, ta = np.asarray(z0, dtype=float), t0
     for k in range(times.size):
         zb = Z[:, k]
@@ -125,6 +120,21 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
     if bad.size:
         check_zeros(cm, hi, z_hi, d)
     return []
+
+
+def _last_finite(cm, sol, lo, hi, z_hi, p, d, u):
+    """``(lo, hi, z at hi)``: bisection of ``[lo, hi]`` (zero functions finite at ``lo``, not at ``hi``) down to
+    round-off of the time, for the last time they are all finite."""
+    for _ in range(100):
+        if hi - lo <= 1e-13 * max(1.0, abs(hi)):
+            break
+        mid = 0.5 * (lo + hi)
+        z_mid = zeros(cm, mid, sol(mid), p, d, u, check=False)
+        if np.all(np.isfinite(z_mid)):
+            lo = mid
+        else:
+            hi, z_hi = mid, z_mid
+    return lo, hi, z_hi
 
 
 def _finite(cm, i, t, value, d):
@@ -173,7 +183,7 @@ def values_at(cm, t, x, p, d, u) -> dict:
     return {k: float(np.asarray(v)) for k, v in vals.items()}
 
 
-def settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
+def settle_modes(cm, t, x, p, d, u, max_iter: int = SETTLE_ITER):
     """Apply the rising/falling assignments of every event by the sign of its zero until modes stop changing."""
     if not cm.event_zeros:
         return d
@@ -199,7 +209,7 @@ def settle_modes(cm, t, x, p, d, u, max_iter: int = 20):
 KNEE = 1e-6
 
 
-def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = 20, hits=()):
+def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=()):
     """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
     those events' assignments, and repeat, until nothing flips (Modelica's event iteration).
 

@@ -14,9 +14,8 @@
  *                    cycle is within KNEE of zero, and is otherwise an error naming the components that chatter
  * --------------------------------------------------------------------------------------------------------- */
 
-#define KNEE 1e-6          /* modes.KNEE: an indicator this close to zero is at its switching point */
-#define MAX_CASCADE 20     /* modes.cascade's max_iter */
-#define MAX_SETTLE 20      /* modes.settle_modes' max_iter */
+/* KNEE (an indicator this close to zero is at its switching point), MAX_CASCADE and MAX_SETTLE are generated from
+ * acausal.modes (KNEE, CASCADE_ITER, SETTLE_ITER) */
 #define MODES (m->r + OFF_D)
 #define NO1 (NO > 0 ? NO : 1)
 
