@@ -182,7 +182,6 @@ def _pairs(items, flag):
 
 def cmd_fit(args) -> int:
     from acausal.models.bench import calibration
-    from acausal.identify.screening import periodicity
     from acausal.models.bench.fit_report import fit_outputs
 
     check_outputs(args.data, out=args.out)
@@ -191,10 +190,6 @@ def cmd_fit(args) -> int:
     signals = [s.strip() for s in args.signals.split(",") if s.strip()]
     cal, exps = calibration.fit(args.data, args.params, signals=signals, weights=weights,
                                 split=calibration.Split(holdout_every=args.holdout_every))
-    for e in exps:  # the recordings repeat with their stride time (the experiments do not carry it as a period)
-        if e.period is None:
-            msg = periodicity(e.name, e.t, {s: e.measured[s] for s in cal.signals}, e.info["meta"]["stride_time_s"])
-            cal.warnings += [msg] if msg else []
     res = fit_outputs(out, cal, exps, f"recordings in `{args.data}`")
     warned = "".join(f"- {w}\n" for w in cal.warnings)
     (out / "report.md").write_text(f"# {res['title']}\n\n"

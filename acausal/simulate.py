@@ -113,7 +113,8 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
     n_out = t_out.size
     solver_cls = METHODS[method]
     has_events = bool(cm.event_zeros)
-    steps_left = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
+    limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
+    steps_left = limit
     while True:
         fun, jac = _make_functions(cm, p, d, u)
         opts = dict(rtol=rtol, atol=atol, max_step=max_step)
@@ -140,7 +141,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
             t_new = solver.t
             steps_left -= 1
             if steps_left < 0:
-                raise _too_many_steps(cm, method, max_steps, t_prev, t_new, t_start, t_end)
+                raise _too_many_steps(cm, method, limit, t_prev, t_new, t_start, t_end)
             if t_new == t_prev:
                 continue
             need_out = k_out < n_out and t_out[k_out] <= t_new
@@ -179,8 +180,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
     return Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label)
 
 
-def _too_many_steps(cm, method, max_steps, t_prev, t_new, t_start, t_end) -> SimulationError:
-    limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
+def _too_many_steps(cm, method, limit, t_prev, t_new, t_start, t_end) -> SimulationError:
     hint = (f"the model is stiff for the explicit {method}: use method='auto' or 'BDF'" if method not in IMPLICIT
             else "a stiff or chattering model: look at the fastest state, or raise max_steps")
     return SimulationError(f"simulate {cm.flat.name}: {method} took {limit} steps and reached t = {t_new:.6g} s of "

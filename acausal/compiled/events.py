@@ -104,6 +104,8 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
     def later(more):  # the same run again, those integrated with the states
+        if not path.integrable(more, u):  # none has a compiled form: nothing to run again for
+            return {}
         run = simulate_with_events(cm, t_start, x_start, t_out, p, d_start, u, rtol, atol, max_step, first_step,
                                    max_events, False, starts, integrals=list(more))
         return run._integrals
