@@ -2,8 +2,8 @@
 "deterministic across 10 fresh processes with different hash seeds").
 
 Ten subprocesses, each with its own ``PYTHONHASHSEED``, two at a time, each compiling and running all ten examples
-of ``tests/test_msl_conformance.py`` from scratch at the default settings (``sim.simulate(t_end)``), and writing as
-JSON, for each: the path that ran (``res.solver``), every event (time, number, zero function, direction), the
+of ``tests/test_msl_conformance.py`` and ``tests/test_msl_conformance_stickslip.py`` from scratch at the default
+settings (``sim.simulate(t_end)``), and writing as JSON, for each: the path that ran (``res.solver``), every event (time, number, zero function, direction), the
 output times, a few trajectories at all outputs and the energy balance's residual, every float as its ``repr``
 (the shortest string that reads back to the same double, so equal strings mean equal bits). An example the
 library cannot run yet (LossyGearDemo2, and LossyGearDemo3 as the MSL composes it: finding 3 of
@@ -37,6 +37,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _examples():
     """(name, model factory, t_end, signals recorded) for the ten examples (eleven runs: LossyGearDemo3 twice)."""
     from tests import test_msl_conformance as C
+    from tests import test_msl_conformance_stickslip as S
 
     return [
         ("First", C.First, 0.2, ["inertia1.w", "inertia2.phi", "inertia3.w"]),
@@ -46,13 +47,13 @@ def _examples():
         ("Rectifier", C.Rectifier, 0.02, ["Capacitor1.v", "Inductor1.i", "Inductor2.i", "D3.off"]),
         ("DiodeBridge2Pulse", C.DiodeBridge2PulseExample, 0.02, ["currentSensor.i", "rectifier.diode_p1.off"]),
         ("SeriesResonance", C.SeriesResonance, 0.3, ["currentSensor1.i", "capacitor2.v"]),
-        ("LossyGearDemo1", C.LossyGearDemo, 0.5, ["Inertia1.w", "Inertia2.phi", "gear.tau_loss", "gear.stuck"]),
-        ("LossyGearDemo2", lambda: C.LossyGearDemo(bearing=True), 0.5, ["Inertia1.w", "gear.stuck"]),
-        ("LossyGearDemo3", C.LossyGearDemo3, 1.0, ["Inertia1.w", "gear.stuck"]),
-        ("LossyGearDemo3 (to 0.019 s)", C.LossyGearDemo3, 0.019, ["Inertia1.w", "Inertia2.phi", "gear.tau_loss"]),
-        ("LossyGearDemo3 (tau_bf2 = tau_bf1)", lambda: C.LossyGearDemo3(lumped=True), 1.0,
+        ("LossyGearDemo1", S.LossyGearDemo, 0.5, ["Inertia1.w", "Inertia2.phi", "gear.tau_loss", "gear.stuck"]),
+        ("LossyGearDemo2", lambda: S.LossyGearDemo(bearing=True), 0.5, ["Inertia1.w", "gear.stuck"]),
+        ("LossyGearDemo3", S.LossyGearDemo3, 1.0, ["Inertia1.w", "gear.stuck"]),
+        ("LossyGearDemo3 (to 0.019 s)", S.LossyGearDemo3, 0.019, ["Inertia1.w", "Inertia2.phi", "gear.tau_loss"]),
+        ("LossyGearDemo3 (tau_bf2 = tau_bf1)", lambda: S.LossyGearDemo3(lumped=True), 1.0,
          ["Inertia1.w", "gear.tau_loss", "gear.stuck"]),
-        ("Friction", C.Friction, 3.0, ["inertia1.w", "inertia2.w", "inertia3.phi", "clutch.stuck", "brake.tau"]),
+        ("Friction", S.Friction, 3.0, ["inertia1.w", "inertia2.w", "inertia3.phi", "clutch.stuck", "brake.tau"]),
     ]
 
 
