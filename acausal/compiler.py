@@ -6,7 +6,6 @@ start values or input signals. ``report()`` tells what the compiler did: states,
 from __future__ import annotations
 
 import difflib
-import math
 import time as _time
 from collections.abc import Mapping
 
@@ -17,6 +16,7 @@ from .alias import eliminate_aliases
 from .codegen import CodeGenerator
 from .errors import ModelError, SignalError, UnknownNameError
 from .flatten import FlatModel, flatten
+from .parameter_values import check_parameter, parameter_plan
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import solve_blocks
@@ -121,7 +121,7 @@ class CompiledModel:
         self.input_names = list(gen.inputs)
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
-        self._param_plan = _param_plan(flat)
+        self._param_plan = parameter_plan(flat)
         # parameters bound to an expression of others: not overridable (they would disagree with the others)
         self._bound = {name: binding for name, _, binding, _ in self._param_plan if binding is not None}
         self._event_assign = _event_assignment_table(flat)
@@ -303,7 +303,7 @@ class CompiledModel:
                 v = self.eval_expr(binding, values)
             else:
                 v = default
-            batch = _check_param(info, v) or batch
+            batch = check_parameter(info, v) or batch
             values[name] = v
         if batch:
             out = np.empty(len(self.param_names), dtype=object)
@@ -443,64 +443,6 @@ def _mapping(value, what: str) -> dict:
     if not isinstance(value, Mapping):
         raise ModelError(f"{what} must be a dict by name, got {type(value).__name__}")
     return dict(value)
-
-
-def _param_plan(flat) -> list:
-    """How :meth:`CompiledModel.param_vector` computes the parameters: ``(name, info, binding, default)`` in an
-    order where every bound parameter comes after those its expression uses; ``binding`` is that expression
-    (None for a number), ``default`` the number (None for a binding). A cycle of bindings is a ModelError."""
-    deps = {}
-    for n, info in flat.parameters.items():
-        deps[n] = {s.name for s in info.value.free_symbols} if isinstance(info.value, sp.Basic) else set()
-    order, done = [], set()
-
-    def visit(n, stack=()):
-        if n in done:
-            return
-        if n in stack:
-            raise ModelError(f"parameter bindings form a cycle: {' -> '.join(stack + (n,))}")
-        for m in sorted(deps[n]):
-            visit(m, stack + (n,))
-        done.add(n)
-        order.append(n)
-
-    for n in sorted(deps):
-        visit(n)
-    plan = []
-    for n in order:
-        info = flat.parameters[n]
-        if isinstance(info.value, sp.Basic) and not info.value.is_number:
-            plan.append((n, info, info.value, None))
-        else:
-            plan.append((n, info, None, float(info.value)))
-    return plan
-
-
-def _check_param(info, v) -> bool:
-    """Check one parameter value (a number, or an array of values for a batch of runs) for finiteness and
-    against the parameter's bounds; True when it is an array of values. Numbers take the fast path."""
-    if isinstance(v, (float, int)) and not isinstance(v, bool):
-        finite, low, high, batch = math.isfinite(v), v, v, False
-    elif isinstance(v, (str, bytes, bool, np.bool_)):  # "0.5" or True would pass np.asarray as numbers
-        raise ModelError(f"parameter {info.name!r} of {info.owner}: {v!r} is a {type(v).__name__}, not a number "
-                         f"[{info.unit}]")
-    else:
-        try:
-            arr = np.asarray(v, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError(f"parameter {info.name!r} of {info.owner}: {v!r} is not a number or an array of "
-                             "numbers") from None
-        finite, batch = bool(np.all(np.isfinite(arr))), arr.ndim > 0
-        low, high = (arr.min(), arr.max()) if finite and arr.size else (math.inf, -math.inf)
-    if not finite:
-        raise ModelError(f"parameter {info.name!r} of {info.owner} is not finite: {v}")
-    if info.min is not None and low < info.min:
-        raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is below its minimum {info.min} "
-                         f"[{info.unit}]")
-    if info.max is not None and high > info.max:
-        raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is above its maximum {info.max} "
-                         f"[{info.unit}]")
-    return batch
 
 
 def _event_assignment_table(flat) -> list:
