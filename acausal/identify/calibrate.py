@@ -16,8 +16,9 @@ beyond), so a few samples the model cannot follow (a driver going into saturatio
 current that the smoothed replay rounds off) do not bias the parameters; ``loss="linear"`` gives plain least
 squares.
 
-Uncertainty: the covariance ``s^2 (J^T J)^-1`` at the optimum, with ``s^2`` the residual variance; it assumes
-white residuals, so it is optimistic when the model misses something systematic (see the residual analysis).
+Uncertainty: the cluster-robust (sandwich) covariance at the optimum, clustered by stride of each recording
+(:mod:`~.uncertainty`): residuals correlated within a stride do not make it optimistic, as the textbook
+``s^2 (J^T J)^-1`` (kept as ``Calibration.std_white``) is by a factor of several on replayed recordings.
 Quality: RMSE per signal and experiment on the training and held-out samples, and ``Calibration.warnings``:
 what the screening (:mod:`~.screening`) finds suspect in the data or the fit (a dead sensor, a reversed sign, a
 recording far off the others, readings that repeat at another cycle than ``Experiment.period``, a held-out RMSE many
@@ -36,6 +37,7 @@ from scipy.optimize import least_squares
 
 from ..errors import AcausalError, DataError
 from .screening import screen
+from .uncertainty import METHOD, cluster_covariance, groups_of
 
 #: the robust losses of :func:`scipy.optimize.least_squares` (``"linear"``: plain least squares)
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -92,6 +94,12 @@ class Calibration:
     counts: dict = field(default_factory=dict)  # "train"/"test" -> (experiment, signal) -> number of samples
     #: what the screening found suspect in the data or the fit (sentences; empty: nothing), :mod:`~.screening`
     warnings: list = field(default_factory=list)
+    #: the textbook standard errors ``sqrt(diag(s^2 (J^T J)^-1))``, which assume white residuals (for comparison)
+    std_white: dict = field(default_factory=dict)
+    #: how many clusters (strides) the standard errors in ``std`` were estimated from
+    clusters: int = 0
+    #: how ``std`` was computed (:data:`~.uncertainty.METHOD`)
+    std_method: str = METHOD
 
     def rmse(self, signal: str, which: str = "test") -> float:
         """RMSE of one signal over all experiments (pooled samples)."""
@@ -226,12 +234,14 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     m, n = J.shape
     s2 = 2 * sol.cost / max(m - n, 1)
     try:
-        cov_z = s2 * np.linalg.inv(J.T @ J)
+        white_z = s2 * np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
-        cov_z = np.full((n, n), np.inf)
+        white_z = np.full((n, n), np.inf)
+    cov_z, clusters = cluster_covariance(J, sol.fun, groups_of(experiments, signals), loss, f_scale)
     cov = cov_z * np.outer(xs, xs)
     values = values_of(sol.x)
     std = {k: float(np.sqrt(max(cov[i, i], 0.0))) for i, k in enumerate(names)}
+    std_white = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(names, np.diag(white_z) * xs**2)}
     rmse_train, rmse_test, counts = {}, {}, {"train": {}, "test": {}}
     preds = {}
     for e in experiments:
@@ -244,7 +254,7 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                     counts[which][(e.name, s)] = int(msk.sum())
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
-                      {f.name: f.start for f in free}, counts)
+                      {f.name: f.start for f in free}, counts, std_white=std_white, clusters=clusters)
     cal.warnings = _screen(experiments, preds, signals, scales, lambda e: e.period)
     return cal
 

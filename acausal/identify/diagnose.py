@@ -8,8 +8,10 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    value where the effect vanishes (``Candidate.zero``), at the calibrated baseline, stacked over signals and
    samples in units of sensor noise. The part the baseline parameters can absorb is projected out (they are
    refitted anyway), and what is left is compared with the baseline residual (cosine: ``match``). Two candidates
-   whose projected fingerprints are nearly collinear (``|cos| >= Thresholds.confusable``) are *confusable*: the
-   data cannot tell them apart.
+   whose projected fingerprints are nearly collinear (``|cos| >= Thresholds.confusable``), or that both count in
+   the first step with correlated fingerprints (``|cos| >= Thresholds.related``), are *confusable*; each pair is
+   reported with the evidence that separated them, or the statement that the data cannot
+   (:func:`~.evidence.confusable`).
 3. **Refit and score**: each candidate is added to the calibrated model and the extended model refitted on the
    training strides. (A candidate whose projected fingerprint explains so little of the residual that even the
    linearised best case gains less than ``Thresholds.screen`` is not refitted: it is scored by one Gauss-Newton
@@ -31,6 +33,11 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 4. **Verdict**: the significant candidate with the largest held-out gain; greedy forward selection then repeats
    step 3 with that effect in the model, for a second effect (``max_effects``). ``none`` when nothing is
    significant.
+5. **What it could not see** (:mod:`~.evidence`): every candidate's detection limit (the smallest size that would
+   have been named at this data's noise and these thresholds), and the baseline refitted on each recording with a
+   trend test over the session (drift), pointing to the candidates that explain a drifting parameter.
+
+Standard errors are cluster-robust, clustered by stride of each recording (:mod:`~.uncertainty`).
 """
 from __future__ import annotations
 
@@ -42,6 +49,7 @@ from scipy.stats import binom
 
 from ..errors import AcausalError, DataError
 from .calibrate import Calibration, Free, calibrate, jacobian_matrix, noise_scales, residual_vector
+from .evidence import _cos, confusable, detection_limits, drift
 from .residuals import cross_correlations, leave_one_group_out, phase_profile, whiteness
 from .screening import screen as screen_fit
 
@@ -63,7 +71,8 @@ class Thresholds:
     min_t: float = 2.0  # paired t statistic of per-stride improvements
     max_sign_p: float = 0.01  # or: p value of a one-sided sign test of the per-stride improvements
     max_delta_bic: float = -10.0
-    confusable: float = 0.9  # |cos| of projected fingerprints
+    confusable: float = 0.9  # |cos| of projected fingerprints: confusable whatever their scores
+    related: float = 0.3  # |cos| above which two candidates both significant in the first step are confusable
     screen: float = 0.005  # refit only candidates whose fingerprint alone could gain this much (linearised)
     outlier: float = 5.0  # a recording whose RMSE is this many times the median of the set is flagged
     misfit: float = 10.0  # a final model whose held-out RMSE is this many noise levels is flagged
@@ -98,6 +107,15 @@ class Problem(ABC):
         """Noise level of each signal (the unit residuals are counted in); default: estimated from the data
         (:func:`~.calibrate.noise_scales`)."""
         return noise_scales(exps, self.signals)
+
+    #: baseline parameter -> candidates that explain a drift of it across a session (e.g. a resistance that rises
+    #: from recording to recording: a winding that warms)
+    drift_causes: dict = {}
+
+    def session_order(self, exps):
+        """``(label, positions)`` of the experiments in their session (e.g. elapsed time at each recording's
+        start), or None: their order as given."""
+        return None
 
     def heldout(self) -> dict:
         """How the held-out samples were chosen and which signal judges them: ``{"signal", "unit", "split"}``
@@ -165,12 +183,16 @@ class Diagnosis:
     steps: list
     baseline: Fit
     final: Fit
-    confusable: list  # (id_a, id_b, |cos|)
+    confusable: list  # dicts: a, b, cos, kind, separated, evidence (:func:`~.evidence.confusable`)
     thresholds: Thresholds
     scales: dict
     fingerprints: dict = field(default_factory=dict)  # id -> match with the baseline residual
     heldout_info: dict = field(default_factory=dict)  # Problem.heldout(): signal, unit, split
     warnings: list = field(default_factory=list)  # data and fit problems found by :func:`screen` (sentences)
+    #: id -> smallest size that would have been named (:func:`~.evidence.detection_limits`)
+    detection_limits: dict = field(default_factory=dict)
+    #: per-recording baseline and its trend over the session (:func:`~.evidence.drift`)
+    drift: dict = field(default_factory=dict)
 
     def heldout(self) -> dict:
         """The verdict's held-out score: mean absolute error of the judging signal on the held-out samples, for
@@ -199,7 +221,10 @@ class Diagnosis:
                              "std": {k: _num(v) for k, v in self.final.cal.std.items()},
                              "heldout_rmse": dict(self.final.test_rmse)},
                 "heldout": self.heldout(), "warnings": list(self.warnings),
-                "confusable": [{"a": a, "b": b, "cos": c} for a, b, c in self.confusable],
+                "confusable": [dict(c) for c in self.confusable],
+                "detection_limits": {k: dict(v) for k, v in self.detection_limits.items()},
+                "drift": self.drift,
+                "standard_errors": {"method": self.final.cal.std_method, "clusters": self.final.cal.clusters},
                 "thresholds": vars(self.thresholds) if not hasattr(self.thresholds, "__dataclass_fields__")
                 else {k: getattr(self.thresholds, k) for k in self.thresholds.__dataclass_fields__}}
 
@@ -320,11 +345,6 @@ def _screened(base: Fit, c: Candidate, r, f, cos) -> CandidateScore:
                           {s: (v, v) for s, v in base.test_rmse.items()}, fingerprint_match=cos, screened=True)
 
 
-def _cos(a, b) -> float:
-    den = np.linalg.norm(a) * np.linalg.norm(b)
-    return float(a @ b / den) if den > 0 else 0.0
-
-
 # ---------------------------------------------------------------------------------------------- driver
 def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds = Thresholds(),
              max_effects: int = 2, candidates=None, progress=None) -> Diagnosis:
@@ -342,12 +362,6 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     say("fingerprints")
     fp = fingerprints(problem, base, ids, scales)
     match = {cid: _cos(fp[None], fp[cid]) for cid in ids}
-    confusable = []
-    for i, a in enumerate(ids):
-        for b in ids[i + 1:]:
-            c = abs(_cos(fp[a], fp[b]))
-            if c >= thresholds.confusable:
-                confusable.append((a, b, c))
     steps, causes = [], []
     while len(causes) < max_effects:
         rest = [cid for cid in ids if cid not in causes]
@@ -377,7 +391,16 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
             break
         causes.append(best.id)
         base = best.fit
-    d = Diagnosis(causes, steps, baseline, base, confusable, thresholds, scales, match, problem.heldout())
+    d = Diagnosis(causes, steps, baseline, base, confusable(ids, fp, steps, thresholds), thresholds, scales, match,
+                  problem.heldout())
+    d.detection_limits = detection_limits(problem, fp, baseline.n_train, thresholds)
+    if len(baseline.exps) >= 3:
+        say("per-recording baseline (drift)")
+        bounds = {f.name: (f.lower, f.upper) for f in problem.base_free(baseline.values)}
+        d.drift = drift(problem, baseline, scales, bounds, problem.session_order(baseline.exps))
+    else:
+        d.drift = {"axis": None, "recordings": [], "trends": {}, "drifting": [], "explained_by": {},
+                   "note": "not judged: fewer than 3 recordings"}
     d.warnings = screen(problem, d.final, scales, thresholds)
     for w in d.warnings:
         say(f"warning: {w}")

@@ -36,12 +36,16 @@ class AnkleProblem(Problem):
     """The ankle actuator's recordings as a diagnosis problem."""
 
     candidates = CANDIDATES
+    #: a resistance that rises from recording to recording is a winding warming over the session
+    drift_causes = {"motor.R": ("winding_temperature",)}
 
     def __init__(self, recordings, split: Split = Split(), signals=DIAGNOSIS_SIGNALS, baseline=BASELINE_PARAMS,
                  exact: bool = True):
         if not isinstance(recordings, (list, tuple)):
             recordings = load_recordings(recordings, ANKLE_FORMAT)
         self.recordings = list(recordings)
+        if all("session_time_s" in r.meta for r in self.recordings):  # a session: in the order it was recorded
+            self.recordings.sort(key=lambda r: r.meta["session_time_s"])
         self.split = split
         self.signals = list(signals)
         self.baseline = list(baseline)
@@ -67,6 +71,13 @@ class AnkleProblem(Problem):
 
     def period(self, exp) -> float:
         return float(exp.info["meta"]["stride_time_s"])
+
+    def session_order(self, exps):
+        """Elapsed session time at each recording's start when every recording says (JSON ``session_time_s``);
+        else None (the recordings' order)."""
+        if all("session_time_s" in e.info["meta"] for e in exps):
+            return "elapsed session time [s]", [float(e.info["meta"]["session_time_s"]) for e in exps]
+        return None
 
     def heldout(self) -> dict:
         return {"signal": self.signals[0], "unit": "A" if self.signals[0].endswith("_A") else "",

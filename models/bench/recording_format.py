@@ -33,6 +33,8 @@ ANKLE_FORMAT = RecordingFormat(
         Key("lever_B_m", "m", "MACCEPA moment-arm length B (overrides 0.06 m)", required=False),
         Key("gear_ratio", "1", "total transmission ratio (overrides 860)", required=False),
         Key("strides", "", "number of consecutive strides recorded", required=False, kind="integer"),
+        Key("session_time_s", "s", "when the recording started, seconds since the session's first recording "
+            "started: orders a session's recordings for the drift check", required=False, positive=False),
         Key("description", "", "free text", required=False, kind="text"),
     ),
     expected_span=recorded_span,
