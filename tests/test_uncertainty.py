@@ -65,7 +65,7 @@ def test_loss_derivatives_match_finite_differences():
     f = np.linspace(-10, 10, 41)
     C = 3.0
     rho0 = {"linear": lambda z: z, "soft_l1": lambda z: 2 * ((1 + z) ** 0.5 - 1), "cauchy": np.log1p,
-            "arctan": np.arctan, "huber": lambda z: np.where(z <= 1, z, 2 * np.sqrt(z) - 1)}
+            "arctan": np.arctan, "huber": lambda z: np.where(z <= 1, z, 2 * np.sqrt(np.abs(z)) - 1)}
     for loss, r0 in rho0.items():
         z = (f / C) ** 2
         h = 1e-4

@@ -391,13 +391,19 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
             break
         causes.append(best.id)
         base = best.fit
+    rest = [cid for cid in ids if cid not in causes]
+    if causes and rest and steps[-1].chosen is not None:  # the selection stopped at max_effects: fingerprints on top
+        fp_step = fingerprints(problem, base, rest, scales)
     d = Diagnosis(causes, steps, baseline, base, confusable(ids, fp, steps, thresholds), thresholds, scales, match,
                   problem.heldout())
-    d.detection_limits = detection_limits(problem, fp, baseline.n_train, thresholds)
+    # what the final model could still have seen: the limits of the candidates not named, on top of the named ones
+    at_final = {k: v for k, v in fp_step.items() if k is None or k in rest} if causes else fp
+    d.detection_limits = detection_limits(problem, at_final, base.n_train, thresholds)
     if len(baseline.exps) >= 3:
-        say("per-recording baseline (drift)")
+        say("per-recording fit (drift)")
         bounds = {f.name: (f.lower, f.upper) for f in problem.base_free(baseline.values)}
-        d.drift = drift(problem, baseline, scales, bounds, problem.session_order(baseline.exps))
+        bounds.update({problem.candidates[c].parameter: problem.candidates[c].bounds for c in causes})
+        d.drift = drift(problem, base, scales, bounds, problem.session_order(base.exps))
     else:
         d.drift = {"axis": None, "recordings": [], "trends": {}, "drifting": [], "explained_by": {},
                    "note": "not judged: fewer than 3 recordings"}

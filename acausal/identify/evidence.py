@@ -21,7 +21,7 @@ drift of the baseline across the recordings of a session.
   extended models (leave-one-stride-out errors: on how many strides one fits better, a sign test and a paired t) and,
   where the selection went on, whether the other still counts once the chosen one is in the model. Without such
   evidence the pair is reported as not separable by this data.
-* :func:`drift`: the baseline refitted on each recording alone (two Gauss-Newton steps from the pooled fit, all of
+* :func:`drift`: the final model (the baseline and the named effects) refitted on each recording alone (two Gauss-Newton steps from the pooled fit, all of
   the recording's inner samples), and a straight-line trend of each parameter against the recording order (or
   elapsed session time, where the recordings say when they started): slope, its standard error from the scatter
   about the line, ``t`` and ``p`` (Student, ``n - 2`` degrees of freedom). A parameter drifts when ``p <= 0.01`` and it

@@ -20,6 +20,7 @@ from acausal.identify import load_recordings
 from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
 from .calibration import Split, experiment, free_parameter, replay_inputs, replay_model
+from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS
 
@@ -93,6 +94,41 @@ class AnkleProblem(Problem):
                 "abs(transmitted torque)": np.abs(np.asarray(v["gear.flange_b.tau"])), "motor current^2": i * i,
                 "elapsed time": exp.t - exp.t[0], "sign(driver power)": np.tanh(np.asarray(v["P_driver.P"]) / _SIGN_POWER),
                 "joint torque": np.asarray(v["joint_torque"])}
+
+
+    def effect_reading(self, cid: str, value: float) -> str:
+        """What a size of effect ``cid`` means physically, in words (joint side, spring force, ...)."""
+        n = N_TOTAL
+        if cid == "gear_coulomb_friction":
+            return f"{value * 1e3:.3g} mN m at the motor = {value * n:.3g} N m at the gear output (x {n:g})"
+        if cid == "gear_load_dependent_loss":
+            return f"{100 * (1 - value):.3g} % of the transmitted torque lost in the mesh"
+        if cid == "winding_temperature":
+            return f"motor heat capacity {1 / value:.3g} J/K" if value > 1e-6 else "no heating"
+        if cid == "driver_quiescent_power":
+            return f"{value:.3g} W drawn from the supply at all times"
+        if cid == "torque_sensor_offset":
+            return f"{value:.3g} N m on the joint-torque reading (a sensor effect: no energy)"
+        if cid == "precompression_error":
+            k = self.recordings[0].meta["spring_stiffness_N_per_m"]
+            return f"{value * 1e3:.3g} mm = {k * value:.3g} N of spring force"
+        if cid == "gear_backlash":
+            return f"{np.degrees(value):.3g} deg of play at the moment arm"
+        return ""
+
+    def effect_energy(self, fit, cid: str) -> float:
+        """Supply energy per stride [J] the named effect ``cid`` of ``fit`` costs: the extended model's supply
+        energy minus the same model's with the effect at its vanishing size, over all recordings' inner strides."""
+        c = self.candidates[cid]
+        zero = {**fit.values, c.parameter: c.zero}
+        energy = strides = 0.0
+        for e in fit.exps:
+            inner = e.train | e.test
+            a, b = e.predict(fit.values), e.predict(zero)
+            p = a["supply_voltage_V"] * a["supply_current_A"] - b["supply_voltage_V"] * b["supply_current_A"]
+            energy += float(np.trapezoid(p[inner], e.t[inner]))
+            strides += float(e.t[inner][-1] - e.t[inner][0]) / self.period(e)
+        return energy / strides
 
 
 def _sensitivity(cm, exp):

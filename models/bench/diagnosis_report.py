@@ -14,6 +14,8 @@ import numpy as np  # noqa: E402
 from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
 from ..ankle.effects import EFFECTS  # noqa: E402
+from ..reporting.evidence import (confusable_lines, detection_lines, drift_figure, drift_lines,  # noqa: E402
+                                  residual_time_figure)
 from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
 
 _UNITS = {"motor_current_A": "A", "supply_current_A": "A", "joint_torque_Nm": "N m"}
@@ -31,13 +33,13 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
     md = [f"Data: {data_label}. {len(d.baseline.exps)} recordings; every third stride held out; signals in units "
           "of their noise level (estimated from the data): "
           + ", ".join(f"{s} {v:.3g} {_UNITS.get(s, '')}" for s, v in d.scales.items()) + ".", "",
-          f"**Verdict: `{d.cause}`**" + (f" (all named, in order: {', '.join(f'`{c}`' for c in d.causes)})"
-                                          if len(d.causes) > 1 else ""), "", *_warning_lines(d),
+          _headline(d, problem), "", *_warning_lines(d),
           f"A candidate counts when its held-out RMSE gain and its leave-one-stride-out gain are both at least "
           f"{100 * th.min_gain:.0f} %, the paired t statistic of its per-stride improvements is at least "
           f"{th.min_t:g} and its BIC falls by at least {-th.max_delta_bic:g}. These thresholds were tuned on "
           "virtual-bench recordings without hidden effects (clean and with sensor noise and encoder quantisation), "
-          "where no candidate comes near them, and the tests check them on other seeds.", ""]
+          "where no candidate comes near them, and the tests check them on other seeds. Standard errors: "
+          f"{d.final.cal.std_method} ({d.final.cal.clusters} clusters).", ""]
     md += ["## 1. The calibrated baseline (Eq. 4: R, J, b)", "",
            md_table(["parameter", "value", "std. error"],
                     [[f"`{n}`", f"{d.baseline.values[n]:.4g}", f"{d.baseline.cal.std[n]:.2g}"] for n in d.baseline.cal.names]),
@@ -50,7 +52,10 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
                      for s, a in before.items()]), ""]
     fig_phase = _phase_figure(out / "diagnosis_residual_phase.png", before, after, d)
     fig_acf = _acf_figure(out / "diagnosis_autocorrelation.png", before, after, d)
+    fig_time = residual_time_figure(out / "diagnosis_residual_time.png", problem, d.baseline, _UNITS,
+                                    "calibrated baseline (Eq. 4: R, J, b)")
     md += [f"![residual over the gait phase]({fig_phase.name})", "",
+           f"![residual over time, per recording]({fig_time.name})", "",
            f"![autocorrelation]({fig_acf.name})", ""]
     for k, st in enumerate(d.steps):
         title = "## 2. Candidates (added to the calibrated baseline, refitted with R, J, b)" if k == 0 else \
@@ -67,11 +72,7 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
                "(lin.): screened out, its fingerprint explains too little of the residual for a refit to matter; "
                "the gain and BIC are the linearised best case.", "",
                f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here.", ""]
-    if d.confusable:
-        md += ["Confusable (fingerprints nearly collinear once R, J, b are refitted; the data alone can hardly tell "
-               "them apart): " + "; ".join(f"`{a}` / `{b}` (|cos| = {c:.2f})" for a, b, c in d.confusable) + ".", ""]
-    else:
-        md += [f"No two candidates have fingerprints closer than |cos| = {th.confusable:g}.", ""]
+    md += confusable_lines(d)
     if d.causes:
         fin = d.final
         md += ["## 3. The extended model", "", f"Effects added: {', '.join(f'`{c}`' for c in d.causes)}.", "",
@@ -86,6 +87,10 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
                         [[s, f"{sum(w.white for w in a['whiteness'])}/{len(a['whiteness'])}",
                           "; ".join(f"{c.name} {c.r:+.2f}{'*' if c.significant else ''}" for c in a["correlations"][:3])]
                          for s, a in after.items()]), ""]
+    md += detection_lines(d, {cid: problem.effect_reading(cid, x["value"]) for cid, x in d.detection_limits.items()
+                              if x.get("value") is not None})
+    fig_drift = drift_figure(out / "diagnosis_drift.png", d, "calibrated baseline, refitted per recording")
+    md += drift_lines(d, fig_drift)
     cand_csv = write_csv(out / "diagnosis_candidates.csv", [
         dict(step=k + 1, candidate=s.id, parameter=s.parameter, value=s.value, std=s.std,
              heldout_rmse_gain=s.heldout_rmse_gain, loso_rmse_gain=s.loso_rmse_gain, t_stat=s.t_stat,
@@ -98,7 +103,8 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
         for row, w in zip(a["rows"], a["whiteness"])])
     text = "# Diagnosis\n\n" + "\n".join(md) + "\n"
     (out / "report.md").write_text(text)
-    return {"title": "Diagnosis: what the Eq. 4 model gets wrong, and why", "figures": [fig_phase, fig_acf],
+    figures = [fig_phase, fig_time, fig_acf] + ([fig_drift] if fig_drift else [])
+    return {"title": "Diagnosis: what the Eq. 4 model gets wrong, and why", "figures": figures,
             "csv": [cand_csv, res_csv], "markdown": "\n".join(md)}
 
 
@@ -155,3 +161,19 @@ def _warning_lines(d) -> list:
         return []
     return ["**Warnings** (data or fit problems the verdict does not cover):", "",
             *[f"- {w}" for w in d.warnings], ""]
+
+
+def _headline(d, problem) -> str:
+    """The verdict with every named cause, its fitted size and standard error, what that size means physically and
+    the supply energy it costs per stride."""
+    if not d.causes:
+        return "**Verdict: `none`** (no candidate counts; the detection limits below say how large an effect could " \
+               "have gone unseen)"
+    parts = []
+    for cid in d.causes:
+        c = problem.candidates[cid]
+        v, sd = d.final.values[c.parameter], d.final.cal.std.get(c.parameter, np.nan)
+        energy = problem.effect_energy(d.final, cid)
+        parts.append(f"`{cid}` = {v:.4g} ± {sd:.2g} {c.unit} ({problem.effect_reading(cid, v)}; "
+                     f"{energy:+.3g} J of supply energy per stride)")
+    return f"**Verdict: {', '.join(f'`{c}`' for c in d.causes)}**: " + "; ".join(parts) + "."

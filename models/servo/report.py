@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 
 from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
+from ..reporting.evidence import confusable_lines, detection_lines, drift_lines  # noqa: E402
 from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
 from .bam import published  # noqa: E402
 from .problem import CANDIDATES  # noqa: E402
@@ -131,8 +132,9 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
                           "" if s.screened or not np.isfinite(s.sign_p) else f"{s.sign_p:.2g}",
                           f"{s.delta_bic:.4g}", "**yes**" if s.significant else "no"] for s in st.scores]), "",
                f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here.", ""]
-    if d.confusable:
-        md += ["Confusable: " + "; ".join(f"`{a}` / `{b}` (|cos| = {c:.2f})" for a, b, c in d.confusable) + ".", ""]
+    md += confusable_lines(d)
+    md += detection_lines(d)
+    md += drift_lines(d)
     # ---------------------------------------------------------------- parameters
     bam_sets = {lab: pub["sets"][lab] for lab in ("main m1", "main m3") if lab in pub["sets"]}
     md += ["## 3. Parameters (output side) with standard errors", "",
