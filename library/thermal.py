@@ -21,12 +21,13 @@ Typical use, a motor winding heated by its copper loss::
 """
 import abc
 
-from sympy import Eq
+from sympy import Eq, exp
 
-from acausal import Component, Input, Parameter, RealInput, RealOutput, Variable, der
+from acausal import Component, Input, Parameter, RealInput, RealOutput, Variable, der, time
 from acausal.connectors import HeatPort
 
-__all__ = ["HeatCapacitor", "Element1D", "ThermalConductor", "ThermalResistor", "FixedTemperature",
+__all__ = ["HeatCapacitor", "Element1D", "ThermalConductor", "ThermalResistor", "DecayingTemperatureStep",
+           "FixedTemperature",
            "PrescribedTemperature", "FixedHeatFlow", "PrescribedHeatFlow", "SignalHeatFlow", "TemperatureSensor",
            "HeatFlowSensor"]
 
@@ -112,6 +113,35 @@ class ThermalResistor(Element1D):
 
     def equations(self):
         return [*super().equations(), Eq(self.dT, self.R * self.Q_flow)]
+
+
+class DecayingTemperatureStep(Element1D):
+    """A temperature step across a heat path that decays exponentially, lossless: the initial excess temperature
+    of a first-order thermal body made a *parameter* (no MSL counterpart)::
+
+        port_a.T - port_b.T = dT0 * exp(-(time - t0) / tau)         port_a.Q_flow = -port_b.Q_flow
+
+    Use: a body of capacity C cooled to a fixed ambient through a conductance G whose temperature starts ``dT0``
+    above where its state starts (a winding still warm from the previous recording of a session). Put the step
+    between the heat source (port_a) and the body with its cooling (port_b), with ``tau = C / G``, and start the
+    body at ambient: by superposition (the body's equation is linear in its temperature) the source then sees
+    exactly the temperature of a body started ``dT0`` warmer, also when the heat it makes depends on that
+    temperature. The start value becomes a parameter, with exact parameter sensitivities (start values of
+    states are numbers). The heat stored in the initial excess is not in the body's ``energy`` (it leaves to
+    ambient outside the model); what enters the step leaves it, so energy balances are unchanged.
+
+    Parameters:
+        dT0 [K]: the step at ``time = t0`` (the initial excess temperature). Default 0: no step.
+        t0 [s]: when the step is ``dT0`` (the run's start). Default 0.
+        tau [s]: decay time constant (``C / G`` of the body). Default 1.0: placeholder (assumption), always give it.
+    """
+
+    dT0 = Parameter(0.0, unit="K", doc="temperature step port_a.T - port_b.T at time t0")
+    t0 = Parameter(0.0, unit="s", doc="time at which the step is dT0")
+    tau = Parameter(1.0, unit="s", min=0.0, doc="decay time constant of the step (C / G of the body)")
+
+    def equations(self):
+        return [*super().equations(), Eq(self.dT, self.dT0 * exp(-(time - self.t0) / self.tau))]
 
 
 # --------------------------------------------------------------------------------------------- boundaries

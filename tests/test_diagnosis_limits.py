@@ -11,7 +11,7 @@ import pytest
 from acausal.identify.recordings import write_recording
 from acausal.models.bench import diagnosis
 from acausal.models.bench.recording_format import ANKLE_FORMAT
-from acausal.models.bench.virtual import BenchCondition, record, run_bench
+from acausal.models.bench.virtual import BenchCondition, record, run_bench, run_session
 
 #: 2 precompressions x 2 stride times, 3 strides each
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]
@@ -79,11 +79,40 @@ def test_a_resistance_rising_over_the_session_is_drift_pointing_to_the_winding(t
     assert "motor.R" in dr["drifting"] and dr["explained_by"]["motor.R"] == ["winding_temperature"]
     fitted = [r["motor.R"] for r in dr["recordings"]]
     assert np.allclose(fitted, R, atol=0.015), fitted  # one recording of 3 strides each: R to about 1 %
-    assert dr["trends"]["motor.R"]["change"] == pytest.approx(0.05, rel=0.15)
-    assert set(dr["drifting"]) == {"motor.R"}
+    assert dr["trends"]["motor.R"]["change"] == pytest.approx(0.05, abs=0.015)  # the line through six such points
+    assert "motor.J" not in dr["drifting"]  # (b, fitted per recording, may follow R: both set the supply current)
 
 
 def test_a_steady_session_has_no_drift(tmp_path):
     d, _ = diagnosis.run(_session(tmp_path, [0.70] * 6, seed=36), max_effects=1)
     assert d.drift["drifting"] == [], d.drift["trends"]
     assert d.drift["axis"] == "elapsed session time [s]"
+
+
+#: a session of six recordings (5 strides of 1.6 s each, 100 kg user, 5 s pauses) with the winding heating
+#: time-compressed as in test_diagnosis.ENDURANCE (1/C = 0.1 K/J: time constant 76 s), so that the winding warms by
+#: about 20 K over the session and carries its temperature from one recording to the next. No settling strides:
+#: nothing heats the winding unrecorded.
+SESSION = [BenchCondition(P, 1.6, strides=5, body_mass=100.0, settle=0) for P in (0.008, 0.011, 0.005) * 2]
+
+
+def test_winding_warming_over_a_session_is_named_by_the_drift_it_explains(tmp_path):
+    """The per-sample gain of the winding is small (its effect is a slow rise of R), but the per-recording fit
+    drifts plainly; the winding candidate, carrying its temperature across the session, makes the drift go away:
+    it is named, its size is within 3 standard errors of the truth and R is back at the bench's."""
+    run_session(tmp_path, SESSION, {"winding_temperature": 0.1}, seed=37, pause=5.0)
+    d, _ = diagnosis.run(tmp_path, max_effects=1)
+    assert d.causes == ["winding_temperature"], d.to_dict()["steps"]
+    named = d.steps[-1].scores[0]
+    assert d.steps[-1].kind == "drift" and named.named_by == "drift" and named.heldout_rmse_gain < 0.03
+    h, sd = d.final.values["winding_heating"], d.final.cal.std["winding_heating"]
+    assert abs(h - 0.1) < 3 * sd and sd < 0.02, (h, sd)
+    assert d.final.values["motor.R"] == pytest.approx(0.7, rel=0.01)
+    assert d.drift["drifting"] == [] and d.drift["before"]["drifting"] == ["motor.R"]
+    assert d.drift["resolved_by"] == {"motor.R": "winding_temperature"}
+
+
+def test_a_session_without_heating_names_nothing(tmp_path):
+    run_session(tmp_path, SESSION, {}, seed=38, pause=5.0)
+    d, _ = diagnosis.run(tmp_path, max_effects=1)
+    assert d.causes == [] and d.drift["drifting"] == [], d.drift["trends"]

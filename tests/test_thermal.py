@@ -5,7 +5,9 @@ import pytest
 from scipy.linalg import expm
 
 from acausal import Model, compile_model, connect
-from acausal.library.thermal import (FixedHeatFlow, FixedTemperature, HeatCapacitor, HeatFlowSensor,
+from acausal import Component, Eq, Parameter
+from acausal.connectors import HeatPort
+from acausal.library.thermal import (DecayingTemperatureStep, FixedHeatFlow, FixedTemperature, HeatCapacitor, HeatFlowSensor,
                                      PrescribedHeatFlow, PrescribedTemperature, TemperatureSensor,
                                      ThermalConductor, ThermalResistor)
 
@@ -124,3 +126,46 @@ def test_fixed_heat_flow_with_temperature_coefficient_and_prescribed_temperature
     T_ss = (T_amb + R * Q * (1 - alpha * T_ref)) / (1 - R * Q * alpha)
     assert res["body.T"][-1] == pytest.approx(T_ss, rel=1e-9)
     assert -res["src.port.Q_flow"][-1] == pytest.approx(Q * (1 + alpha * (T_ss - T_ref)), rel=1e-9)
+
+
+class _TemperatureDependentHeater(Component):
+    """Heat ``P0 (1 + a (T - 300 K))`` into its port (a resistive heater whose resistance rises with T)."""
+
+    P0 = Parameter(10.0, unit="W")
+    a = Parameter(0.004, unit="1/K")
+    port = HeatPort()
+
+    def equations(self):
+        return [Eq(self.port.Q_flow, -self.P0 * (1 + self.a * (self.port.T - 300.0)))]
+
+
+class HeatedBody(Model):
+    """A body heated by a power that grows with its temperature (a copper winding: P = P0 (1 + a (T - 300))),
+    cooled through G to 300 K; ``step``: a DecayingTemperatureStep between heater and body (body started at 300 K)."""
+
+    def __init__(self, step: bool, T0: float = 300.0):
+        self.step, self.T0 = step, T0
+        super().__init__()
+
+    def build(self):
+        self.body = HeatCapacitor(C=50.0, T=self.T0)
+        self.cond = ThermalConductor(G=0.5)
+        self.amb = FixedTemperature(T=300.0)
+        self.heater = _TemperatureDependentHeater()
+        if self.step:
+            self.warm = DecayingTemperatureStep(dT0=20.0, t0=3.0, tau=50.0 / 0.5)
+            connect(self.heater.port, self.warm.port_a)
+            connect(self.warm.port_b, self.body.port, self.cond.port_a)
+        else:
+            connect(self.heater.port, self.body.port, self.cond.port_a)
+        connect(self.cond.port_b, self.amb.port)
+
+
+def test_decaying_temperature_step_equals_a_warmer_start_with_temperature_dependent_heating():
+    """Superposition: the heater behind the step sees exactly the temperature of a body started 20 K warmer, even
+    though the heat it makes depends on that temperature; the step's start time t0 is honoured (run from 3 s)."""
+    a = compile_model(HeatedBody(step=True)).simulate(300.0, t_start=3.0, n_points=61)
+    b = compile_model(HeatedBody(step=False, T0=320.0)).simulate(300.0, t_start=3.0, n_points=61)
+    assert np.allclose(a["heater.port.T"], b["heater.port.T"], atol=1e-5)
+    assert a["heater.port.T"][0] == pytest.approx(320.0) and a["body.T"][0] == pytest.approx(300.0)
+    assert np.allclose(a["warm.port_a.Q_flow"], -a["warm.port_b.Q_flow"])  # lossless: what enters leaves

@@ -32,7 +32,10 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    recordings (seeds 0-2), where every candidate stays below 1 % gain, and tested on others.
 4. **Verdict**: the significant candidate with the largest held-out gain; greedy forward selection then repeats
    step 3 with that effect in the model, for a second effect (``max_effects``). ``none`` when nothing is
-   significant.
+   significant. A slow effect (a winding warming over a session) changes every sample only a little, so its
+   held-out gain can stay small while the per-recording fit drifts plainly: a candidate that makes a drift of the
+   final model go away, with a BIC fall and consistent per-stride improvements, is named too (``named_by:
+   "drift"``).
 5. **What it could not see** (:mod:`~.evidence`): every candidate's detection limit (the smallest size that would
    have been named at this data's noise and these thresholds), and the baseline refitted on each recording with a
    trend test over the session (drift), pointing to the candidates that explain a drifting parameter.
@@ -50,7 +53,8 @@ from scipy.stats import binom
 from ..errors import AcausalError, DataError
 from .calibrate import Calibration, Free, calibrate, jacobian_matrix, noise_scales, residual_vector
 from .evidence import _cos, confusable, detection_limits, drift
-from .residuals import cross_correlations, leave_one_group_out, phase_profile, structure_test, whiteness
+from .analysis import residual_analysis  # noqa: F401  (part of this module's interface)
+from .residuals import leave_one_group_out
 from .screening import screen as screen_fit
 
 
@@ -155,13 +159,14 @@ class CandidateScore:
     screened: bool = False  # not refitted: scores are the linearised prediction (training strides)
     failed: str = ""  # why the refit failed (scores are then the linearised prediction)
     sign_p: float = float("nan")  # one-sided sign test: P(at least this many strides improved | no effect)
+    named_by: str = ""  # "drift": named because it explains a drift over the session (:func:`_named_by_drift`)
 
     def summary(self) -> dict:
         return {"id": self.id, "heldout_rmse_gain": self.heldout_rmse_gain, "delta_bic": self.delta_bic,
                 "params": dict(self.params), "loso_rmse_gain": self.loso_rmse_gain, "t_stat": _num(self.t_stat),
                 "sign_p": _num(self.sign_p),
                 "std": _num(self.std), "fingerprint_match": _num(self.fingerprint_match), "significant": self.significant,
-                "screened": self.screened, "failed": self.failed or None,
+                "screened": self.screened, "failed": self.failed or None, "named_by": self.named_by or None,
                 "heldout_rmse": {s: {"before": b, "after": a} for s, (b, a) in self.heldout_rmse.items()}}
 
 
@@ -175,6 +180,7 @@ class Step:
     before: Fit
     scores: list
     chosen: str | None
+    kind: str = "gain"  # "gain": every candidate scored; "drift": one candidate tried on a drift it explains
 
 
 @dataclass
@@ -214,7 +220,7 @@ class Diagnosis:
         """The machine-readable verdict (``acausal diagnose --json``)."""
         return {"cause": self.cause, "causes": list(self.causes),
                 "candidates": [s.summary() for s in self.candidates],
-                "steps": [{"model": list(st.before.effects), "chosen": st.chosen,
+                "steps": [{"model": list(st.before.effects), "chosen": st.chosen, "kind": st.kind,
                            "candidates": [s.summary() for s in st.scores]} for st in self.steps],
                 "baseline": {"params": dict(self.baseline.values), "heldout_rmse": dict(self.baseline.test_rmse)},
                 "extended": {"effects": list(self.final.effects), "params": dict(self.final.values),
@@ -391,26 +397,69 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
             break
         causes.append(best.id)
         base = best.fit
+    drifted = {}
+    if len(baseline.exps) >= 3:
+        say("per-recording fit (drift)")
+        drifted = _drift(problem, base, causes, scales)
+        if drifted["drifting"] and len(causes) < max_effects:  # a slow effect the per-sample gain cannot see
+            base, drifted = _named_by_drift(problem, base, causes, steps, drifted, ids, scales, thresholds, say)
+    else:
+        drifted = {"axis": None, "recordings": [], "trends": {}, "drifting": [], "explained_by": {},
+                   "note": "not judged: fewer than 3 recordings"}
     rest = [cid for cid in ids if cid not in causes]
-    if causes and rest and steps[-1].chosen is not None:  # the selection stopped at max_effects: fingerprints on top
+    if causes and rest and steps[-1].before is not base:  # fingerprints on top of the final model
         fp_step = fingerprints(problem, base, rest, scales)
     d = Diagnosis(causes, steps, baseline, base, confusable(ids, fp, steps, thresholds), thresholds, scales, match,
                   problem.heldout())
     # what the final model could still have seen: the limits of the candidates not named, on top of the named ones
     at_final = {k: v for k, v in fp_step.items() if k is None or k in rest} if causes else fp
     d.detection_limits = detection_limits(problem, at_final, base.n_train, thresholds)
-    if len(baseline.exps) >= 3:
-        say("per-recording fit (drift)")
-        bounds = {f.name: (f.lower, f.upper) for f in problem.base_free(baseline.values)}
-        bounds.update({problem.candidates[c].parameter: problem.candidates[c].bounds for c in causes})
-        d.drift = drift(problem, base, scales, bounds, problem.session_order(base.exps))
-    else:
-        d.drift = {"axis": None, "recordings": [], "trends": {}, "drifting": [], "explained_by": {},
-                   "note": "not judged: fewer than 3 recordings"}
+    d.drift = drifted
     d.warnings = screen(problem, d.final, scales, thresholds)
     for w in d.warnings:
         say(f"warning: {w}")
     return d
+
+
+def _drift(problem, fit, causes, scales) -> dict:
+    """:func:`~.evidence.drift` of ``fit`` (the baseline and ``causes``), in the problem's session order."""
+    bounds = {f.name: (f.lower, f.upper) for f in problem.base_free(fit.values)}
+    bounds.update({problem.candidates[c].parameter: problem.candidates[c].bounds for c in causes})
+    return drift(problem, fit, scales, bounds, problem.session_order(fit.exps))
+
+
+def _named_by_drift(problem, base, causes, steps, drifted, ids, scales, thresholds, say) -> tuple:
+    """A drift of the per-recording fit over the session that a candidate explains: the candidate is named when,
+    added and refitted, the drift is gone (no parameter it explains drifts any more), its BIC falls by at least
+    ``max_delta_bic`` and its per-stride improvements are consistent (paired t or sign test), even if its held-out
+    gain is small (a slow effect changes every sample a little; the per-recording trend sees what the pooled
+    residual does not). Returns the (possibly extended) fit and its drift."""
+    tried = []
+    for param in drifted["drifting"]:
+        for cid in drifted["explained_by"].get(param, ()):
+            if cid in causes or cid not in ids or cid in tried:
+                continue
+            tried.append(cid)
+            say(f"refitting with {cid}: does it explain the drift of {param}?")
+            try:
+                ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
+            except AcausalError as err:
+                say(f"{cid}: refit failed: {err}")
+                continue
+            sc = score(base, ext, problem.candidates[cid], thresholds)
+            after = _drift(problem, ext, tuple(causes) + (cid,), scales)
+            gone = not any(p in after["drifting"] for p, by in drifted["explained_by"].items() if cid in by)
+            consistent = sc.t_stat >= thresholds.min_t or sc.sign_p <= thresholds.max_sign_p
+            sc.named_by = "drift" if gone and consistent and sc.delta_bic <= thresholds.max_delta_bic else ""
+            sc.significant = bool(sc.named_by)
+            steps.append(Step(base, [sc], cid if sc.significant else None, "drift"))
+            if sc.significant:
+                causes.append(cid)
+                after["before"] = {"drifting": drifted["drifting"], "trends": drifted["trends"],
+                                   "recordings": drifted["recordings"]}
+                after["resolved_by"] = {p: cid for p in drifted["drifting"] if p not in after["drifting"]}
+                return ext, after
+    return base, drifted
 
 
 def screen(problem: Problem, fit: Fit, scales: dict, thresholds: Thresholds = Thresholds()) -> list:
@@ -426,48 +475,3 @@ def screen(problem: Problem, fit: Fit, scales: dict, thresholds: Thresholds = Th
             if not fit.effects else "the named effects do not explain everything")
     return screen_fit(fit.exps, preds, problem.signals, scales, thresholds.outlier, thresholds.misfit,
                       period=problem.period, who="the final model", misfit_hint=hint)
-
-
-def residual_analysis(problem: Problem, fit: Fit, bins: int = 50, max_lag: int = 50) -> dict:
-    """What the fitted model gets wrong, per signal: RMSE per experiment (training and held-out), the residual over
-    the cycle (mean and spread over cycles, pooled), per experiment the structure test at the model's time scale
-    (:func:`~.residuals.structure_test`, blocks of 1/20 cycle: passes on sensor noise, filtered or not, and on the
-    replay's own high-frequency error; fails on a missed effect) and the sample-level Ljung-Box whiteness (which a
-    replayed recording fails even when nothing is missed), and cross-correlation with the problem's regressors
-    (pooled over experiments)."""
-    out = {}
-    preds = {e.name: e.predict(fit.values) for e in fit.exps}
-    regs = {e.name: problem.regressors(e, fit.values) for e in fit.exps}
-    for s in problem.signals:
-        rows, white, structure, folded, res_all, reg_all = [], [], [], [], [], {}
-        for e in fit.exps:
-            r = e.measured[s] - preds[e.name][s]
-            inner = e.train | e.test
-            rows.append({"experiment": e.name,
-                         "rmse_train": float(np.sqrt(np.mean(r[e.train] ** 2))) if e.train.any() else float("nan"),
-                         "rmse_heldout": float(np.sqrt(np.mean(r[e.test] ** 2))) if e.test.any() else float("nan"),
-                         "mae": float(np.mean(np.abs(r[inner])))})
-            white.append(whiteness(r[inner], max_lag))
-            structure.append(_structure(r[inner], e.t[inner], problem.period(e)))
-            folded.append((e.t[inner], r[inner], problem.period(e)))
-            res_all.append(r[inner])
-            for k, v in regs[e.name].items():
-                reg_all.setdefault(k, []).append(np.asarray(v)[inner])
-        phase = np.concatenate([np.mod((t - t[0]) / T, 1.0) for t, _, T in folded])
-        prof = phase_profile(phase, np.concatenate([r for _, r, _ in folded]), 1.0, 0.0, bins)
-        r_all = np.concatenate(res_all)
-        cc = cross_correlations(r_all, {k: np.concatenate(v) for k, v in reg_all.items()}, max_lag) if reg_all else []
-        out[s] = {"rows": rows, "whiteness": white, "structure": structure, "phase": prof, "correlations": cc,
-                  "rmse": float(np.sqrt(np.mean(r_all**2)))}
-    return out
-
-
-def _structure(r, t, period):
-    """:func:`~.residuals.structure_test` of one experiment's residual at blocks of 1/20 of its cycle (None where
-    the experiment has no cycle or is too short for two blocks)."""
-    if not period or r.size < 4:
-        return None
-    try:
-        return structure_test(r, period=float(period), rate=1.0 / float(np.median(np.diff(t))))
-    except DataError:
-        return None

@@ -66,7 +66,7 @@ from acausal.library.maccepa import FrictionalMaccepa, Maccepa
 from acausal.library.rotational import (AngleSensor, Backlash, BearingFriction, Gearbox, IdealGear, LossyGear,
                                         Position, SelfLockingGear, TorqueSensor)
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
-from acausal.library.thermal import FixedTemperature, HeatCapacitor, ThermalConductor
+from acausal.library.thermal import DecayingTemperatureStep, FixedTemperature, HeatCapacitor, ThermalConductor
 
 from .effects import EFFECTS, effect
 from .planning import ARM_LIMIT, planned_arm_angle
@@ -248,6 +248,10 @@ class SeriesLinkAnkle(DriveTrain, abc.ABC):
                 Eq(self.tracking_error, self._reference.value - self.arm_angle.phi.value)]
 
 
+#: W/K: the motor's winding-housing-ambient conductance, 1 / (0.21 + 7.4 K/W) (datasheet, parameters.md)
+WINDING_G = 1 / 7.61
+
+
 class AnkleActuator(SeriesLinkAnkle):
     """The paper's ankle actuator: :class:`DriveTrain`, MACCEPA, joint, and the moment arm moved by ``mode``
     (see the module docstring for every option)."""
@@ -262,6 +266,9 @@ class AnkleActuator(SeriesLinkAnkle):
                           doc="mechanical range of the moment arm, |phi| <= arm_limit (default: no bound)")
     winding_heating = Parameter(EFFECTS["winding_temperature"].typical, unit="K/J", min=1e-9,
                                 doc="1 / the motor's lumped heat capacity (effect winding_temperature)")
+    winding_excess = Parameter(0.0, unit="K", doc="the winding's temperature above ambient at winding_t0 (effect "
+                                                  "winding_temperature: still warm from a session's earlier recording)")
+    winding_t0 = Parameter(0.0, unit="s", doc="when the winding is winding_excess above ambient (the run's start)")
 
     def __init__(self, mode: str = "replay", effects=(), linkage: str = "lossless", **kw):
         self.linkage = check_option(self, "linkage", linkage, OPTIONS["linkage"])
@@ -307,11 +314,16 @@ class AnkleActuator(SeriesLinkAnkle):
 
     def build_extras(self):
         if self.has("winding_temperature"):
-            # the winding starts at ambient (the motor's reference temperature), so zero heating is the baseline
+            # the winding starts at ambient (the motor's reference temperature), so zero heating is the baseline;
+            # a winding still warm from an earlier recording starts winding_excess above it (the step decays as the
+            # lumped motor cools, exactly as a warmer start would: DecayingTemperatureStep)
             self.winding = HeatCapacitor(C=1 / self.winding_heating, T=DCMotor.T_ref.default)
-            self.cooling = ThermalConductor(G=1 / 7.61)  # winding-housing-ambient, 0.21 + 7.4 K/W (datasheet)
+            self.cooling = ThermalConductor(G=WINDING_G)
             self.ambient = FixedTemperature(T=self.motor.T_ref)
-            connect(self.motor.heat_port, self.winding.port, self.cooling.port_a)
+            self.warm_start = DecayingTemperatureStep(dT0=self.winding_excess, t0=self.winding_t0,
+                                                      tau=1 / (self.winding_heating * WINDING_G))
+            connect(self.motor.heat_port, self.warm_start.port_a)
+            connect(self.warm_start.port_b, self.winding.port, self.cooling.port_a)
             connect(self.cooling.port_b, self.ambient.port)
 
     def make_link(self):

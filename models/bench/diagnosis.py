@@ -10,7 +10,10 @@ actuator:
 
 * signals: motor current, supply current and joint torque (each in units of its sensor noise);
 * regressors: sign of the motor speed, motor speed, |transmitted torque| (gear output), motor current squared,
-  elapsed time, sign of the driver's output power, joint torque, all from the calibrated model's replay.
+  elapsed time, sign of the driver's output power, joint torque, all from the calibrated model's replay;
+* a session (every recording's JSON has ``session_time_s``): recordings in the order they were made, the drift check
+  against elapsed session time, and the winding candidate's temperature carried from one recording to the next
+  (:mod:`~acausal.models.bench.session`).
 """
 from __future__ import annotations
 
@@ -23,6 +26,7 @@ from .calibration import Split, experiment, free_parameter, replay_inputs, repla
 from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS
+from .session import carry_winding, is_session
 
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
@@ -45,7 +49,7 @@ class AnkleProblem(Problem):
         if not isinstance(recordings, (list, tuple)):
             recordings = load_recordings(recordings, ANKLE_FORMAT)
         self.recordings = list(recordings)
-        if all("session_time_s" in r.meta for r in self.recordings):  # a session: in the order it was recorded
+        if is_session(self.recordings):  # a session: in the order it was recorded
             self.recordings.sort(key=lambda r: r.meta["session_time_s"])
         self.split = split
         self.signals = list(signals)
@@ -64,6 +68,8 @@ class AnkleProblem(Problem):
                 cm = replay_model(key)
                 for e in exps:
                     e.sensitivity = _sensitivity(cm, e)
+            if "winding_temperature" in key and is_session(self.recordings):  # warm from the recording before
+                carry_winding(exps, replay_model(key))
             self._cache[key] = exps
         return self._cache[key]
 

@@ -61,8 +61,10 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
            f"![residual over time, per recording]({fig_time.name})", "",
            f"![autocorrelation]({fig_acf.name})", ""]
     for k, st in enumerate(d.steps):
+        on_top = f" on top of {', '.join(f'`{e}`' for e in st.before.effects)}" if st.before.effects else ""
         title = "## 2. Candidates (added to the calibrated baseline, refitted with R, J, b)" if k == 0 else \
-            f"### Step {k + 1}: candidates on top of {', '.join(f'`{e}`' for e in st.before.effects)}"
+            (f"### Step {k + 1}: does `{st.scores[0].id}` explain the drift over the session{on_top}?"
+             if st.kind == "drift" else f"### Step {k + 1}: candidates{on_top}")
         rows = [[f"`{s.id}`", (("refit failed: " + s.failed) if s.failed else "not refitted") if s.screened
                  else f"{s.value:.4g} ± {s.std:.2g} {EFFECTS[s.id].unit}",
                  f"{100 * s.heldout_rmse_gain:+.1f} %" + (" (lin.)" if s.screened else ""),
@@ -74,7 +76,7 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
                                      "delta BIC", "fingerprint match", "significant"], rows), "",
                "(lin.): screened out, its fingerprint explains too little of the residual for a refit to matter; "
                "the gain and BIC are the linearised best case.", "",
-               f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here.", ""]
+               _step_end(st), ""]
     md += confusable_lines(d)
     if d.causes:
         fin = d.final
@@ -187,3 +189,12 @@ def _clean_count(a) -> str:
     """How many recordings pass the structure test (``n/m``), with the sentence on what it tests."""
     tests = [st for st in a["structure"] if st is not None]
     return f"{sum(st.white for st in tests)}/{len(tests)}" if tests else "-"
+
+
+def _step_end(st) -> str:
+    """The sentence after a step's table: what it chose and why."""
+    if st.kind == "drift":
+        return (f"Named: `{st.chosen}`: with it the drift is gone, its BIC falls and the strides improve consistently "
+                "(its held-out gain is small: a slow effect changes every sample only a little)." if st.chosen else
+                f"`{st.scores[0].id}` does not explain the drift: it is not named.")
+    return f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here."

@@ -87,8 +87,10 @@ def _truth_model(effects: tuple):
 
 
 def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None = None,
-           sensors: Sensors = Sensors(), seed: int = 0, index: int = 0) -> tuple:
-    """Simulate one condition on the truth model; returns ``(columns, meta)`` of the recording."""
+           sensors: Sensors = Sensors(), seed: int = 0, index: int = 0, final: dict | None = None) -> tuple:
+    """Simulate one condition on the truth model; returns ``(columns, meta)`` of the recording. ``final``: a dict
+    filled with the truth's winding temperature at the recording's end (``"winding_K"``: what a session carries to
+    its next recording; only with the ``winding_temperature`` effect)."""
     effects = dict(effects or {})
     sim = _truth_model(tuple(sorted(effects)))
     params = {**TRUTH, **(truth or {}), "stride_time": cond.stride_time, "P_nominal": cond.P, "link.k": K_SPRING,
@@ -102,6 +104,8 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
     res = sim.simulate((n_settle + n_rec) * dt, params=params,
                        n_points=n_settle + n_rec + 1, rtol=1e-7, atol=1e-9, dense_output=False)
     w = slice(n_settle, n_settle + n_rec)
+    if final is not None and "winding_temperature" in effects:
+        final["winding_K"] = float(res["motor.heat_port.T"][-1])
     rng = np.random.default_rng([seed, index])
     q = sensors.encoder_step
     n = n_rec
@@ -124,6 +128,43 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
 
 def _record(args):
     return record(*args)
+
+
+def run_session(out_dir, conditions, effects: dict | None = None, truth: dict | None = None,
+                sensors: Sensors = Sensors(), seed: int = 0, pause: float = 10.0) -> list:
+    """Record ``conditions`` one after another as one bench session into ``out_dir`` (as :func:`run_bench`): the
+    winding stays warm from one recording to the next (``winding_temperature`` effect: each starts at the
+    temperature the previous one ended with, cooled over ``pause`` seconds with the lumped motor's time constant),
+    and each recording's JSON says when it started (``session_time_s``: the settling strides before it count as
+    part of the pause). Recorded serially (each needs the one before). Returns the CSV paths."""
+    from ..ankle.actuator import WINDING_G
+
+    out = Path(out_dir)
+    conditions = list(conditions)
+    effects = dict(effects or {})
+    for name in effects:
+        effect(name)
+    if not pause >= 0:
+        raise DataError(f"run_session: the pause between recordings must be >= 0 s, got {pause!r}")
+    names = [f"S{k:02d}_P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s" for k, c in enumerate(conditions)]
+    about = {"written_by": "acausal bench (session)", "seed": seed, "effects": effects, "pause_s": pause}
+    out.mkdir(parents=True, exist_ok=True)
+    write_manifest(out, names, complete=False, about=about)
+    h = float(effects.get("winding_temperature", 0.0))
+    ambient = DCMotor.T_ref.default
+    excess, clock, paths = 0.0, 0.0, []
+    for k, (c, name) in enumerate(zip(conditions, names)):
+        final: dict = {}
+        cols, meta = record(c, effects, {**(truth or {}), "winding_excess": excess}, sensors, seed, k, final)
+        settle = c.settle * c.stride_time
+        meta["session_time_s"] = clock + settle
+        clock += settle + c.strides * c.stride_time + pause
+        if "winding_K" in final:
+            excess = (final["winding_K"] - ambient) * np.exp(-pause * WINDING_G * h)
+        paths.append(write_recording(out, name, cols, meta, ANKLE_FORMAT))
+    _write_readme(out, conditions, effects, {**TRUTH, **(truth or {})}, sensors, seed)
+    write_manifest(out, names, complete=True, about=about)
+    return paths
 
 
 def default_conditions(strides: int = 6, body_mass: float = BODY_MASS) -> list:

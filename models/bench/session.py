@@ -1,0 +1,106 @@
+"""A session's slow state: the winding temperature carried from one recording to the next.
+
+Recordings made one after another on one bench form a *session* (their JSON ``session_time_s`` says when each
+started). The winding does not cool to ambient between them: with the motor's 1180 s time constant a recording
+starts about as warm as the one before ended, less what it lost over the pause. The ``winding_temperature``
+candidate therefore does not start every recording at ambient when the recordings form a session: recording ``k``
+starts ``theta_k`` above ambient,
+
+    theta_0 = 0  (the session starts cold),
+    theta_k = theta_end,k-1 * exp(-gap_k * G * h)      (the lumped motor cooling over the pause),
+
+with ``theta_end,k-1`` the winding's excess temperature at the end of the previous recording, ``gap_k`` the pause
+between the two (``session_time_s`` of ``k`` minus the previous recording's start and length), ``G`` the motor's
+conductance to ambient (:data:`~acausal.models.ankle.actuator.WINDING_G`) and ``h`` the fitted ``winding_heating``
+(1 / heat capacity). The start enters the replay as the parameter ``winding_excess`` (a
+:class:`~acausal.library.thermal.DecayingTemperatureStep`), so the chain has exact derivatives: every recording's
+sensitivities to the fitted parameters include their effect through the starts of all recordings before it.
+Whatever happened between recordings other than cooling (settling strides before a recording starts, another
+load) is not seen; the first recording is assumed to start at ambient.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from acausal.library.drives import DCMotor
+
+from ..ankle.actuator import WINDING_G
+from ..ankle.effects import EFFECTS
+from .recording_format import SIGNALS
+
+HEATING = EFFECTS["winding_temperature"].parameter
+EXCESS, START = "winding_excess", "winding_t0"
+WINDING_T = "motor.heat_port.T"  # the winding's temperature in the replay model [K]
+
+
+def is_session(recordings) -> bool:
+    """Every recording says when it started (JSON ``session_time_s``)."""
+    return bool(recordings) and all("session_time_s" in r.meta for r in recordings)
+
+
+def carry_winding(exps, cm) -> None:
+    """Rewrite the ``predict`` and ``sensitivity`` of ``exps`` (replays with the winding effect, in session order,
+    model ``cm``) so that each starts at the temperature the previous one left (module docstring)."""
+    chain = _Chain(exps, cm)
+    for k, e in enumerate(exps):
+        e.predict = (lambda values, k=k: chain.run(k, values, ())[0])
+        e.sensitivity = (lambda values, names, k=k: chain.run(k, values, tuple(names))[:2])
+        e.info["session_gap_s"] = chain.gaps[k]
+
+
+class _Chain:
+    """The session's replays run in order at one parameter set, each from the previous one's end temperature;
+    results are kept for the last few parameter sets (a calibration asks for values, then derivatives, at the same
+    point, recording by recording)."""
+
+    KEEP = 4
+
+    def __init__(self, exps, cm):
+        self.exps, self.cm = list(exps), cm
+        starts = [float(e.info["meta"]["session_time_s"]) for e in self.exps]
+        self.gaps = [0.0] + [max(starts[k] - starts[k - 1] - float(self.exps[k - 1].t[-1] - self.exps[k - 1].t[0]),
+                                 0.0) for k in range(1, len(self.exps))]
+        self._memo: dict = {}
+
+    def run(self, k: int, values: dict, names: tuple) -> tuple:
+        """``(predicted, sensitivities or None, theta_end, dtheta_end)`` of recording ``k`` at ``values``."""
+        key = (tuple(sorted(values.items())), names)
+        runs = self._memo.get(key)
+        if runs is None:
+            if len(self._memo) >= self.KEEP:
+                self._memo.pop(next(iter(self._memo)))
+            runs = self._memo[key] = {}
+        if k not in runs:
+            runs[k] = self._replay(k, values, names)
+        return runs[k]
+
+    def _replay(self, k, values, names):
+        e = self.exps[k]
+        q = len(names)
+        theta0, dtheta0 = 0.0, np.zeros(q)
+        if k:
+            *_, theta_end, dtheta_end = self.run(k - 1, values, names)
+            h = float(values.get(HEATING, e.info["params"].get(HEATING, EFFECTS["winding_temperature"].typical)))
+            decay = np.exp(-self.gaps[k] * WINDING_G * h)
+            theta0 = theta_end * decay
+            dtheta0 = decay * dtheta_end
+            if HEATING in names:
+                dtheta0[names.index(HEATING)] -= self.gaps[k] * WINDING_G * theta_end * decay
+        params = {**e.info["params"], **values, EXCESS: theta0, START: float(e.t[0])}
+        ambient = float(params.get("motor.T_ref", DCMotor.T_ref.default))
+        cols = {c: v for c, v in SIGNALS.items() if c in e.measured}
+        if not names:
+            res = self.cm.simulate(e.t[-1], t_start=e.t[0], t_eval=e.t, params=params, inputs=e.info["inputs"],
+                                   dense_output=False, rtol=1e-7, atol=1e-9)
+            pred = {c: np.asarray(res[v]) for c, v in cols.items()}
+            return pred, None, float(res[WINDING_T][-1]) - ambient, dtheta0
+        wanted = list(cols.values()) + [WINDING_T]
+        vals, S = self.cm.sensitivities(e.t, list(names) + [EXCESS], names=wanted, params=params,
+                                        inputs=e.info["inputs"], t_start=e.t[0])
+        pred, sens = {}, {}
+        for c, v in cols.items():
+            s = np.asarray(S[v])
+            pred[c] = np.asarray(vals[v])
+            sens[c] = s[:q] + np.outer(dtheta0, s[q])  # through this recording's start temperature
+        sT = np.asarray(S[WINDING_T])
+        return pred, sens, float(vals[WINDING_T][-1]) - ambient, sT[:q, -1] + dtheta0 * sT[q, -1]
