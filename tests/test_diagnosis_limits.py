@@ -10,6 +10,7 @@ import pytest
 
 from acausal.identify.recordings import write_recording
 from acausal.models.bench import diagnosis
+from acausal.models.bench.diagnosis_report import write_report
 from acausal.models.bench.recording_format import ANKLE_FORMAT
 from acausal.models.bench.virtual import BenchCondition, record, run_bench, run_session
 
@@ -17,10 +18,11 @@ from acausal.models.bench.virtual import BenchCondition, record, run_bench, run_
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]
 
 
-def _diagnose(tmp_path_factory, name, effects, seed, max_effects=1):
+def _diagnose(tmp_path_factory, name, effects, seed, max_effects=1, problem=False):
     out = tmp_path_factory.mktemp(name)
     run_bench(out, CONDITIONS, effects, seed=seed, executor="serial")
-    return diagnosis.run(out, max_effects=max_effects)[0]
+    d, prob = diagnosis.run(out, max_effects=max_effects)
+    return (d, prob) if problem else d
 
 
 @pytest.mark.parametrize("eid", ["driver_quiescent_power", "torque_sensor_offset"])
@@ -40,7 +42,8 @@ def test_detection_limit_predicts_what_is_named(eid, tmp_path_factory):
 def test_confusable_pair_comes_with_the_evidence_that_separated_it(tmp_path_factory):
     """Gear friction hidden: the lossy gear also counts in the first step (it absorbs part of the friction). The
     pair is listed with its per-stride comparison and the next step's verdict, and the verdict JSON has it."""
-    d = _diagnose(tmp_path_factory, "friction", {"gear_coulomb_friction": 0.012}, seed=34, max_effects=2)
+    d, problem = _diagnose(tmp_path_factory, "friction", {"gear_coulomb_friction": 0.012}, seed=34, max_effects=2,
+                           problem=True)
     assert d.causes == ["gear_coulomb_friction"]
     first = {s.id: s for s in d.candidates}
     assert first["gear_load_dependent_loss"].significant  # the confusion is real: both count alone
@@ -53,6 +56,15 @@ def test_confusable_pair_comes_with_the_evidence_that_separated_it(tmp_path_fact
     assert "cluster-robust" in js["standard_errors"]["method"] and js["standard_errors"]["clusters"] == 8
     assert "gear_coulomb_friction" not in js["detection_limits"]
     assert set(js["detection_limits"]) == set(diagnosis.CANDIDATES) - {"gear_coulomb_friction"}
+    # the report: every view of it, the named cause in the headline with its reading and energy per stride
+    out = tmp_path_factory.mktemp("friction_report")
+    write_report(out, d, problem, "virtual bench")
+    text = (out / "report.md").read_text()
+    assert "**Verdict: `gear_coulomb_friction`**" in text and "N m at the gear output" in text
+    assert "J of supply energy per stride" in text and "detection limits" in text and "Drift over the session" in text
+    assert pair["evidence"] in text
+    for png in ("diagnosis_residual_time.png", "diagnosis_drift.png"):
+        assert (out / png).stat().st_size > 10_000 and png in text
 
 
 def _session(folder, resistances, seed, shuffle_names=False):

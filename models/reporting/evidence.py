@@ -82,7 +82,8 @@ def drift_lines(d, figure: Path | None = None) -> list:
 
 
 def drift_figure(path, d, shows: str = "") -> Path | None:
-    """The per-recording baseline parameters (relative to the pooled fit) against the session axis."""
+    """The final model's parameters fitted on each recording alone (dashed: the pooled fit) against the session
+    axis."""
     import matplotlib.pyplot as plt
 
     dr = d.drift
@@ -94,10 +95,12 @@ def drift_figure(path, d, shows: str = "") -> Path | None:
     for ax, n in zip(axes[0], names):
         y = np.array([r[n] for r in dr["recordings"]])
         ax.plot(x, y, "o-", color="C3" if n in dr["drifting"] else "C0", ms=4)
-        ax.axhline(d.baseline.values[n], color="k", lw=0.6, ls="--")
+        ax.axhline(d.final.values[n], color="k", lw=0.6, ls="--")
         ax.set_title(f"{n}" + (" (drifts)" if n in dr["drifting"] else ""), fontsize=8)
         ax.set_xlabel(dr["axis"], fontsize=8)
     axes[0][0].set_ylabel("fitted on one recording")
+    fig.suptitle("Drift check: " + (", ".join(dr["drifting"]) + " drift" if dr["drifting"] else "no drift"),
+                 fontsize=9)
     return save_figure(fig, path, shows)
 
 
