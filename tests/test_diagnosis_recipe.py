@@ -1,7 +1,8 @@
 """Issue 18's acceptance: the diagnosis on recordings made by another recipe than the virtual bench's defaults.
 
-The recipe: half the sample rate (500 Hz), 16-bit encoders, noisier current and torque sensors, other stride times
-(1.4 and 2.2 s), seeds 301-304 (used nowhere else, and never for tuning). Each effect is hidden alone at its
+The recipe: half the sample rate (500 Hz), 16-bit encoders, noisier current and torque sensors, current readings
+through a 100 Hz first-order filter (which the model does not know), other stride times (1.4 and 2.2 s), seeds
+301-304 (used nowhere else, and never for tuning). Each effect is hidden alone at its
 typical size (the winding time-compressed and carried across a six-recording session, as in
 test_diagnosis_limits), then two together, then none. Required: every effect named, the pair named, ``none`` on
 clean data with a detection limit for every candidate, and the truth within 3 reported (cluster-robust) standard
@@ -17,7 +18,8 @@ from acausal.models.ankle.effects import EFFECTS
 from acausal.models.bench import diagnosis
 from acausal.models.bench.virtual import BenchCondition, Sensors, run_bench, run_session
 
-RECIPE = Sensors(rate=500.0, encoder_bits=16, motor_current_noise=0.05, supply_current_noise=0.03, torque_noise=0.6)
+RECIPE = Sensors(rate=500.0, encoder_bits=16, motor_current_noise=0.05, supply_current_noise=0.03, torque_noise=0.6,
+                 current_filter_hz=100.0)
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.4, 2.2)]
 SESSION = [BenchCondition(P, 1.6, strides=5, body_mass=100.0, settle=0) for P in (0.008, 0.011, 0.005) * 2]
 WINDING = 0.1  # K/J, time-compressed (see test_diagnosis.ENDURANCE)

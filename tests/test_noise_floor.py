@@ -35,3 +35,16 @@ def test_clean_baseline_is_at_the_noise_floor(recipe, tmp_path):
     assert all(r <= 1.10 for r in ratios.values()), ratios
     assert cal.values["motor.J"] == pytest.approx(4.07e-6, rel=0.02)
     assert cal.values["motor.R"] == pytest.approx(0.7, rel=0.02)
+
+
+def test_current_filter_of_the_virtual_bench():
+    """The first-order current filter: white noise comes out at the level ``noise_floor`` says, a step rises with
+    the time constant 1 / (2 pi f), and no filter leaves the reading untouched."""
+    s = Sensors(rate=1000.0, current_filter_hz=50.0)
+    noise = np.random.default_rng(0).standard_normal(200_000) * s.motor_current_noise
+    assert np.std(s.filtered(noise)) == pytest.approx(s.noise_floor()["motor_current_A"], rel=0.02)
+    step = s.filtered(np.r_[0.0, np.ones(100)])
+    t = np.arange(step.size) / s.rate  # the step arrives at sample 1: after time t it has reached 1 - exp(-t / tau)
+    assert np.allclose(step, 1 - np.exp(-t * 2 * np.pi * s.current_filter_hz), atol=1e-12)
+    x = np.arange(5.0)
+    assert Sensors().filtered(x) is x and Sensors().noise_floor()["motor_current_A"] == Sensors().motor_current_noise

@@ -8,7 +8,8 @@ model is the paper's Eq. (4) structure with ``truth`` parameter values, plus hid
 the controller settles) and then ``strides`` recorded strides.
 
 Sensors (:class:`Sensors`), sampled at 1 kHz: 14-bit absolute encoders (AS5048A: 2 pi / 16384 steps) on the ankle
-and moment-arm angles, motor current as the driver reports it (Gaussian noise, optional offset), supply current
+and moment-arm angles, motor current as the driver reports it (Gaussian noise, optional offset and first-order
+filter), supply current (noise, the same filter)
 and voltage (noise), joint torque (noise). Noise is seeded per recording from ``(seed, index)``: the same call
 writes the same files.
 """
@@ -19,6 +20,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from scipy.signal import lfilter
 
 from acausal import DataError, compile_model
 from acausal.fileio import atomic_write_text
@@ -50,14 +52,31 @@ class Sensors:
     supply_voltage_noise: float = 0.02  # V (std)
     torque_noise: float = 0.4  # N m (std)
     rate: float = 1000.0  # Hz
+    #: Hz: first-order low-pass filter of both current readings, noise included (a driver reports its current
+    #: filtered); 0: none (the readings are the sampled values)
+    current_filter_hz: float = 0.0
 
     @property
     def encoder_step(self) -> float:
         return 2 * np.pi / 2**self.encoder_bits
 
+    def _pole(self) -> float:
+        """The current filter's discrete pole ``exp(-2 pi f / rate)`` (0: no filter)."""
+        return float(np.exp(-2 * np.pi * self.current_filter_hz / self.rate)) if self.current_filter_hz > 0 else 0.0
+
+    def filtered(self, x):
+        """A current reading through the filter (:attr:`current_filter_hz`), started at its first value."""
+        a = self._pole()
+        if not a:
+            return x
+        return lfilter([1 - a], [1, -a], x, zi=[a * x[0]])[0]
+
     def noise_floor(self) -> dict:
-        """Standard deviation a perfect model leaves on each recorded signal."""
-        return {"motor_current_A": self.motor_current_noise, "supply_current_A": self.supply_current_noise,
+        """Standard deviation a perfect model leaves on each recorded signal (the currents' white noise after the
+        filter: ``sigma sqrt((1 - a) / (1 + a))`` with the filter's pole ``a``)."""
+        a = self._pole()
+        g = np.sqrt((1 - a) / (1 + a))
+        return {"motor_current_A": g * self.motor_current_noise, "supply_current_A": g * self.supply_current_noise,
                 "joint_torque_Nm": self.torque_noise, "supply_voltage_V": self.supply_voltage_noise}
 
 
@@ -116,9 +135,10 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
         "moment_arm_setpoint_rad": res["arm_ref.y.value"][w],
         "joint_torque_Nm": res[SIGNALS["joint_torque_Nm"]][w] + sensors.torque_noise * rng.standard_normal(n),
         "supply_voltage_V": res[SIGNALS["supply_voltage_V"]][w] + sensors.supply_voltage_noise * rng.standard_normal(n),
-        "supply_current_A": res[SIGNALS["supply_current_A"]][w] + sensors.supply_current_noise * rng.standard_normal(n),
-        "motor_current_A": (res[SIGNALS["motor_current_A"]][w] + sensors.motor_current_offset
-                            + sensors.motor_current_noise * rng.standard_normal(n)),
+        "supply_current_A": sensors.filtered(res[SIGNALS["supply_current_A"]][w]
+                                             + sensors.supply_current_noise * rng.standard_normal(n)),
+        "motor_current_A": sensors.filtered(res[SIGNALS["motor_current_A"]][w] + sensors.motor_current_offset
+                                            + sensors.motor_current_noise * rng.standard_normal(n)),
     }
     meta = {"precompression_m": cond.P, "stride_time_s": T, "spring_stiffness_N_per_m": K_SPRING,
             "body_mass_kg": cond.body_mass, "supply_voltage_V": float(res["supply.V"][0]), "strides": cond.strides,
