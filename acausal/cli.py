@@ -162,7 +162,11 @@ def cmd_bench(args) -> int:
                  for P in (0.005, 0.011, 0.018) for T in (1.2, 2.0, 3.0)]
     print(f"acausal bench: {len(conds)} recordings, effects: {effects or 'none'}", file=sys.stderr)
     check_bench_folder(args.out, args.force)
-    paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed)
+    if args.session is not None:
+        paths = bench.run_session(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed,
+                                  pause=args.session)
+    else:
+        paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed)
     print(f"wrote {len(paths)} recordings to {args.out} (answer key in {Path(args.out) / 'README.md'})")
     return 0
 
@@ -227,6 +231,10 @@ def cmd_diagnose(args) -> int:
     print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else ""))
     for w in d.warnings:
         print(f"warning: {w}")
+    dr = getattr(d, "drift", {}) or {}
+    for n in dr.get("before", dr).get("drifting", []):
+        print(f"drift: {n} over the session" + (f", explained by {dr['resolved_by'][n]}" if n in dr.get("resolved_by", {})
+                                                 else ""))
     for s in d.candidates:
         print(f"  {s.id:26s} held-out gain {100 * s.heldout_rmse_gain:+6.1f} %  delta BIC {s.delta_bic:10.4g}"
               f"  {s.parameter} = {s.value:.4g}{'  significant' if s.significant else ''}")
@@ -354,6 +362,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "files are deleted first)")
     bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
     bench.add_argument("--quick", action="store_true", help="9 conditions instead of the paper's 36")
+    bench.add_argument("--session", type=float, default=None, metavar="PAUSE_S",
+                       help="record the conditions one after another as one session, PAUSE_S seconds apart: the "
+                            "winding stays warm between recordings, each JSON says when it started")
     bench.add_argument("--body-mass", type=float, default=60.0, metavar="KG",
                        help="body mass the gait torque is scaled with (default 60 kg)")
     bench.set_defaults(run=cmd_bench)

@@ -181,6 +181,7 @@ class Step:
     scores: list
     chosen: str | None
     kind: str = "gain"  # "gain": every candidate scored; "drift": one candidate tried on a drift it explains
+    drift: dict | None = None  # kind "drift": the drift check of the model with the candidate added
 
 
 @dataclass
@@ -452,7 +453,7 @@ def _named_by_drift(problem, base, causes, steps, drifted, ids, scales, threshol
             consistent = sc.t_stat >= thresholds.min_t or sc.sign_p <= thresholds.max_sign_p
             sc.named_by = "drift" if gone and consistent and sc.delta_bic <= thresholds.max_delta_bic else ""
             sc.significant = bool(sc.named_by)
-            steps.append(Step(base, [sc], cid if sc.significant else None, "drift"))
+            steps.append(Step(base, [sc], cid if sc.significant else None, "drift", after))
             if sc.significant:
                 causes.append(cid)
                 after["before"] = {"drifting": drifted["drifting"], "trends": drifted["trends"],

@@ -74,8 +74,8 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
                  "**yes**" if s.significant else "no"] for s in st.scores]
         md += [title, "", md_table(["candidate", "fitted", "held-out gain", "leave-one-stride-out gain", "paired t",
                                      "delta BIC", "fingerprint match", "significant"], rows), "",
-               "(lin.): screened out, its fingerprint explains too little of the residual for a refit to matter; "
-               "the gain and BIC are the linearised best case.", "",
+               *(["(lin.): screened out, its fingerprint explains too little of the residual for a refit to matter; "
+                  "the gain and BIC are the linearised best case.", ""] if any(s.screened for s in st.scores) else []),
                _step_end(st), ""]
     md += confusable_lines(d)
     if d.causes:
@@ -194,7 +194,12 @@ def _clean_count(a) -> str:
 def _step_end(st) -> str:
     """The sentence after a step's table: what it chose and why."""
     if st.kind == "drift":
-        return (f"Named: `{st.chosen}`: with it the drift is gone, its BIC falls and the strides improve consistently "
-                "(its held-out gain is small: a slow effect changes every sample only a little)." if st.chosen else
-                f"`{st.scores[0].id}` does not explain the drift: it is not named.")
+        if st.chosen:
+            return (f"Named: `{st.chosen}`: with it the drift is gone, its BIC falls and the strides improve "
+                    "consistently (its held-out gain is small: a slow effect changes every sample only a little).")
+        left = (st.drift or {}).get("drifting", [])
+        ts = ", ".join(f"{st.drift['trends'][n]['t']:.1f}" for n in left)
+        return (f"`{st.scores[0].id}` does not explain the drift, it is not named: "
+                + (f"with it {', '.join(f'`{n}`' for n in left)} still drift (t = {ts})" if left else
+                   "its per-stride improvements are not consistent or its BIC does not fall") + ".")
     return f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here."

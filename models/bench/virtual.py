@@ -155,12 +155,13 @@ def run_session(out_dir, conditions, effects: dict | None = None, truth: dict | 
     """Record ``conditions`` one after another as one bench session into ``out_dir`` (as :func:`run_bench`): the
     winding stays warm from one recording to the next (``winding_temperature`` effect: each starts at the
     temperature the previous one ended with, cooled over ``pause`` seconds with the lumped motor's time constant),
-    and each recording's JSON says when it started (``session_time_s``: the settling strides before it count as
-    part of the pause). Recorded serially (each needs the one before). Returns the CSV paths."""
+    and each recording's JSON says when it started (``session_time_s``). Every stride is recorded (the conditions'
+    settling strides are not made: they would heat the winding unrecorded), so each recording starts with the
+    actuator at rest. Recorded serially (each needs the one before). Returns the CSV paths."""
     from ..ankle.actuator import WINDING_G
 
     out = Path(out_dir)
-    conditions = list(conditions)
+    conditions = [replace(c, settle=0) for c in conditions]
     effects = dict(effects or {})
     for name in effects:
         effect(name)
@@ -176,9 +177,8 @@ def run_session(out_dir, conditions, effects: dict | None = None, truth: dict | 
     for k, (c, name) in enumerate(zip(conditions, names)):
         final: dict = {}
         cols, meta = record(c, effects, {**(truth or {}), "winding_excess": excess}, sensors, seed, k, final)
-        settle = c.settle * c.stride_time
-        meta["session_time_s"] = clock + settle
-        clock += settle + c.strides * c.stride_time + pause
+        meta["session_time_s"] = clock
+        clock += c.strides * c.stride_time + pause
         if "winding_K" in final:
             excess = (final["winding_K"] - ambient) * np.exp(-pause * WINDING_G * h)
         paths.append(write_recording(out, name, cols, meta, ANKLE_FORMAT))
