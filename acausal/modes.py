@@ -14,12 +14,14 @@ SETTLE_ITER = 20  # rounds of settle_modes at most (at a start)
 CASCADE_ITER = 20  # rounds of the event iteration at most (cascade)
 
 
-def zeros(cm, t, x, p, d, u, check: bool = True):
+def zeros(cm, t, x, p, d, u, check: bool = True, off=None):
     """The zero functions at one point (time ``t`` [s], states ``x``, modes ``d``); a NaN or infinite value is a
     :class:`SimulationError` (:func:`check_zeros`), never a crossing. ``check=False``: the values as they are
     (the end of a solver step, where :func:`crossings_in_step` first looks for a crossing before the value went
-    bad)."""
+    bad). ``off``: the thresholds the crossings are watched at (:func:`knee_offsets`; default zero), subtracted."""
     z = np.array([float(z) for z in cm.funcs["zeros"](t, x, p, d, u)])
+    if off is not None:
+        z = z - off
     if check:
         check_zeros(cm, t, z, d)
     return z
@@ -46,9 +48,11 @@ def check_zeros(cm, t, z, d) -> None:
                           "this mode, or a function used outside its domain)")
 
 
-def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
+def crossings(cm, sol, t0, t1, z0, z1, p, d, u, off=None):
     """The earliest zero crossing(s) in (t0, t1] as a list of (time, event index, rising?), all at (nearly) the
-    same time: zero functions that cross together (e.g. the speeds of two gear stages) are handled together."""
+    same time: zero functions that cross together (e.g. the speeds of two gear stages) are handled together.
+    ``off``: the thresholds (:func:`knee_offsets`) that ``z0``, ``z1`` are already relative to."""
+    off = np.zeros(len(z0)) if off is None else off
     found = []
     for i in range(len(z0)):
         a, b = z0[i], z1[i]
@@ -56,7 +60,7 @@ def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
             found.append((t0, i, b > 0))
             continue
         if (a < 0 < b) or (a > 0 > b) or (a != 0 and b == 0):
-            g = lambda tt, i=i: _finite(cm, i, tt, float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i]), d)
+            g = lambda tt, i=i: _finite(cm, i, tt, float(cm.funcs["zeros"](tt, sol(tt), p, d, u)[i]) - off[i], d)
             try:
                 te = optimize.brentq(g, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
             except ValueError:
@@ -80,7 +84,7 @@ def crossings(cm, sol, t0, t1, z0, z1, p, d, u):
 SUBSTEPS = 8
 
 
-def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS):
+def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS, off=None):
     """:func:`crossings` in a solver step ``(t0, t1]`` whose dense output is ``sol``, looked for at the step's
     ends and at ``substeps`` interior points: a zero function that crosses zero and back within one long step
     (nearly constant states, a diode bridge run on past its last switch) shows at an interior point even when
@@ -91,12 +95,14 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
 
     A zero function may turn NaN or infinite within the step (``z1`` unchecked: ``sqrt(x)`` with ``x`` falling
     through zero): the step is then searched up to the last time its values are finite (bisection), and only
-    when no crossing comes before it is the bad value an error (:func:`check_zeros`, at the first bad time)."""
+    when no crossing comes before it is the bad value an error (:func:`check_zeros`, at the first bad time).
+    ``off``: the thresholds (:func:`knee_offsets`) that ``z0``, ``z1`` are already relative to."""
+    off = np.zeros(len(z0)) if off is None else off
     ts = t0 + (t1 - t0) * np.arange(1, max(substeps, 0) + 1) / (max(substeps, 0) + 1)
     if ts.size and len(z0):
         X = np.asarray(sol(ts))
         Z = np.array([np.broadcast_to(np.asarray(v, dtype=float), ts.shape)
-                      for v in cm.funcs["zeros"](ts, X, p, d, u)])
+                      for v in cm.funcs["zeros"](ts, X, p, d, u)]) - off[:, None]
     else:
         Z = np.zeros((len(z0), 0))
     times = np.append(ts, t1)
@@ -107,13 +113,13 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
         lo, hi, z_hi = _last_finite(cm, sol, times[k - 1] if k else t0, times[k], Z[:, k], p, d, u)
         if lo > t0:
             times = np.append(times[:k], lo)
-            Z = np.concatenate([Z[:, :k], zeros(cm, lo, sol(lo), p, d, u, check=False).reshape(-1, 1)], axis=1)
+            Z = np.concatenate([Z[:, :k], zeros(cm, lo, sol(lo), p, d, u, False, off).reshape(-1, 1)], axis=1)
         else:
             times, Z = times[:0], Z[:, :0]
     za, ta = np.asarray(z0, dtype=float), t0
     for k in range(times.size):
         zb = Z[:, k]
-        found = crossings(cm, sol, ta, times[k], za, zb, p, d, u)
+        found = crossings(cm, sol, ta, times[k], za, zb, p, d, u, off)
         if found:
             return found
         za, ta = zb, times[k]
@@ -207,9 +213,13 @@ def settle_modes(cm, t, x, p, d, u, max_iter: int = SETTLE_ITER):
 #: modes (an ideal diode at its knee, where the switching variable is round-off of either sign; a brake breaking
 #: away at exactly zero speed), the present modes are consistent and the cascade keeps them
 KNEE = 1e-6
+#: a zero function that leaves an exact zero right after an event by less than this [SI unit of the function] has
+#: moved by round-off (:func:`knee_offsets`); small enough that what the model carries from it (a clutch stuck at
+#: this relative speed) is far below any tolerance
+ROUNDOFF = 1e-12
 
 
-def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=()):
+def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=(), kept=None):
     """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
     those events' assignments, and repeat, until nothing flips (Modelica's event iteration).
 
@@ -219,7 +229,9 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=())
     no mode is consistent and
     the run stops with a :class:`SimulationError` naming the events' components, their values and the time.
     ``hits``: the crossings that caused the event (``(time, event index, rising?)``); a crossing zero function
-    located exactly at zero counts as on the side it crossed to, so a new mode that puts it back is a flip."""
+    located exactly at zero counts as on the side it crossed to, so a new mode that puts it back is a flip.
+    ``kept``: a list that receives the zero functions the knee rule overruled (their sign says leave the present
+    modes, by no more than :data:`KNEE`): :func:`knee_offsets` watches them from there."""
     z_prev = zeros(cm, t, x, p, d_old, u)
     side = z_prev.copy()  # the sign each zero function had (a crossing exactly at zero: the side it went to)
     for _, i, rising in hits:
@@ -242,6 +254,8 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=())
         back = [k for k, s in enumerate(seen) if np.array_equal(new, s)]
         if back:  # a cycle: the modes it would leave are consistent if only round-off said otherwise
             if all(size <= KNEE for _, size in flips[-1]):
+                if kept is not None:
+                    kept.extend(i for i, _ in flips[-1])
                 return d
             cycle = [f for step in flips[back[0]:] for f in step]
             culprits = sorted({cm.flat.events[i].origin for i, size in cycle if size > KNEE})
@@ -253,6 +267,37 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=())
     raise SimulationError(f"discrete modes do not settle after an event at t = {t:.9g} s: the events of "
                           f"{', '.join(culprits)} switch back and forth (no mode is consistent there: the model "
                           "chatters); modes " + ", ".join(f"{n} = {v:g}" for n, v in zip(cm.discrete_names, d)))
+
+
+def knee_offsets(cm, t, x, p, d, u, kept) -> np.ndarray:
+    """The thresholds the zero functions are watched at after an event (one per zero function; 0: the ordinary
+    zero). A zero function the knee rule overruled (``kept``, :func:`cascade`) has the sign that says leave the
+    present modes, by less than :data:`KNEE`; watched at zero, it would never cross again as it moves further that
+    way (a clutch kept stuck with its holding torque a hair past the limit, the torque then growing: the breakaway
+    would be lost). It is watched at twice its value instead (at least :data:`ROUNDOFF` further): once it has moved
+    as far again the leaving way, that is a crossing in the same direction, and the event iteration there leaves
+    the modes, or keeps them and doubles the threshold again (a few events at most before it is beyond
+    :data:`KNEE`). A threshold in proportion keeps what the model carries from the switch small: a clutch that
+    sticks at such a threshold holds that relative speed while stuck.
+
+    A zero function exactly at zero after the event (a clutch that has just broken away: its relative speed is
+    still exactly 0, and round-off of its tiny acceleration may move it either way) is watched at
+    ``+-ROUNDOFF`` when crossing one way would leave the new modes and crossing the other would not: a function
+    leaving its exact zero the leaving way by round-off no longer counts, one that truly turns back does (the clutch
+    sticks again, its relative speed then :data:`ROUNDOFF` instead of 0). The offsets last until the next event
+    (hysteresis, as the level-triggered start modes of Modelica's friction elements give)."""
+    off = np.zeros(len(cm.event_zeros))
+    z = zeros(cm, t, x, p, d, u)
+    kept = set(kept or ())
+    for i in range(z.size):
+        if i in kept and z[i] != 0:
+            off[i] = z[i] + np.sign(z[i]) * max(abs(z[i]), ROUNDOFF)
+        elif z[i] == 0:
+            up = not np.array_equal(apply_event(cm, i, True, t, x, p, d, u), d)
+            down = not np.array_equal(apply_event(cm, i, False, t, x, p, d, u), d)
+            if up != down:
+                off[i] = ROUNDOFF if up else -ROUNDOFF
+    return off
 
 
 def algebraic_modes(cm, t, p, d, u):

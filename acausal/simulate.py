@@ -24,7 +24,8 @@ import numpy as np
 from scipy import integrate
 
 from .errors import ModelError, SimulationError
-from .modes import algebraic_modes, apply_hits, cascade, crossings_in_step, record_events, settle_modes, zeros
+from .modes import (algebraic_modes, apply_hits, cascade, crossings_in_step, knee_offsets, record_events,
+                    settle_modes, zeros)
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -113,6 +114,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
     n_out = t_out.size
     solver_cls = METHODS[method]
     has_events = bool(cm.event_zeros)
+    off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
     limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
     steps_left = limit
     while True:
@@ -126,7 +128,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
             solver = solver_cls(fun, t, x, t_end, **opts)  # evaluates the model to choose its first step
         except _NonFinite as exc:
             raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
-        z_old = zeros(cm, t, x, p, d, u) if has_events else None
+        z_old = zeros(cm, t, x, p, d, u, off=off) if has_events else None
         restarted = False
         while solver.status == "running":
             t_prev = solver.t
@@ -148,8 +150,8 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
             sol = solver.dense_output() if (need_out or has_events or dense_output) else None
             hit = None
             if has_events:
-                z_new = zeros(cm, t_new, solver.y, p, d, u, check=False)  # a bad value: after any crossing
-                hits = crossings_in_step(cm, sol, t_prev, t_new, z_old, z_new, p, d, u)
+                z_new = zeros(cm, t_new, solver.y, p, d, u, False, off)  # a bad value: after any crossing
+                hits = crossings_in_step(cm, sol, t_prev, t_new, z_old, z_new, p, d, u, off=off)
                 z_old = z_new
                 if hits:
                     t_e = hits[0][0]
@@ -168,7 +170,9 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
                     k_out = k_end
             if hit:
                 record_events(cm, events, hit, t_e, max_events)
-                d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hit)
+                kept: list = []
+                d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hit, kept=kept)
+                off = knee_offsets(cm, t_e, x_e, p, d, u, kept)
                 t, x = t_e, x_e
                 restarted = True
                 break

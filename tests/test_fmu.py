@@ -198,8 +198,9 @@ def _logged_events(messages):
 
 def test_three_phase_bridge_switches_as_simulate_does(tmp_path):
     """Six ideal diodes commutate 60 times in 0.1 s; each commutation cascades (a diode turning on makes its
-    neighbour's current reverse) and some close a cycle only through round-off-small flips at the knee, where
-    acausal.modes keeps the present modes. After the start the FMU logs the same crossings as simulate()'s
+    neighbour's current reverse). The two diodes exactly at zero after the start are watched 1e-12 from it
+    (acausal.modes.knee_offsets, in Python and in the C alike), so round-off no longer sends a commutation through
+    a cycle at the knee. After the start the FMU logs the same crossings as simulate()'s
     events (same events, directions and order; times within 1e-6 s), and its modes and capacitor voltage between
     the events equal simulate()'s, the modes from the start on. At t = 0 two diodes sit exactly at zero and leave
     it (the FMU switches them at t = 0 as simulate() does, not at the end of the first step); whether one of them
@@ -216,8 +217,6 @@ def test_three_phase_bridge_switches_as_simulate_does(tmp_path):
     assert [e for e in _logged_events(got) if e[0] == 0] == [(0.0, 0, "falling")]
     assert len(ref.events) >= 60 and [e[0] for e in ref.events[:2]] == [0.0, 0.0]
     assert len(events) == len(ref.events) - 2, (events[:12], ref.events[:12])
-    assert any(m.startswith("t = 0.0149999") and "keeps the present modes (the flip of event 5 (IdealDiode 'up2'"
-               in m for m in got), got  # the knee rule at work
     for (t, i, direction), (t_ref, i_ref, d_ref) in zip(events, ref.events[2:]):
         assert (i, direction) == (i_ref, d_ref) and abs(t - t_ref) < 1e-6, ((t, i, direction), (t_ref, i_ref, d_ref))
     t_events = np.array([e[0] for e in ref.events])

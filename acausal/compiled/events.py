@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..modes import apply_hits, cascade, crossings, record_events, settle_modes
+from ..modes import apply_hits, cascade, crossings, knee_offsets, record_events, settle_modes
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -63,6 +63,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     events = []
     t, x, k_out, window = t_start, np.asarray(x0, dtype=float), 0, WINDOW
     done = {name: 0.0 for name in names}  # integral from t_start to t
+    off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
     while True:
         while k_out < N and t_out[k_out] <= t:  # outputs at the restart time itself
             X[:, k_out], D[:, k_out] = x, d
@@ -80,7 +81,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
                 raise
             window //= 2  # the old mode may not go on far past a crossing: look closer
             continue
-        hit = _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args)
+        hit = _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, off)
         if hit is None:
             X[:, k_out:k_out + grid.size], D[:, k_out:k_out + grid.size] = Xs, d[:, None]
             for name in names:
@@ -100,7 +101,9 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
         record_events(cm, events, hits, t_e, max_events)
-        d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hits)
+        kept: list = []
+        d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hits, kept=kept)
+        off = knee_offsets(cm, t_e, x_e, p, d, u, kept)
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
     def later(more):  # the same run again, those integrated with the states
@@ -114,16 +117,17 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi; events located between its runs)")
 
 
-def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args):
+def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, off):
     """The first crossing after ``t`` that changes a mode: ``(t_e, x_e, hits, new modes)``, or None. ``Xs``, ``Qs``:
-    states and integrals (with the zero functions' variations) at ``grid``, integrated from ``(t, x)``."""
+    states and integrals (with the zero functions' variations) at ``grid``, integrated from ``(t, x)``; ``off``:
+    the thresholds the zero functions are watched at (:func:`acausal.modes.knee_offsets`)."""
     times = np.concatenate([[t], grid])
     states = np.concatenate([x[:, None], Xs], axis=1)
-    return _scan(cm, path, times, states, _variations(cm, Qs), p, d, u, args, depth=0)
+    return _scan(cm, path, times, states, _variations(cm, Qs), p, d, u, args, depth=0, off=off)
 
 
-def _scan(cm, path, times, states, var, p, d, u, args, depth):
-    z = _zero_values(cm, times, states, p, d, u)
+def _scan(cm, path, times, states, var, p, d, u, args, depth, off):
+    z = _zero_values(cm, times, states, p, d, u, off)
     for k in range(times.size - 1):
         a, b = times[k], times[k + 1]
         if b <= a:
@@ -133,12 +137,12 @@ def _scan(cm, path, times, states, var, p, d, u, args, depth):
         crossed = _crossed(za, zb)
         leaving = crossed & (za == 0)  # from an exact zero (at rest): the direction right after a decides
         if np.any(leaving) and not np.any(crossed & ~leaving) and depth < MAX_DEPTH:
-            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth)
+            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
         elif np.any(crossed):
-            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args)
+            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args, off=off)
         elif np.any((var[:, k + 1] - var[:, k] >= (np.abs(za) + np.abs(zb)) * (1 - 1e-9)) & (za != 0)) \
                 and depth < MAX_DEPTH:  # the variation could have gone to zero and back
-            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth)
+            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
         else:
             hit = None
         if hit is not None:
@@ -146,12 +150,12 @@ def _scan(cm, path, times, states, var, p, d, u, args, depth):
     return None
 
 
-def _refine(cm, path, a, b, xa, p, d, u, args, depth):
+def _refine(cm, path, a, b, xa, p, d, u, args, depth, off):
     """:func:`_scan` of ``[a, b]`` on :data:`REFINE` sub-intervals, integrated again from ``(a, xa)``."""
     sub = np.linspace(a, b, REFINE + 1)
     Xs, Qs = path.integrate(a, xa, sub[1:], p, d, u, *args, variation=True)
     return _scan(cm, path, sub, np.concatenate([xa[:, None], Xs], axis=1), _variations(cm, Qs), p, d, u, args,
-                 depth + 1)
+                 depth + 1, off)
 
 
 def _variations(cm, Qs) -> np.ndarray:
@@ -159,13 +163,15 @@ def _variations(cm, Qs) -> np.ndarray:
     return np.array([np.concatenate([[0.0], Qs[("variation", i)]]) for i in range(len(cm.event_zeros))])
 
 
-def _zero_values(cm, times, states, p, d, u) -> np.ndarray:
-    """The zero functions at the columns of ``states`` (times ``times``), one row each."""
-    return np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape)
-                     for v in cm.funcs["zeros"](times, states, p, d, u)])
+def _zero_values(cm, times, states, p, d, u, off) -> np.ndarray:
+    """The zero functions at the columns of ``states`` (times ``times``), one row each, relative to the thresholds
+    ``off`` they are watched at."""
+    z = np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape)
+                  for v in cm.funcs["zeros"](times, states, p, d, u)])
+    return z if off is None else z - np.asarray(off)[:, None]
 
 
-def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0):
+def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0, off=None):
     """The crossing(s) in ``(a, b]`` by Brent's method (:func:`acausal.modes.crossings`, the scipy path's own);
     None when they change no mode.
 
@@ -185,7 +191,7 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0):
     again) is still found.
     """
     run = _Dense(cm, path, a, b, xa, p, d, u, args)
-    zn = _zero_values(cm, run.nodes, run.states, p, d, u)
+    zn = _zero_values(cm, run.nodes, run.states, p, d, u, off)
     handled: dict = {}  # zero function -> last node up to which its crossings changed no mode
     while True:
         zm, zb_m = zn.copy(), np.asarray(zb, dtype=float).copy()
@@ -200,12 +206,12 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0):
             crossing = np.flatnonzero(_crossed(zm[:, j], zm[:, j + 1]))
             if depth < LOCATE_DEPTH and not run.smooth(j, args):
                 hit = _locate(cm, path, run.nodes[j], run.nodes[j + 1], run.states[:, j], run.states[:, j + 1],
-                              zn[:, j], zn[:, j + 1], p, d, u, args, depth + 1)
+                              zn[:, j], zn[:, j + 1], p, d, u, args, depth + 1, off)
                 if hit is not None:
                     return hit
                 handled.update({int(i): j + 1 for i in crossing})
                 continue
-            hits = crossings(cm, run.sol, run.nodes[j], run.nodes[j + 1], zm[:, j], zm[:, j + 1], p, d, u)
+            hits = crossings(cm, run.sol, run.nodes[j], run.nodes[j + 1], zm[:, j], zm[:, j + 1], p, d, u, off)
             t_e = hits[0][0] if hits else run.nodes[j + 1]
             x_e = run.sol(t_e)
             upto = j + 1

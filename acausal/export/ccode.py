@@ -27,7 +27,7 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
 from ..errors import ModelError
-from ..modes import CASCADE_ITER, KNEE, SETTLE_ITER
+from ..modes import CASCADE_ITER, KNEE, ROUNDOFF, SETTLE_ITER
 from ..signals import ParametricSignal, SignalCall
 from ..solve import Assign, LinearSolve, NewtonSolve
 from ..symbols import der_name, time
@@ -306,7 +306,8 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     origins = sorted({ev.origin for ev in cm.flat.events})  # the events' components, sorted as modes.py's messages
     out += [f"#define NT {len(targets)}", f"#define NPT {len(tabulated)}", f"#define NO {len(origins)}",
             # the event iteration's rules, from their one home (acausal.modes)
-            f"#define KNEE {_c_double(KNEE)}", f"#define MAX_CASCADE {CASCADE_ITER}", f"#define MAX_SETTLE {SETTLE_ITER}",
+            f"#define KNEE {_c_double(KNEE)}", f"#define ROUNDOFF {_c_double(ROUNDOFF)}",
+            f"#define MAX_CASCADE {CASCADE_ITER}", f"#define MAX_SETTLE {SETTLE_ITER}",
             _array("double", "start_values", start, _c_double),
             _array("char *const", "var_names", [*lay.params, *lay.states, *lay.unknowns, *lay.aliases,
                                                  *lay.discretes], _c_string),

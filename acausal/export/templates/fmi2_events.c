@@ -12,10 +12,11 @@
  * cascade            modes.cascade: mode changes that flip other indicators apply theirs until nothing flips;
  *                    a return to modes already visited keeps the present modes when every flip that closes the
  *                    cycle is within KNEE of zero, and is otherwise an error naming the components that chatter
+ * knee_offsets       modes.knee_offsets: after an event, the thresholds the indicators are watched at (m->off)
  * --------------------------------------------------------------------------------------------------------- */
 
-/* KNEE (an indicator this close to zero is at its switching point), MAX_CASCADE and MAX_SETTLE are generated from
- * acausal.modes (KNEE, CASCADE_ITER, SETTLE_ITER) */
+/* KNEE (an indicator this close to zero is at its switching point), ROUNDOFF, MAX_CASCADE and MAX_SETTLE are
+ * generated from acausal.modes (KNEE, ROUNDOFF, CASCADE_ITER, SETTLE_ITER) */
 #define MODES (m->r + OFF_D)
 #define NO1 (NO > 0 ? NO : 1)
 
@@ -118,7 +119,7 @@ static int look_ahead(Inst *m, double *ahead) {
  * (a hit exactly at zero: the side it crossed to). The modes visited are remembered: seen[0] = d_old, seen[1] the
  * modes after the hits, seen[s] the modes that step s of the iteration leaves. big[i]: the last step at which
  * event i flipped with |indicator| above KNEE; flipped[i]: whether it flipped at all. */
-static int cascade(Inst *m, const double *d_old, double *side) {
+static int cascade(Inst *m, const double *d_old, double *side, int *kept) {
     double seen[MAX_CASCADE + 2][ND1], z[NZ1], before[ND1];
     int big[NZ1], flipped[NZ1], flips[NZ1], mark[NO1];
     int n_seen = 2, step, back = -1, i, k, n;
@@ -150,6 +151,7 @@ static int cascade(Inst *m, const double *d_old, double *side) {
             if (largest <= KNEE) {  /* only round-off-small flips close the cycle: the present modes hold */
                 memcpy(MODES, before, sizeof(double) * ND);
                 m->valid = 0;
+                for (k = 0; k < n; k++) kept[flips[k]] = 1;
                 for (k = 0; k < n; k++)
                     log_msg(m, fmi2OK, "logEvents", "t = %.17g s: the event iteration keeps the present modes (the "
                             "flip of event %d (%s: %s) back to modes it visited is %g, within %g of zero)", m->time,
@@ -183,16 +185,44 @@ static int cascade(Inst *m, const double *d_old, double *side) {
     return 1;
 }
 
+/* modes.knee_offsets: an indicator the knee rule overruled (kept) is watched at twice its value (at least ROUNDOFF
+ * further), so that moving as far again the way it says to leave is a crossing; one exactly at zero, which crossing one way would leave the
+ * present modes and the other not, at +-ROUNDOFF, so that leaving its zero by round-off is not. */
+static int knee_offsets(Inst *m, const int *kept) {
+    double z[NZ1], d[ND1];
+    int i, up, down;
+    if (indicators(m)) return 1;
+    memcpy(z, m->z, sizeof(double) * NZ);
+    memcpy(d, MODES, sizeof(double) * ND);
+    for (i = 0; i < NZ; i++) {
+        m->off[i] = 0.0;
+        if (kept[i] && z[i] != 0.0) {
+            double h = fabs(z[i]) > ROUNDOFF ? fabs(z[i]) : ROUNDOFF;  /* twice its value, at least ROUNDOFF on */
+            m->off[i] = z[i] + (z[i] > 0 ? h : -h);
+        } else if (z[i] == 0.0) {
+            if (apply_event(m, i, 1)) return 1;
+            up = modes_differ(d, MODES);
+            memcpy(MODES, d, sizeof(double) * ND);
+            if (apply_event(m, i, 0)) return 1;
+            down = modes_differ(d, MODES);
+            memcpy(MODES, d, sizeof(double) * ND);
+            m->valid = 0;
+            if (up != down) m->off[i] = up ? ROUNDOFF : -ROUNDOFF;
+        }
+    }
+    return 0;
+}
+
 /* One event at the present time and states: the crossings since the last event (z_pre) apply their assignments
  * (modes.apply_hits); if a mode changed, each crossing is logged (as Result.events) and the cascade settles the
  * modes. At the initial event update an indicator still exactly at zero takes its direction from look_ahead. */
 static int event_update(Inst *m, int initial) {
     double d_old[ND1], zs[NZ1], side[NZ1], ahead[NZ1];
-    int hit[NZ1], rising[NZ1], nh = 0, at_rest = 0, i, k;
+    int hit[NZ1], rising[NZ1], kept[NZ1], nh = 0, at_rest = 0, i, k;
     if (indicators(m)) return 1;
     memcpy(d_old, MODES, sizeof(double) * ND);
-    memcpy(zs, m->z, sizeof(double) * NZ);
-    memcpy(side, zs, sizeof(double) * NZ);
+    memcpy(side, m->z, sizeof(double) * NZ);
+    for (i = 0; i < NZ; i++) { zs[i] = m->z[i] - m->off[i]; kept[i] = 0; }  /* relative to the watched thresholds */
     for (i = 0; i < NZ; i++) at_rest |= initial && m->z_pre[i] == 0.0 && zs[i] == 0.0;
     if (at_rest && look_ahead(m, ahead)) return 1;
     for (i = 0; i < NZ; i++) {
@@ -208,9 +238,10 @@ static int event_update(Inst *m, int initial) {
                     origin_names[event_origin[hit[k]]], event_zero[hit[k]], rising[k] ? "rising" : "falling");
             if (side[hit[k]] == 0.0) side[hit[k]] = rising[k] ? 1.0 : -1.0;
         }
-        if (cascade(m, d_old, side)) return 1;
+        if (cascade(m, d_old, side, kept)) return 1;
+        if (knee_offsets(m, kept)) return 1;
     }
     if (indicators(m)) return 1;
-    memcpy(m->z_pre, m->z, sizeof(double) * NZ);
+    for (i = 0; i < NZ; i++) m->z_pre[i] = m->z[i] - m->off[i];
     return 0;
 }

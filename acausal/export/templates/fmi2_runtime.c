@@ -29,7 +29,8 @@ enum { PHASE_INSTANTIATED, PHASE_INIT, PHASE_EVENT, PHASE_CONTINUOUS, PHASE_TERM
 typedef struct {
     double r[NR];
     double z[NZ1];
-    double z_pre[NZ1];
+    double z_pre[NZ1];       /* the indicators relative to off at the last event */
+    double off[NZ1];         /* thresholds the indicators are watched at (modes.knee_offsets); 0 normally */
     double x_start[NX1];
     double time;
     int given[NX1];          /* state start set through fmi2SetReal: fixed at initialisation */
@@ -306,6 +307,7 @@ static void reset_instance(Inst *m) {
     memcpy(m->r, start_values, sizeof(double) * NR);
     memcpy(m->x_start, start_values + OFF_X, sizeof(double) * NX);
     memset(m->given, 0, sizeof m->given);
+    memset(m->off, 0, sizeof m->off);
     m->time = 0.0;
     m->phase = PHASE_INSTANTIATED;
     m->valid = 0;
@@ -583,7 +585,7 @@ FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean 
     if (NZ == 0) return fmi2OK;
     if (ensure(INST) || check_indicators(INST)) return fmi2Error;
     for (i = 0; i < NZ; i++)
-        if (crossed(INST->z_pre[i], INST->z[i]) >= 0) *enterEventMode = fmi2True;
+        if (crossed(INST->z_pre[i], INST->z[i] - INST->off[i]) >= 0) *enterEventMode = fmi2True;
     return fmi2OK;
 }
 
@@ -615,12 +617,14 @@ FMI2_EXPORT fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[
 }
 
 FMI2_EXPORT fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
+    size_t i;
     CHECK_INST;
     if (ni != NZ) FAIL("fmi2GetEventIndicators: %d indicators expected, got %d", NZ, (int)ni);
     if (NZ == 0) return fmi2OK;
     if (ensure(INST)) return fmi2Error;
-    memcpy(eventIndicators, INST->z, sizeof(double) * NZ);
-    return check_indicators(INST) ? fmi2Error : fmi2OK;
+    if (check_indicators(INST)) return fmi2Error;
+    for (i = 0; i < NZ; i++) eventIndicators[i] = INST->z[i] - INST->off[i];  /* watched at off (knee_offsets) */
+    return fmi2OK;
 }
 
 FMI2_EXPORT fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
