@@ -7,7 +7,7 @@ delivers to its load is ``-flange.tau``).
 import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Model, Parameter, RealInput, Variable, connect, der
+from acausal import Component, Model, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import HeatPort, Pin
 from acausal.partials import PartialElementaryRotationalToElectrical, check_option
 
@@ -236,3 +236,29 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
         if self.use_heat_port:
             eqs.append(Eq(self.heat_port.Q_flow, -self.copper_loss))
         return eqs
+
+
+class MotorFeedForward(Component):
+    """The voltage a :class:`DCMotor` ``motor`` needs to make, at its present speed, the torque it makes plus
+    ``tau``: the inverse of its own equations (its parameters, its winding resistance at the winding temperature)
+    evaluated at the current ``i = motor.i + tau / motor.k``::
+
+        v = R(T) i + L di/dt + k w
+
+    With ``tau`` the torque something else adds to the motor's shaft to hold a prescribed motion, ``v`` is the
+    command a perfect feed-forward gives the driver: where the driver delivers it, ``motor.i`` carries all of
+    ``i`` and ``tau`` decays with the winding's ``L / R`` (0.1 ms here) to zero. A signal block (no port carries
+    power): it reads the motor's variables."""
+
+    tau = RealInput(doc="torque [N m] the motor would have to make in addition to k i (same sense)")
+    v = RealOutput(doc="motor voltage [V] that makes it")
+    i = Variable(unit="A", doc="motor current that makes the motor's and the extra torque")
+
+    def __init__(self, motor: DCMotor, **kw):
+        super().__init__(**kw)
+        self._motor = motor
+
+    def equations(self):
+        m = self._motor
+        return [Eq(m.k * self.i, m.k * m.i + self.tau.value),
+                Eq(self.v.value, m.R_T * self.i + m.L * der(self.i) + m.k * m.w)]

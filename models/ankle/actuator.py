@@ -17,6 +17,14 @@ completes it with the MACCEPA, the joint and the way the moment arm is moved. Op
   constraint on the driver command, so index reduction derives current, voltages and every power; the driver
   does not saturate, check ``driver.d`` against ``d_max``) or ``"closed_loop"`` (a PID tracks the reference
   within the bus voltage: the motor's limits show up as tracking error, paper Fig. 13).
+* ``driver_limit`` (replay only, default False): the replay knows the driver's duty limit
+  (:meth:`DriveTrain.add_limited_follower`): the driver gets the voltage the motor needs for the prescribed motion
+  (``feed_forward``, the inverse of the motor's own equations), smoothly limited to ``d_max`` times the bus
+  voltage (``limiter``), the motor current is a state of the motor's electrical equation, and a torque on the motor
+  shaft (``motion_support``) holds the prescribed motion: zero while the driver is within its limit (the replay
+  then predicts what the plain one does), the current the driver cannot push times ``k`` while it is saturated.
+  On clean virtual-bench recordings it does not bring the replay's motor current closer to the truth (see
+  ``Split`` in :mod:`acausal.models.bench.calibration`), so calibration does not use it by default.
 * ``motion``: ``"gait"`` (the joint follows the healthy gait at ``stride_time``, the arm the planned trajectory)
   or ``"recorded"`` (replay only: joint and arm angles are absolute-time inputs ``ankle.phi_ref`` and
   ``arm_target.signal``, e.g. smoothed bench recordings).
@@ -56,15 +64,15 @@ import abc
 
 from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable, connect
 from acausal.partials import check_option
-from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource
+from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource, SmoothLimiter
 from acausal.library.control import PIDVariableLimit
-from acausal.library.drives import EPOS2, DCMotor
+from acausal.library.drives import EPOS2, DCMotor, MotorFeedForward
 from acausal.library.electrical import (ConstantVoltage, Ground, IdealNonRegenerativeRectifier,
                                         NonRegenerativeRectifier, Supply, VoltageSensor)
 from acausal.library.gait import DEFAULT_BODY_MASS, AnkleAngleSource, GaitProfile, unit_cycle
 from acausal.library.maccepa import FrictionalMaccepa, Maccepa
 from acausal.library.rotational import (AngleSensor, Backlash, BearingFriction, Gearbox, IdealGear, LossyGear,
-                                        Position, SelfLockingGear, TorqueSensor)
+                                        Position, SelfLockingGear, SignalTorque, TorqueSensor)
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 from acausal.library.thermal import DecayingTemperatureStep, FixedTemperature, HeatCapacitor, ThermalConductor
 
@@ -163,14 +171,33 @@ class DriveTrain(Model):
         connect(target, self.follow.target)
         connect(self.follow.y, self.driver.u)
 
-    def add_controller(self, reference, measured):
-        """Closed loop: ``controller`` (PID with anti-windup, assumed gains) drives the driver so that
-        ``measured`` follows ``reference``, within the largest motor voltage the bridge can make from the
-        present bus (``bus_voltage`` times ``d_max``, ``available``)."""
-        self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
-        connect(reference, self.controller.setpoint)
-        connect(measured, self.controller.measurement)
-        connect(self.controller.y, self.driver.u)
+    def add_limited_follower(self, measured, target, band: float = 0.05):
+        """Inverse model within the driver's duty limit: the driver is commanded with the voltage the motor needs
+        for the prescribed motion (``feed_forward``, the inverse of the motor's own equations), limited to what the
+        bridge can make from the present bus (``limiter``, ``d_max`` times the bus voltage, corners rounded over
+        ``band`` volts); the motor current then follows the motor's electrical equation, and ``motion_support``,
+        a torque on the motor shaft (after ``P_motor``), holds the prescribed motion (the compiler solves for
+        it). It is zero while the driver is within its limit and takes ``k`` times the current the driver cannot
+        push while it is saturated: the part of the prescribed motion the recording's smoothing could not
+        resolve (in the truth, the motion itself follows the voltage-limited current). The limit is smooth rather
+        than a clamp with events: the motor current is now a state, and exact parameter sensitivities
+        (:meth:`CompiledModel.sensitivities <acausal.compiler.CompiledModel.sensitivities>`) take models with
+        states or events, not both."""
+        self.follow = SignalConstraint()
+        self.motion_support = SignalTorque()
+        self.feed_forward = MotorFeedForward(self.motor)
+        self.limiter = SmoothLimiter(band=band)
+        connect(measured, self.follow.u)
+        connect(target, self.follow.target)
+        connect(self.follow.y, self.motion_support.u, self.feed_forward.tau)
+        connect(self.motion_support.flange, self.P_motor.flange_b)
+        connect(self.feed_forward.v, self.limiter.u)
+        connect(self.available_voltage(), self.limiter.limit)
+        connect(self.limiter.y, self.driver.u)
+
+    def available_voltage(self):
+        """The largest motor voltage the bridge can make from the present bus: ``bus_voltage`` (a voltage sensor
+        on the driver's bus) times ``d_max`` (``available``); returns its output."""
         self.bus_voltage = VoltageSensor()
         self.available = Gain(k=self.driver.d_max)
         bus = (self.driver.bus_p, self.driver.bus_n) if self.options["supply"] == "battery" else \
@@ -178,7 +205,17 @@ class DriveTrain(Model):
         connect(bus[0], self.bus_voltage.p)
         connect(bus[1], self.bus_voltage.n)
         connect(self.bus_voltage.v_out, self.available.u)
-        connect(self.available.y, self.controller.limit)
+        return self.available.y
+
+    def add_controller(self, reference, measured):
+        """Closed loop: ``controller`` (PID with anti-windup, assumed gains) drives the driver so that
+        ``measured`` follows ``reference``, within the largest motor voltage the bridge can make from the
+        present bus (:meth:`available_voltage`)."""
+        self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
+        connect(reference, self.controller.setpoint)
+        connect(measured, self.controller.measurement)
+        connect(self.controller.y, self.driver.u)
+        connect(self.available_voltage(), self.controller.limit)
 
 
 class SeriesLinkAnkle(DriveTrain, abc.ABC):
@@ -190,12 +227,16 @@ class SeriesLinkAnkle(DriveTrain, abc.ABC):
     joint_torque = Variable(unit="N.m", doc="reading of the joint torque sensor (torque on the foot)")
     tracking_error = Variable(unit="rad", doc="moment-arm reference minus actual angle")
 
-    def __init__(self, mode: str = "replay", motion: str = "gait", **kw):
+    def __init__(self, mode: str = "replay", motion: str = "gait", driver_limit: bool = False, **kw):
         self.mode = check_option(self, "mode", mode, OPTIONS["mode"])
         self.motion = check_option(self, "motion", motion, OPTIONS["motion"])
+        self.driver_limit = check_option(self, "driver_limit", driver_limit, (True, False))
         if motion == "recorded" and mode != "replay":
             raise ModelError(f"{type(self).__name__}: motion 'recorded' needs mode 'replay' (closed loop follows "
                              "the gait)")
+        if driver_limit and mode != "replay":
+            raise ModelError(f"{type(self).__name__}: driver_limit is a replay option (closed loop always "
+                             "limits the driver's duty)")
         super().__init__(saturate=mode == "closed_loop", **kw)
 
     @abc.abstractmethod
@@ -236,7 +277,9 @@ class SeriesLinkAnkle(DriveTrain, abc.ABC):
             self.arm_ref = GaitProfile(stride_time=self.stride_time, profile=self.planned_arm())
             reference = self.arm_ref.y
         connect(self.torque_sensor.flange_b, self.ankle.flange)
-        if self.mode == "replay":
+        if self.mode == "replay" and self.driver_limit:
+            self.add_limited_follower(self.arm_angle.phi, reference)
+        elif self.mode == "replay":
             self.add_follower(self.arm_angle.phi, reference)
         else:
             self.add_controller(reference, self.arm_angle.phi)
