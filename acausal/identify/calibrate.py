@@ -37,7 +37,7 @@ from scipy.optimize import least_squares
 
 from ..errors import AcausalError, DataError
 from .screening import screen
-from .uncertainty import METHOD, cluster_covariance, groups_of
+from .uncertainty import METHOD, cluster_covariance, groups_of, method
 
 #: the robust losses of :func:`scipy.optimize.least_squares` (``"linear"``: plain least squares)
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -59,6 +59,9 @@ class Experiment:
     #: the cycle the recorded motion repeats with, in seconds (e.g. the stride time from the recording's settings):
     #: the screening checks the readings repeat with it. None: not cyclic, or not checked
     period: float | None = None
+    #: cluster label of every sample for the standard errors (:mod:`~.uncertainty`): samples whose residuals may be
+    #: correlated share one. None: the strides (``stride``). ``info["clusters"]`` names them in words
+    clusters: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -254,7 +257,8 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                     counts[which][(e.name, s)] = int(msk.sum())
     cal = Calibration(names, {k: values[k] for k in names}, std, cov, float(sol.cost), int(sol.nfev),
                       bool(sol.success), str(sol.message), list(signals), rmse_train, rmse_test,
-                      {f.name: f.start for f in free}, counts, std_white=std_white, clusters=clusters)
+                      {f.name: f.start for f in free}, counts, std_white=std_white, clusters=clusters,
+                      std_method=method(experiments))
     cal.warnings = _screen(experiments, preds, signals, scales, lambda e: e.period)
     return cal
 

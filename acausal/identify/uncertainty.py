@@ -27,8 +27,15 @@ import numpy as np
 #: below this many clusters a cluster-robust covariance is itself too noisy to report without a caveat
 MIN_CLUSTERS = 10
 
-#: the name the fits report their standard errors under
-METHOD = "cluster-robust sandwich (CR1), clustered by the stride (or segment) of each recording"
+#: the name the fits report their standard errors under (``method``: with what the clusters are)
+METHOD = "cluster-robust sandwich (CR1), clustered by stride of each recording"
+
+
+def method(experiments) -> str:
+    """How the standard errors of a fit of ``experiments`` are computed, in words: :data:`METHOD`, or with the
+    clusters the experiments name (``Experiment.info["clusters"]``, e.g. ``"recording"``)."""
+    what = {e.info.get("clusters") for e in experiments if e.info.get("clusters")}
+    return METHOD if not what else f"cluster-robust sandwich (CR1), clustered by {', '.join(sorted(what))}"
 
 
 def loss_derivatives(f, loss: str, f_scale: float) -> tuple:
@@ -55,16 +62,17 @@ def loss_derivatives(f, loss: str, f_scale: float) -> tuple:
 
 def groups_of(experiments, signals, mask: str = "train") -> np.ndarray:
     """Cluster label of every row of :func:`~.calibrate.residual_vector` (same order: experiments, then signals,
-    then the ``mask`` samples): the experiment and its stride (``Experiment.stride``); an experiment without
-    strides counts as one cluster per cycle (``Experiment.period``) or, without one either, as 20 consecutive
-    blocks. A stride's samples of all signals are one cluster."""
+    then the ``mask`` samples): the experiment and its clusters (``Experiment.clusters``, by default its strides,
+    ``Experiment.stride``); an experiment without either counts as one cluster per cycle (``Experiment.period``)
+    or, without one either, as 20 consecutive blocks. A cluster's samples of all signals are one cluster."""
     labels, offset = [], 0
     for e in experiments:
         m = getattr(e, mask)
         if not m.any():
             continue
-        if e.stride is not None:
-            g = np.asarray(e.stride)[m]
+        labels_e = e.clusters if getattr(e, "clusters", None) is not None else e.stride
+        if labels_e is not None:
+            g = np.asarray(labels_e)[m]
         elif e.period:
             g = np.floor((e.t[m] - e.t[0]) / e.period).astype(int)
         else:

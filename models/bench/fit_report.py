@@ -46,8 +46,8 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
           "", "Held-out RMSE (all recordings pooled):", "",
           md_table(["signal", "datasheet values", "calibrated"],
                    [[s, f"{ba['datasheet'][s]:.4g}", f"{ba['calibrated'][s]:.4g}"] for s in cal.signals]),
-          "", "The standard errors assume white residuals; they are optimistic where the residual is systematic "
-          "(see `acausal diagnose`)."]
+          "", f"Standard errors: {cal.std_method} ({cal.clusters} clusters). They say how well the data pins "
+          "each parameter within this model, not what the model misses (see `acausal diagnose`)."]
     return dict(title="Calibration (paper section 4.3, Table 2, Fig. 14)", figures=[fig_png],
                 csv=[values_csv, rmse_csv, t2_csv, fig_csv], markdown="\n".join(md), comparisons=[],
                 before_after=ba)

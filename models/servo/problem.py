@@ -154,9 +154,12 @@ def experiment(rec, k: int, batch: _Batch, effects=(), held_out: bool = False, s
         return {POSITION: pos}, {POSITION: S}
 
     train = np.full(t.size, not held_out)
+    # a closed-loop replay's position error carries over from one segment to the next: a recording is one cluster
+    # of the standard errors
     return Experiment(rec.name, t, {POSITION: np.asarray(rec[POSITION])}, predict, train, ~train, piece,
                       info={"meta": rec.meta, "inputs": inputs(rec), "params": rig_params(rec.meta),
-                            "effects": tuple(effects), "start": start(rec)}, sensitivity=sensitivity)
+                            "effects": tuple(effects), "start": start(rec), "clusters": "recording"},
+                      sensitivity=sensitivity, clusters=np.zeros(t.size, dtype=int))
 
 
 def resolution(recordings) -> float:

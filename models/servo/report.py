@@ -143,8 +143,9 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
                       f"{fin.values[n]:.4g}", f"{fin.cal.std[n]:.2g}",
                       *[f"{s[BAM_NAMES[n]]:.4g}" if BAM_NAMES.get(n) in s else "-" for s in bam_sets.values()]]
                      for n in fin.cal.names]), "",
-           "The standard errors assume white residuals; the residuals of a closed-loop replay are strongly "
-           "correlated in time, so they are optimistic (see the held-out scores for what transfers). BAM's M3 "
+           f"Standard errors: {fin.cal.std_method} ({fin.cal.clusters} recordings): a closed-loop replay's "
+           "residuals are correlated over a whole recording, so each recording counts once (the held-out scores "
+           "say what transfers). BAM's M3 "
            "multiplies |tau_external - tau_motor|, this model |tau_motor| (see `acausal.models.servo.bam`).", ""]
     # ---------------------------------------------------------------- BAM
     csvs = []
