@@ -10,25 +10,20 @@ import sympy as sp
 
 from acausal import Model, Parameter, SimulationError, Start, compile_model, connect, time
 from acausal.export import ExportError, export_fmu
-from acausal.export.fmu import find_compiler
 from acausal.library.electrical import (EMF, Capacitor, ConstantVoltage, Ground, IdealDiode, Inductor,
                                         PrescribedVoltage, Resistor)
 from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Position
 from acausal.signals import PeriodicSpline, SampledSignal, Signal
 
 from .circuit_models import Bridge6
+from .fmu_support import require_fmu_tools
 from .drive_models import MotorGearLoad, MotorGearLoadInverse
 from .test_events_trust import _Chatter, _TripModel
 
-fmpy = pytest.importorskip("fmpy", reason="the FMU tests run the exported FMUs in fmpy (pip install fmpy, in the "
-                                          "test extra)")
+require_fmu_tools()
+import fmpy  # noqa: E402
 from fmpy import read_model_description, simulate_fmu  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
-
-try:
-    find_compiler()
-except ExportError as exc:  # pragma: no cover - machines without a C compiler
-    pytest.skip(f"no C compiler to build FMU binaries: {exc}", allow_module_level=True)
 
 TIGHT = dict(rtol=1e-11, atol=1e-13)
 

@@ -10,19 +10,13 @@ with thresholds a fixed KNEE beyond the value, made the FMU stop at 0.534 s on t
 import numpy as np
 import pytest
 
-from acausal.export import ExportError, export_fmu
-from acausal.export.fmu import find_compiler
+from acausal.export import export_fmu
 
+from .fmu_support import require_fmu_tools
 from .test_msl_conformance_stickslip import FRICTION, Friction, friction_reference
 
-fmpy = pytest.importorskip("fmpy", reason="the FMU tests run the exported FMUs in fmpy (pip install fmpy, in the "
-                                          "test extra)")
+require_fmu_tools()
 from fmpy import simulate_fmu  # noqa: E402
-
-try:
-    find_compiler()
-except ExportError as exc:  # pragma: no cover - machines without a C compiler
-    pytest.skip(f"no C compiler to build FMU binaries: {exc}", allow_module_level=True)
 
 
 @pytest.fixture(scope="module")
