@@ -67,7 +67,7 @@ def _check_symbols(flat, system):
             raise ModelError(f"equation from {o} uses {name!r}, which is no variable, parameter or input of "
                              "the model")
     for ev in flat.events:
-        for e in [ev.zero, *ev.on_rising.values(), *ev.on_falling.values()]:
+        for e in [ev.zero, *ev.on_rising.values(), *ev.on_falling.values(), *ev.reinit.values()]:
             name = stranger(e)
             if name is not None:
                 raise ModelError(f"event of {ev.origin} uses {name!r}, which is no variable, parameter, mode or "
@@ -125,6 +125,12 @@ class CompiledModel:
         # parameters bound to an expression of others: not overridable (they would disagree with the others)
         self._bound = {name: binding for name, _, binding, _ in self._param_plan if binding is not None}
         self._event_assign = _event_assignment_table(flat)
+        for ev, entry in zip(flat.events, self._event_assign):
+            for name, _ in entry["reinit"]:
+                if name not in self.state_names:
+                    raise ModelError(f"event of {ev.origin} reinitialises {name!r}, which is not a state of the "
+                                     f"compiled model (its states: {', '.join(self.state_names) or 'none'}); give it "
+                                     "state_select='prefer' or 'always' if its derivative is in the equations")
         self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
         self._compiled_path = None
 
@@ -226,6 +232,11 @@ class CompiledModel:
         (``rising``) or downwards: a list of ``(mode name, sympy expression)``, the expression in variables,
         parameters, modes and time (evaluate it with :meth:`eval_expr`)."""
         return list(self._event_assign[index]["rising" if rising else "falling"])
+
+    def event_reinits(self, index: int) -> list:
+        """The states event ``index`` restarts when its zero function rises (:class:`~acausal.components.Event`
+        ``reinit``): a list of ``(state name, sympy expression)``."""
+        return list(self._event_assign[index]["reinit"])
 
     def eval_expr(self, expr, values=None, p=None, d=None, t=None):
         """Numeric value of ``expr``, a sympy expression of variables, parameters, discrete modes and time.
@@ -459,5 +470,7 @@ def _event_assignment_table(flat) -> list:
                     raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
                 pairs.append((name, _resolve(sp.sympify(expr), flat)))
             entry[direction] = pairs
+        entry["reinit"] = [(sym.name if hasattr(sym, "name") else str(sym), _resolve(sp.sympify(expr), flat))
+                           for sym, expr in ev.reinit.items()]
         out.append(entry)
     return out

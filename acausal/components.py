@@ -177,12 +177,18 @@ class Event:
     maps a discrete symbol to an expression evaluated just before the event (pre-values of modes, values of
     continuous variables at the crossing). At initialisation the rising set is applied where ``zero > 0`` and
     the falling set where ``zero < 0`` until the modes stop changing.
+
+    ``reinit`` (Modelica's ``reinit``) maps a *state* to the value it restarts from when ``zero`` rises (an
+    expression evaluated just before the event, as the assignments are), before the modes are iterated; a
+    variable that is not a state of the compiled model is a :class:`~acausal.errors.ModelError`. A reinit of a
+    state that stores energy (a velocity) changes the stored energy at the event: the energy balance shows it.
     """
 
     zero: sp.Expr
     on_rising: dict = field(default_factory=dict)
     on_falling: dict = field(default_factory=dict)
     doc: str = ""
+    reinit: dict = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------------------------- describing

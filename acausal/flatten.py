@@ -74,6 +74,7 @@ class FlatEvent:
     on_rising: dict
     on_falling: dict
     origin: str
+    reinit: dict = field(default_factory=dict)  # state -> value when zero rises
 
 
 @dataclass
@@ -151,7 +152,8 @@ def flatten(model: Component) -> FlatModel:
             text = f"{sp.sstr(eq.lhs)} = {sp.sstr(eq.rhs)}" if isinstance(eq, sp.Equality) else f"0 = {sp.sstr(res)}"
             flat.equations.append(FlatEquation(res, origin, text))
         for ev in c.events():
-            flat.events.append(FlatEvent(sp.sympify(ev.zero), dict(ev.on_rising), dict(ev.on_falling), origin))
+            flat.events.append(FlatEvent(sp.sympify(ev.zero), dict(ev.on_rising), dict(ev.on_falling), origin,
+                                         dict(ev.reinit)))
     for c in comps:
         if not isinstance(c, Connector):
             _connection_equations(c, flat, is_root=c is model)

@@ -172,6 +172,25 @@ def apply_event(cm, i, rising, t, x, p, d, u):
     return new
 
 
+def restarts(cm, hits) -> bool:
+    """Whether the crossings ``hits`` reinitialise a state (a rising crossing of an event with ``reinit``): the
+    integration must then restart even where no mode changes."""
+    return any(rising and cm.event_reinits(i) for _, i, rising in hits)
+
+
+def apply_reinits(cm, hits, t, x, p, d, u):
+    """The states after the reinits of the crossings ``hits`` (rising crossings of events with ``reinit``), their
+    values evaluated just before the event (states ``x``, modes ``d``); ``x`` itself when there are none."""
+    pairs = [pair for _, i, rising in hits if rising for pair in cm.event_reinits(i)]
+    if not pairs:
+        return x
+    values = values_at(cm, t, x, p, d, u)
+    new = np.array(x, dtype=float).copy()
+    for name, expr in pairs:
+        new[cm.state_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
+    return new
+
+
 def apply_hits(cm, hits, t, x, p, d, u):
     """The modes after the crossings ``hits`` (``(time, event index, rising?)``, all at ``t``): each event's
     assignments applied in turn (equal to ``d`` when none changes a mode)."""

@@ -24,8 +24,8 @@ import numpy as np
 from scipy import integrate
 
 from .errors import ModelError, SimulationError
-from .modes import (algebraic_modes, apply_hits, cascade, crossings_in_step, knee_offsets, record_events,
-                    settle_modes, zeros)
+from .modes import (algebraic_modes, apply_hits, apply_reinits, cascade, crossings_in_step, knee_offsets,
+                    record_events, restarts, settle_modes, zeros)
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -157,7 +157,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
                     t_e = hits[0][0]
                     x_e = sol(t_e)
                     d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
-                    if not np.array_equal(d_new, d):  # a crossing that changes no mode needs no restart
+                    if not np.array_equal(d_new, d) or restarts(cm, hits):  # else no restart is needed
                         hit = hits
             t_stop = hit[0][0] if hit else t_new
             if dense_output:
@@ -170,6 +170,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
                     k_out = k_end
             if hit:
                 record_events(cm, events, hit, t_e, max_events)
+                x_e = apply_reinits(cm, hit, t_e, x_e, p, d, u)
                 kept: list = []
                 d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hit, kept=kept)
                 off = knee_offsets(cm, t_e, x_e, p, d, u, kept)

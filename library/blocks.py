@@ -1,5 +1,6 @@
-"""Causal signal blocks: sources (MSL ``Modelica.Blocks.Sources``: Step, Ramp, Sine), gains and products, and the
-inverse-model constraint.
+"""Causal signal blocks: sources (MSL ``Modelica.Blocks.Sources``: Step, Ramp, Sine), gains and products, the
+mean and RMS over a period (MSL ``Modelica.Blocks.Math.Mean``/``RootMeanSquare``), and the inverse-model
+constraint.
 
 Sources are expressions of time and of their parameters, so their parameters change per run without recompiling
 and index reduction differentiates them exactly where the structure needs it. A Step's jump (and a Ramp's or a
@@ -9,7 +10,7 @@ its threshold, so the integrator stops there exactly.
 import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Input, Parameter, RealInput, RealOutput, time
+from acausal import Component, Discrete, Event, Input, Parameter, RealInput, RealOutput, Variable, der, time
 
 
 class SignalSource(Component):
@@ -147,3 +148,61 @@ class SmoothLimiter(Component):
             return x * sp.tanh(x / self.band)
         u, lim = self.u.value, self.limit.value
         return [Eq(self.y.value, (sabs(u + lim) - sabs(u - lim)) / 2)]
+
+
+class _PeriodMean(Component):
+    """Partial: ``y`` holds the mean of ``g(u)`` over the last full period ``1 / f``, updated at the end of every
+    period (MSL ``Modelica.Blocks.Math.Mean``'s sampling)::
+
+        der(x) = g(u)
+        at time = t0 + k / f  (k = 1, 2, ...):   y := out(x f),   reinit(x, 0)
+
+    ``y`` is ``y_start`` before the first period has ended. The integral restarts at every sample (as the MSL's
+    ``reinit``), so its error is that of one period, however long the run. The sample instants are events of a
+    zero function linear in time, ``time - t0 - (n + 1) / f`` (``n``: periods ended so far), which jumps back by
+    a period at each: located to round-off on both simulation paths and in an FMU, and never missed, however long
+    the solver's steps (it crosses once per period, monotonically)."""
+
+    f = Parameter(50.0, unit="Hz", min=1e-12, doc="base frequency: the mean is over one period 1 / f "
+                                                  "(MSL default 50 Hz)")
+    t0 = Parameter(0.0, unit="s", doc="start of the first period (the simulation's start time)")
+    y_start = Parameter(0.0, doc="output before the first period has ended (MSL x0 / f; unit of the output)")
+    u = RealInput(doc="input")
+    y = RealOutput(doc="mean of the last full period (held between samples)")
+    x = Variable(start=0.0, fixed=True, state_select="always", doc="integral of g(u) since the last sample")
+    n = Discrete(start=0.0, doc="periods ended so far")
+    y_held = Discrete(start=0.0, doc="the output held since the last sample (before the first: y_start)")
+    started = Discrete(start=0.0, doc="1 once a period has ended")
+
+    def g(self, u):
+        return u
+
+    def out(self, mean):
+        return mean
+
+    def equations(self):
+        return [Eq(der(self.x), self.g(self.u.value)),
+                Eq(self.y.value, self.started * self.y_held + (1 - self.started) * self.y_start)]
+
+    def events(self):
+        return [Event(time - self.t0 - (self.n + 1) / self.f,
+                      on_rising={self.n: self.n + 1, self.started: 1, self.y_held: self.out(self.x * self.f)},
+                      reinit={self.x: 0.0}, doc="end of a period: sample the mean, restart the integral")]
+
+
+class Mean(_PeriodMean):
+    """Mean of ``u`` over each period ``1 / f`` (MSL ``Modelica.Blocks.Math.Mean``), held until the next: the
+    average of a 50 Hz current over one cycle, a DC component, the mean power of an AC load. See
+    :class:`_PeriodMean` for the sampling."""
+
+
+class RMS(_PeriodMean):
+    """Root mean square of ``u`` over each period ``1 / f`` (MSL ``Modelica.Blocks.Math.RootMeanSquare``), held
+    until the next: ``sqrt(mean(u^2))`` (``A / sqrt 2`` for a sine of amplitude ``A`` whose period divides
+    ``1 / f``). See :class:`_PeriodMean` for the sampling."""
+
+    def g(self, u):
+        return u**2
+
+    def out(self, mean):
+        return sp.sqrt(sp.Max(mean, 0))

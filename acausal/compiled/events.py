@@ -29,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..modes import apply_hits, cascade, crossings, knee_offsets, record_events, settle_modes
+from ..modes import (apply_hits, apply_reinits, cascade, crossings, knee_offsets, record_events, restarts,
+                     settle_modes)
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -101,6 +102,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
         record_events(cm, events, hits, t_e, max_events)
+        x_e = apply_reinits(cm, hits, t_e, x_e, p, d, u)
         kept: list = []
         d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hits, kept=kept)
         off = knee_offsets(cm, t_e, x_e, p, d, u, kept)
@@ -222,7 +224,7 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0, off=None):
         if not hits:
             return None
         d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
-        if not np.array_equal(d_new, d):
+        if not np.array_equal(d_new, d) or restarts(cm, hits):
             return t_e, x_e, hits, d_new
         handled.update({int(i): upto for _, i, _ in hits})  # a crossing that changes no mode needs no restart
 

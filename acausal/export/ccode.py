@@ -461,4 +461,16 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
     parts.append("static void model_event(Inst *m, int i, int rising) {\n    double *r = m->r;\n"
                  "    const double t = m->time;\n    (void)r; (void)t; (void)i; (void)rising;\n"
                  + "\n".join(cases) + "\n}")
+    # reinits (Event.reinit: states restarted when the zero function rises), evaluated before any is made
+    cases = []
+    for i in range(len(cm.event_zeros)):
+        pairs = cm.event_reinits(i)
+        if not pairs:
+            continue
+        body = [f"        const double a{j} = {printer.doprint(inline(e))};" for j, (_, e) in enumerate(pairs)]
+        body += [f"        x[{list(lay.states).index(n)}] = a{j};" for j, (n, _) in enumerate(pairs)]
+        cases.append(f"    if (i == {i}) {{\n" + "\n".join(body) + "\n        return 1;\n    }")
+    parts.append("static int model_reinit(Inst *m, int i, double *x) {\n    double *r = m->r;\n"
+                 "    const double t = m->time;\n    (void)r; (void)t; (void)i; (void)x;\n" + "\n".join(cases)
+                 + "\n    return 0;\n}")
     return "\n\n".join(parts) + "\n"

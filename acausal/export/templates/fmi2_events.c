@@ -13,6 +13,7 @@
  *                    a return to modes already visited keeps the present modes when every flip that closes the
  *                    cycle is within KNEE of zero, and is otherwise an error naming the components that chatter
  * knee_offsets       modes.knee_offsets: after an event, the thresholds the indicators are watched at (m->off)
+ * reinits            modes.apply_reinits: the rising crossings' Event.reinit restart states before the cascade
  * --------------------------------------------------------------------------------------------------------- */
 
 /* KNEE (an indicator this close to zero is at its switching point), ROUNDOFF, MAX_CASCADE and MAX_SETTLE are
@@ -217,7 +218,7 @@ static int knee_offsets(Inst *m, const int *kept) {
  * (modes.apply_hits); if a mode changed, each crossing is logged (as Result.events) and the cascade settles the
  * modes. At the initial event update an indicator still exactly at zero takes its direction from look_ahead. */
 static int event_update(Inst *m, int initial) {
-    double d_old[ND1], zs[NZ1], side[NZ1], ahead[NZ1];
+    double d_old[ND1], zs[NZ1], side[NZ1], ahead[NZ1], x_new[NX1];
     int hit[NZ1], rising[NZ1], kept[NZ1], nh = 0, at_rest = 0, i, k;
     if (indicators(m)) return 1;
     memcpy(d_old, MODES, sizeof(double) * ND);
@@ -230,9 +231,18 @@ static int event_update(Inst *m, int initial) {
         int r = crossed(a, at_rest && a == 0.0 && b == 0.0 ? ahead[i] : b);
         if (r >= 0) { hit[nh] = i; rising[nh] = r; nh++; }
     }
+    /* modes.apply_reinits: the rising crossings' reinit values, from the values before the event (r is valid) */
+    if (ensure(m)) return 1;
+    memcpy(x_new, m->r + OFF_X, sizeof(double) * NX);
+    for (k = 0; k < nh; k++)
+        if (rising[k] && model_reinit(m, hit[k], x_new)) m->states_changed = 1;
     for (k = 0; k < nh; k++)
         if (apply_event(m, hit[k], rising[k])) return 1;
-    if (nh && modes_differ(d_old, MODES)) {
+    if (m->states_changed) {  /* the states restart from there, before the modes are iterated */
+        memcpy(m->r + OFF_X, x_new, sizeof(double) * NX);
+        m->valid = 0;
+    }
+    if (nh && (modes_differ(d_old, MODES) || m->states_changed)) {
         for (k = 0; k < nh; k++) {
             log_msg(m, fmi2OK, "logEvents", "t = %.17g s: event %d (%s: %s) %s", m->time, hit[k],
                     origin_names[event_origin[hit[k]]], event_zero[hit[k]], rising[k] ? "rising" : "falling");

@@ -37,6 +37,7 @@ typedef struct {
     int phase;
     int valid;               /* r holds unknowns, aliases and indicators of the current inputs */
     int initial;             /* the next fmi2NewDiscreteStates is the initial event update */
+    int states_changed;      /* the last event update reinitialised states (Event.reinit) */
     int logging;
     fmi2CallbackLogger logger;
     fmi2CallbackFreeMemory free_memory;
@@ -49,6 +50,7 @@ static void model_bound_parameters(Inst *m);
 static int model_check_parameter(Inst *m, int vr);
 static int model_evaluate(Inst *m);
 static void model_event(Inst *m, int i, int rising);
+static int model_reinit(Inst *m, int i, double *x);  /* event i's Event.reinit into x (states); 1 if it has any */
 static int check_indicators(Inst *m);  /* fmi2_events.c */
 static int settle_modes(Inst *m);
 static int event_update(Inst *m, int initial);
@@ -562,7 +564,9 @@ FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *inf
     initial = m->initial;
     m->initial = 0;
     if (NZ == 0) return fmi2OK;
+    m->states_changed = 0;
     if (event_update(m, initial)) { m->phase = PHASE_ERROR; return fmi2Error; }
+    if (m->states_changed) info->valuesOfContinuousStatesChanged = fmi2True;
     return fmi2OK;
 }
 
