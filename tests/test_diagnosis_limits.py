@@ -49,7 +49,7 @@ def test_confusable_pair_comes_with_the_evidence_that_separated_it(tmp_path_fact
     assert first["gear_load_dependent_loss"].significant  # the confusion is real: both count alone
     pair = next(c for c in d.confusable if {c["a"], c["b"]} == {"gear_coulomb_friction", "gear_load_dependent_loss"})
     assert pair["kind"] == "both significant" and pair["separated"]
-    assert "strides better" in pair["evidence"] and "no longer counts" in pair["evidence"]
+    assert "strides (segments) better" in pair["evidence"] and "no longer counts" in pair["evidence"]
     js = json.loads(json.dumps(d.to_dict(), default=float, allow_nan=False))
     assert any(c["evidence"] == pair["evidence"] for c in js["confusable"])
     # named effect's standard error is cluster-robust, and the limits of the others are on top of it
@@ -128,3 +128,17 @@ def test_a_session_without_heating_names_nothing(tmp_path):
     run_session(tmp_path, SESSION, {}, seed=38, pause=5.0)
     d, _ = diagnosis.run(tmp_path, max_effects=1)
     assert d.causes == [] and d.drift["drifting"] == [], d.drift["trends"]
+
+
+def test_servo_recordings_are_ordered_by_the_time_stamps_in_their_names():
+    """BAM's servo logs carry when they were made in their names: the drift check's session axis (seconds after
+    the first); a name without a stamp leaves the recordings in their order."""
+    from types import SimpleNamespace
+
+    from acausal.models.servo.problem import ServoProblem
+
+    names = ["xl330_kp100_sin_2026-01-15_10h28m10", "xl330_kp100_lift_2026-01-15_10h28m17",
+             "xl330_kp800_up_2026-01-15_10h30m02"]
+    label, x = ServoProblem.session_order(None, [SimpleNamespace(name=n) for n in names])
+    assert label.startswith("elapsed session time") and x == [0.0, 7.0, 112.0]
+    assert ServoProblem.session_order(None, [SimpleNamespace(name="no_stamp")]) is None

@@ -21,12 +21,13 @@ drift of the baseline across the recordings of a session.
   extended models (leave-one-stride-out errors: on how many strides one fits better, a sign test and a paired t) and,
   where the selection went on, whether the other still counts once the chosen one is in the model. Without such
   evidence the pair is reported as not separable by this data.
-* :func:`drift`: the final model (the baseline and the named effects) refitted on each recording alone (two Gauss-Newton steps from the pooled fit, all of
-  the recording's inner samples), and a straight-line trend of each parameter against the recording order (or
-  elapsed session time, where the recordings say when they started): slope, its standard error from the scatter
-  about the line, ``t`` and ``p`` (Student, ``n - 2`` degrees of freedom). A parameter drifts when ``p <= 0.01`` and it
-  changes over the session by more than ``DRIFT_MIN`` of its value; the problem names the candidates that explain a
-  drift of that parameter (``Problem.drift_causes``).
+* :func:`drift`: the final model (the baseline and the named effects) refitted on each recording alone (two
+  Gauss-Newton steps from the pooled fit on all of the recording's inner samples, truncated where one recording
+  does not determine a parameter combination: :data:`RCOND`), and a straight-line trend of each parameter against
+  the recording order (or elapsed session time, where the recordings say when they started): slope, its standard
+  error from the scatter about the line, ``t`` and ``p`` (Student, ``n - 2`` degrees of freedom). A parameter
+  drifts when ``p <= 0.01`` and it changes over the session by more than ``DRIFT_MIN`` of its value; the problem
+  names the candidates that explain a drift of that parameter (``Problem.drift_causes``).
 """
 from __future__ import annotations
 
@@ -34,12 +35,16 @@ import numpy as np
 from scipy import stats
 from scipy.stats import binom
 
+from ..errors import AcausalError
 from .calibrate import residual_vector
 
 #: a trend must change the parameter over the session by at least this fraction of its value to count as drift
 DRIFT_MIN = 0.01
 #: and be this unlikely without a trend (two-sided p of the slope)
 DRIFT_P = 0.01
+#: a per-recording refit leaves at the pooled value the parameter combinations whose singular value (columns scaled
+#: by the parameters' values) is below this fraction of the largest: one recording does not determine them
+RCOND = 1e-3
 
 
 # ---------------------------------------------------------------------------------------------- detection limits
@@ -108,7 +113,8 @@ def _separation(a, b, sa, sb, steps, th) -> tuple:
     p = float(binom.sf(wins - 1, d.size, 0.5)) if d.size else 1.0
     sd = np.std(d, ddof=1) if d.size > 1 else np.inf
     t = float(np.mean(d) / (sd / np.sqrt(d.size))) if sd > 0 else 0.0
-    words = (f"`{better}` fits {wins} of {d.size} strides better than `{worse}` (sign test p = {p:.2g}, paired t = "
+    words = (f"`{better}` fits {wins} of {d.size} strides (segments) better than `{worse}` (sign test p = {p:.2g}, "
+             f"paired t = "
              f"{t:.1f}; held-out gains {100 * sa.heldout_rmse_gain:+.1f} % / {100 * sb.heldout_rmse_gain:+.1f} %)")
     strides_say = p <= th.max_sign_p or t >= th.min_t
     after = None
@@ -142,10 +148,13 @@ def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) 
     exps = list(fit.exps)
     label, x = order if order is not None else ("recording order", np.arange(len(exps), dtype=float))
     x = np.asarray(x, dtype=float)
+    prior = _prior(fit.cal.cov, len(exps))
     rows = []
     for e, xe in zip(exps, x):
-        v = _refit_alone(problem, e, fit.values, names, scales, bounds, steps)
+        v = _refit_alone(problem, e, fit.values, names, scales, bounds, steps, prior)
         rows.append({"experiment": e.name, "x": float(xe), **{n: v[n] for n in names}})
+    rows.sort(key=lambda row: row["x"])
+    x = np.array([row["x"] for row in rows])
     trends, drifting = {}, []
     for n in names:
         y = np.array([row[n] for row in rows])
@@ -158,8 +167,23 @@ def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) 
             "explained_by": {n: list(causes.get(n, ())) for n in drifting}}
 
 
-def _refit_alone(problem, e, values, names, scales, bounds, steps) -> dict:
-    """The baseline parameters fitted on recording ``e`` alone (all inner samples), Gauss-Newton from ``values``."""
+def _prior(cov, n_exps):
+    """The precision of what one of ``n_exps`` recordings adds to the pooled fit whose covariance is ``cov``:
+    ``(n_exps cov)^-1`` (None where the covariance is not finite)."""
+    cov = np.asarray(cov, dtype=float)
+    if not np.all(np.isfinite(cov)):
+        return None
+    try:
+        return np.linalg.inv(n_exps * cov)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _refit_alone(problem, e, values, names, scales, bounds, steps, prior=None) -> dict:
+    """The baseline parameters fitted on recording ``e`` alone (all inner samples), Gauss-Newton from ``values``.
+    ``prior``: the precision :func:`_prior` of one recording's share of the pooled fit; combinations the recording
+    hardly determines then stay near the pooled values (a maximum a posteriori step), as they do without it by
+    the truncation :data:`RCOND`."""
     from .diagnose import _jacobian  # the engine's exact-or-differenced Jacobian
 
     inner = e.train | e.test
@@ -170,11 +194,45 @@ def _refit_alone(problem, e, values, names, scales, bounds, steps) -> dict:
         r = residual_vector([view], v, problem.signals, ones, scales)
         J = _jacobian([view], v, names, problem.signals, scales)
         scale = np.array([max(abs(v[n]), 1e-12) for n in names])
-        dz, *_ = np.linalg.lstsq(J * scale, -r, rcond=None)
-        for n, d, s in zip(names, dz, scale):
-            lo, hi = bounds.get(n, (-np.inf, np.inf))
-            v[n] = float(np.clip(v[n] + d * s, lo, hi))
+        Js = J * scale
+        if prior is not None:  # min |r + J dv|^2 + (v + dv - v0)^T P (v + dv - v0), in scaled units
+            Ps = prior * np.outer(scale, scale)
+            off = np.array([v[n] - values[n] for n in names]) / scale
+            try:
+                dz = np.linalg.solve(Js.T @ Js + Ps, -(Js.T @ r + Ps @ off))
+            except np.linalg.LinAlgError:
+                dz, *_ = np.linalg.lstsq(Js, -r, rcond=RCOND)
+        else:  # directions one recording hardly determines (singular values below RCOND of the largest, in
+            # relative units) stay at the pooled fit instead of wandering to a bound
+            dz, *_ = np.linalg.lstsq(Js, -r, rcond=RCOND)
+        cost = _cost(r, v, values, names, prior)
+        for _ in range(HALVINGS + 1):  # a step that does not lower the cost (a nonlinear model) is halved
+            trial = {**v, **{n: float(np.clip(v[n] + d * s, *bounds.get(n, (-np.inf, np.inf))))
+                             for n, d, s in zip(names, dz, scale)}}
+            try:
+                r_trial = residual_vector([view], trial, problem.signals, ones, scales)
+            except AcausalError:  # the model cannot run there: a shorter step
+                r_trial = None
+            if r_trial is not None and _cost(r_trial, trial, values, names, prior) < cost:
+                v = trial
+                break
+            dz = dz / 2
+        else:
+            break  # no step lowers the cost: this is the recording's fit
     return {n: v[n] for n in names}
+
+
+#: halvings of a per-recording Gauss-Newton step that does not lower the cost before the refit stops there
+HALVINGS = 6
+
+
+def _cost(r, v, values, names, prior) -> float:
+    """Squared residual plus the prior's term (:func:`_prior`) of the per-recording refit at ``v``."""
+    c = float(r @ r)
+    if prior is not None:
+        off = np.array([v[n] - values[n] for n in names])
+        c += float(off @ prior @ off)
+    return c
 
 
 class _View:

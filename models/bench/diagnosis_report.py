@@ -94,7 +94,8 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
                          for s, a in after.items()]), ""]
     md += detection_lines(d, {cid: problem.effect_reading(cid, x["value"]) for cid, x in d.detection_limits.items()
                               if x.get("value") is not None})
-    fig_drift = drift_figure(out / "diagnosis_drift.png", d, "final model (baseline and named effects), refitted per recording")
+    fig_drift = drift_figure(out / "diagnosis_drift.png", d,
+                             "final model (baseline and named effects), refitted per recording")
     md += drift_lines(d, fig_drift)
     cand_csv = write_csv(out / "diagnosis_candidates.csv", [
         dict(step=k + 1, candidate=s.id, parameter=s.parameter, value=s.value, std=s.std,

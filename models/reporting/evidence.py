@@ -59,9 +59,10 @@ def drift_lines(d, figure: Path | None = None) -> list:
         return ["## Drift over the session", "", f"Not judged: {dr.get('note', 'no recordings')}.", ""] if dr else []
     names = list(dr["trends"])
     md = ["## Drift over the session", "",
-          f"The baseline refitted on each recording alone, against {dr['axis']}; a trend counts as drift when its "
-          "slope is significant (p <= 0.01, Student t on the scatter about the line) and it changes the parameter by "
-          "1 % or more over the session.", "",
+          "The final model (baseline and named effects) refitted on each recording alone (parameter combinations "
+          f"one recording does not determine stay at the pooled fit), against {dr['axis']}; a trend counts as drift "
+          "when its slope is significant (p <= 0.01, Student t on the scatter about the line) and it changes the "
+          "parameter by 1 % or more over the session.", "",
           md_table(["recording", dr["axis"], *[f"`{n}`" for n in names]],
                    [[r["experiment"], f"{r['x']:.4g}", *[f"{r[n]:.4g}" for n in names]] for r in dr["recordings"]]),
           "",

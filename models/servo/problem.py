@@ -18,6 +18,7 @@ change in the data, so another servo's resolution is found, not typed).
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,6 +172,10 @@ def resolution(recordings) -> float:
     return float(steps.min())
 
 
+#: the time stamp at the end of a BAM recording's name
+_STAMP = re.compile(r"\d{4}-\d{2}-\d{2}_\d{2}h\d{2}m\d{2}")
+
+
 class ServoProblem(Problem):
     """The servo recordings (a folder or a list of :class:`~acausal.identify.recordings.Recording`) as a
     diagnosis problem; see the module docstring."""
@@ -216,6 +221,19 @@ class ServoProblem(Problem):
 
     def noise_scales(self, exps) -> dict:
         return {POSITION: self.step / np.sqrt(12.0)}
+
+    def session_order(self, exps):
+        """When each recording was made, from the time stamp its name carries (BAM's logs end in
+        ``YYYY-MM-DD_HHhMMmSS``): seconds after the first; None (their order) when a name has none."""
+        from datetime import datetime
+
+        times = []
+        for e in exps:
+            found = _STAMP.search(e.name)
+            if not found:
+                return None
+            times.append((datetime.strptime(found.group(0), "%Y-%m-%d_%Hh%Mm%S") - datetime(2000, 1, 1)).total_seconds())
+        return "elapsed session time [s] (from the recordings' names)", [t - min(times) for t in times]
 
     def heldout(self) -> dict:
         return {"signal": POSITION, "unit": "rad", "split": self.split_text}
