@@ -37,10 +37,12 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    final model go away, with a BIC fall and consistent per-stride improvements, is named too (``named_by:
    "drift"``).
 5. **What it could not see** (:mod:`~.evidence`): every candidate's detection limit (the smallest size that would
-   have been named at this data's noise and these thresholds), and the baseline refitted on each recording with a
-   trend test over the session (drift), pointing to the candidates that explain a drifting parameter.
+   have been named at this data's noise and these thresholds, on top of the named effects), and the final model
+   refitted on each recording with a trend test over the session (drift), pointing to the candidates that explain
+   a drifting parameter.
 
-Standard errors are cluster-robust, clustered by stride of each recording (:mod:`~.uncertainty`).
+Standard errors are cluster-robust, clustered by stride of each recording, or as the experiments say
+(:mod:`~.uncertainty`).
 """
 from __future__ import annotations
 
@@ -198,7 +200,7 @@ class Diagnosis:
     warnings: list = field(default_factory=list)  # data and fit problems found by :func:`screen` (sentences)
     #: id -> smallest size that would have been named (:func:`~.evidence.detection_limits`)
     detection_limits: dict = field(default_factory=dict)
-    #: per-recording baseline and its trend over the session (:func:`~.evidence.drift`)
+    #: the final model refitted per recording and its trend over the session (:func:`~.evidence.drift`)
     drift: dict = field(default_factory=dict)
 
     def heldout(self) -> dict:
