@@ -238,6 +238,11 @@ def cmd_diagnose(args) -> int:
     for s in d.candidates:
         print(f"  {s.id:26s} held-out gain {100 * s.heldout_rmse_gain:+6.1f} %  delta BIC {s.delta_bic:10.4g}"
               f"  {s.parameter} = {s.value:.4g}{'  significant' if s.significant else ''}")
+    limits = [f"{cid} {x['size']:.3g} {x['unit']}" for cid, x in getattr(d, "detection_limits", {}).items()
+              if x.get("size") is not None]
+    if limits:
+        print(("nothing named; unseen up to: " if not d.causes else "detection limits of the others: ")
+              + "; ".join(limits))
     print(f"report: {out / 'report.md'}")
     return 0
 
