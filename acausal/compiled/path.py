@@ -173,6 +173,9 @@ class CompiledPath:
         if later.size:
             grid, back = np.unique(later, return_inverse=True)  # CVODES takes strictly increasing output times
             tau = (grid - t_start) / span
+            even = np.arange(1, tau.size + 1) / tau.size
+            if np.max(np.abs(tau - even)) * span <= 16 * np.finfo(float).eps * max(abs(t_start), abs(t_end), 1.0):
+                tau = even  # evenly spaced up to the round-off of the times: one integrator per count (cached)
             integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
                                      None if first_step is None else first_step / span, int(max_num_steps))
             P = np.stack([np.concatenate([[t_start, span], p, d]) for p in ps], axis=1)
