@@ -288,6 +288,17 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=(),
                           "chatters); modes " + ", ".join(f"{n} = {v:g}" for n, v in zip(cm.discrete_names, d)))
 
 
+def handle_event(cm, events: list, hits, t, x, p, d, d_new, u, max_events: int) -> tuple:
+    """One event at ``t`` as both simulation paths handle it: the crossings ``hits`` logged (:func:`record_events`),
+    the states reinitialised (:func:`apply_reinits`), the modes after the hits (``d_new``) iterated
+    (:func:`cascade`) and the thresholds to watch from there (:func:`knee_offsets`). Returns ``(x, d, off)``."""
+    record_events(cm, events, hits, t, max_events)
+    x = apply_reinits(cm, hits, t, x, p, d, u)
+    kept: list = []
+    d = cascade(cm, t, x, p, d, d_new, u, hits=hits, kept=kept)
+    return x, d, knee_offsets(cm, t, x, p, d, u, kept)
+
+
 def knee_offsets(cm, t, x, p, d, u, kept) -> np.ndarray:
     """The thresholds the zero functions are watched at after an event (one per zero function; 0: the ordinary
     zero). A zero function the knee rule overruled (``kept``, :func:`cascade`) has the sign that says leave the

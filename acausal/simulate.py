@@ -24,8 +24,8 @@ import numpy as np
 from scipy import integrate
 
 from .errors import ModelError, SimulationError
-from .modes import (algebraic_modes, apply_hits, apply_reinits, cascade, crossings_in_step, knee_offsets,
-                    record_events, restarts, settle_modes, zeros)
+from .modes import (algebraic_modes, apply_hits, crossings_in_step, handle_event, restarts, settle_modes,
+                    zeros)
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -115,8 +115,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
     solver_cls = METHODS[method]
     has_events = bool(cm.event_zeros)
     off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
-    limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
-    steps_left = limit
+    steps_left = limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
     while True:
         fun, jac = _make_functions(cm, p, d, u)
         opts = dict(rtol=rtol, atol=atol, max_step=max_step)
@@ -169,11 +168,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
                     D[:, k_out:k_end] = d[:, None]
                     k_out = k_end
             if hit:
-                record_events(cm, events, hit, t_e, max_events)
-                x_e = apply_reinits(cm, hit, t_e, x_e, p, d, u)
-                kept: list = []
-                d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hit, kept=kept)
-                off = knee_offsets(cm, t_e, x_e, p, d, u, kept)
+                x_e, d, off = handle_event(cm, events, hit, t_e, x_e, p, d, d_new, u, max_events)
                 t, x = t_e, x_e
                 restarted = True
                 break

@@ -29,8 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..modes import (apply_hits, apply_reinits, cascade, crossings, knee_offsets, record_events, restarts,
-                     settle_modes)
+from ..modes import apply_hits, crossings, handle_event, restarts, settle_modes
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -101,11 +100,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             _, q_e = path.integrate(t, x, np.array([t_e]), p, d, u, *args, integrals=names)
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
-        record_events(cm, events, hits, t_e, max_events)
-        x_e = apply_reinits(cm, hits, t_e, x_e, p, d, u)
-        kept: list = []
-        d = cascade(cm, t_e, x_e, p, d, d_new, u, hits=hits, kept=kept)
-        off = knee_offsets(cm, t_e, x_e, p, d, u, kept)
+        x_e, d, off = handle_event(cm, events, hits, t_e, x_e, p, d, d_new, u, max_events)
         t, x = t_e, x_e
         window = 1  # events come in groups: start close after one
     def later(more):  # the same run again, those integrated with the states

@@ -190,8 +190,8 @@ def _refit_alone(problem, e, values, names, scales, bounds, steps, prior=None) -
     view = _View(e, inner)
     v = dict(values)
     ones = {s: 1.0 for s in problem.signals}
+    r = residual_vector([view], v, problem.signals, ones, scales)
     for _ in range(steps):
-        r = residual_vector([view], v, problem.signals, ones, scales)
         J = _jacobian([view], v, names, problem.signals, scales)
         scale = np.array([max(abs(v[n]), 1e-12) for n in names])
         Js = J * scale
@@ -214,7 +214,7 @@ def _refit_alone(problem, e, values, names, scales, bounds, steps, prior=None) -
             except AcausalError:  # the model cannot run there: a shorter step
                 r_trial = None
             if r_trial is not None and _cost(r_trial, trial, values, names, prior) < cost:
-                v = trial
+                v, r = trial, r_trial  # the next step starts from this residual
                 break
             dz = dz / 2
         else:
