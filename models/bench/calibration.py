@@ -84,6 +84,9 @@ def free_parameter(name: str, start: dict | None = None) -> Free:
 #: the start of the knot-spacing rule: stride_time / 80 (the gait's content scales with the stride time)
 KNOTS_PER_STRIDE = 80
 
+#: the integrator tolerances of every replay (an algebraic replay ignores them; effects with states use them)
+REPLAY_TOL = {"rtol": 1e-7, "atol": 1e-9}
+
 
 @dataclass
 class Split:
@@ -162,7 +165,7 @@ def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = Non
 
     def predict(values: dict) -> dict:
         res = sim.simulate(t[-1], t_start=t[0], t_eval=t, params={**base, **values}, inputs=inputs,
-                           dense_output=False, rtol=1e-7, atol=1e-9)
+                           dense_output=False, **REPLAY_TOL)
         return {col: np.asarray(res[var]) for col, var in wanted.items()}
 
     return Experiment(rec.name, t, measured, predict, inner & ~held, inner & held, stride,

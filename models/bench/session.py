@@ -26,6 +26,7 @@ from acausal.library.drives import DCMotor
 
 from ..ankle.actuator import WINDING_G
 from ..ankle.effects import EFFECTS
+from .calibration import REPLAY_TOL
 from .recording_format import SIGNALS
 
 HEATING = EFFECTS["winding_temperature"].parameter
@@ -91,7 +92,7 @@ class _Chain:
         cols = {c: v for c, v in SIGNALS.items() if c in e.measured}
         if not names:
             res = self.cm.simulate(e.t[-1], t_start=e.t[0], t_eval=e.t, params=params, inputs=e.info["inputs"],
-                                   dense_output=False, rtol=1e-7, atol=1e-9)
+                                   dense_output=False, **REPLAY_TOL)
             pred = {c: np.asarray(res[v]) for c, v in cols.items()}
             return pred, None, float(res[WINDING_T][-1]) - ambient, dtheta0
         wanted = list(cols.values()) + [WINDING_T]
