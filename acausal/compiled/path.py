@@ -138,7 +138,7 @@ class CompiledPath:
             for i in range(dz.numel()):
                 done.append(("variation", i))
                 exprs.append(VARIATION_SCALE * ca.fabs(dz[i]))
-        entry["cache"][key] = (tuple(done), ca.vertcat(*exprs) if exprs else None)
+        entry["cache"][key] = (tuple(done), ca.cse(ca.vertcat(*exprs)) if exprs else None)
         return entry["cache"][key]
 
     # ------------------------------------------------------------------ integration
@@ -272,7 +272,7 @@ class CompiledPath:
         if key not in entry["cache"]:
             s, params, scaled = _scaled_time(entry)
             dae = {"x": entry["x"], "t": s, "p": params, "z": entry["z"], "u": ca.SX(0, 1), "zero": ca.SX(0, 1),
-                   "alg": scaled(entry["alg"], rate=False), "ode": scaled(entry["f"]),
+                   "alg": ca.cse(scaled(entry["alg"], rate=False)), "ode": ca.cse(scaled(entry["f"])),
                    "quad": ca.SX(0, 1) if qexpr is None else scaled(qexpr)}
             entry["cache"][key] = ca.Function("dae", dae, ca.dyn_in(), ca.dyn_out())
         return entry["cache"][key]
