@@ -95,7 +95,7 @@ def main(out_dir: Path, results=None) -> dict:
                         rotation=90, color="white")
         bars += [dict(preset=preset_name, series=label.replace("\n", " "), point=k, energy_J=v)
                  for k, v in zip(POINTS, vals)]
-    ax.set_xticks(x0, ["source", "driver output", "motor shaft", "moment arm (link)", "joint (output)"])
+    ax.set_xticks(x0, ["source", "driver output", "motor (k i w)", "moment arm (link)", "joint (output)"])
     ax.set_ylabel("energy per stride [J]")
     ax.set_title("Table 2 presets: energy chain at 8 mm, 2 s/stride (Eq. 4 presets: gears, driver and supply "
                  "ideal, only J, b, R, L act)", fontsize=9.5)

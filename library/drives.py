@@ -7,7 +7,7 @@ delivers to its load is ``-flange.tau``).
 import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Model, Parameter, RealInput, RealOutput, Variable, connect, der
+from acausal import Component, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import HeatPort, Pin
 from acausal.partials import PartialElementaryRotationalToElectrical, check_option
 
@@ -181,6 +181,14 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     (``support``) takes the reaction of the air-gap and friction torques, ``support.tau = tau_e - tau_f``, so
     ``flange.tau + support.tau = J dw/dt``.
 
+    ``rotor="external"``: the component is the winding and the air gap only (MSL's ``AirGapDC``): the flange
+    carries the air-gap torque, ``flange.tau = -k i``, so the power it delivers is ``k i w``, and ``tau_f``,
+    ``friction_loss`` and the rotor's kinetic energy are zero here. ``J``, ``b``, ``tau_c`` and ``w_c`` stay
+    this motor's parameters for the rotor the enclosing model puts on the shaft (:meth:`add_rotor`: an
+    ``Inertia`` and a ``BearingFriction`` of the same law). A power sensor between the two then reads what a
+    bench computes from the motor current and speed (paper Eq. 6, Fig. 6: no torque sensor on the motor shaft),
+    and the rotor's friction counts in the stage after it.
+
     Defaults: maxon EC-4pole 30, 200 W, 48 V winding (part 305015): R = 0.386 ohm and L = 6.53e-5 H (paper,
     Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, ../shared/data/parameters.md), J = 3.33e-6
     kg m2 rotor inertia (datasheet; Table 2 lists it swapped with friction), b = 5.66e-6 N m s/rad (no-load
@@ -212,9 +220,26 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     shaft_power = Variable(unit="W", doc="mechanical power delivered at the shaft, -flange.tau * w")
     energy = Variable(unit="J", doc="stored energy L i^2/2 + J w^2/2")
 
-    def __init__(self, use_support: bool = False, use_heat_port: bool = False, **kw):
+    def __init__(self, use_support: bool = False, use_heat_port: bool = False, rotor: str = "internal", **kw):
+        self.rotor = check_option(self, "rotor", rotor, ("internal", "external"))
         super().__init__(use_support=use_support, **kw)
         self._init_heat_port(use_heat_port)
+
+    def add_rotor(self, model: Model, shaft, name: str = "rotor"):
+        """For ``rotor="external"``: add this motor's rotor to ``model`` on the flange ``shaft`` (the motor's
+        flange, or a sensor behind it): ``<name>`` (Inertia ``J``) and ``<name>_friction`` (BearingFriction,
+        ``tau_c tanh(w / w_c) + b w``), their parameters bound to this motor's. Returns the rotor's far flange."""
+        if self.rotor != "external":
+            raise ModelError(f"{self.path or type(self).__name__}: add_rotor needs rotor='external' (this motor "
+                             "keeps its rotor inside)")
+        from .rotational import BearingFriction, Inertia  # rotational imports nothing from here
+        inertia = Inertia(J=self.J)
+        friction = BearingFriction(tau_c=self.tau_c, d=self.b, w_c=self.w_c)
+        setattr(model, name, inertia)
+        setattr(model, f"{name}_friction", friction)
+        connect(shaft, inertia.flange_a)
+        connect(inertia.flange_b, friction.flange_a)
+        return friction.flange_b
 
     def support_torque(self):
         """The housing takes the reaction of the air-gap and friction torques (the rotor's inertia makes the
@@ -227,12 +252,16 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
                Eq(self.R_T, self.R * (1 + self.alpha_R * (T - self.T_ref))),
                Eq(self.v, self.R_T * self.i + self.L * der(self.i) + self.k * self.w),
                Eq(self.tau_e, self.k * self.i),
-               Eq(self.tau_f, self.b * self.w + self.tau_c * sp.tanh(self.w / self.w_c)),
-               Eq(self.J * der(self.w), self.tau_e - self.tau_f + self.flange.tau),
                Eq(self.copper_loss, self.R_T * self.i**2), Eq(self.friction_loss, self.tau_f * self.w),
                Eq(self.loss_power, self.copper_loss + self.friction_loss),
-               Eq(self.shaft_power, -self.flange.tau * self.w),
-               Eq(self.energy, self.L * self.i**2 / 2 + self.J * self.w**2 / 2)]
+               Eq(self.shaft_power, -self.flange.tau * self.w)]
+        if self.rotor == "external":  # the air gap alone: the rotor is the enclosing model's (add_rotor)
+            eqs += [Eq(self.tau_f, 0), Eq(self.tau_e + self.flange.tau, 0),
+                    Eq(self.energy, self.L * self.i**2 / 2)]
+        else:
+            eqs += [Eq(self.tau_f, self.b * self.w + self.tau_c * sp.tanh(self.w / self.w_c)),
+                    Eq(self.J * der(self.w), self.tau_e - self.tau_f + self.flange.tau),
+                    Eq(self.energy, self.L * self.i**2 / 2 + self.J * self.w**2 / 2)]
         if self.use_heat_port:
             eqs.append(Eq(self.heat_port.Q_flow, -self.copper_loss))
         return eqs

@@ -205,3 +205,60 @@ def test_gearbox_stages_compose():
     assert np.allclose(-res["pos.flange.tau"], 5.0 / (860 * 0.63))
     p_in = 100.0 * 5.0 / (860 * 0.63)
     assert np.allclose(res["planetary.loss_power"] + res["helical.loss_power"], p_in * (1 - 0.63))
+
+
+# ------------------------------------------------------------------------------------------------ air gap point
+class _RotorBench(Model):
+    """A voltage-driven motor spinning up against a load torque, its rotor inside or on the shaft behind a power
+    sensor (the motor point as a bench computes it from current and speed, paper Eq. 6)."""
+
+    def __init__(self, rotor, **kw):
+        super().__init__(**kw)
+        self._rotor = rotor
+
+    def build(self):
+        from acausal.library.electrical import ConstantVoltage
+        from acausal.library.sensors import MechanicalPowerSensor
+        self.src = ConstantVoltage(V=24.0)
+        self.gnd = Ground()
+        self.motor = DCMotor(rotor=self._rotor, tau_c=2e-3, w_c=5.0)
+        self.load = TorqueSource(tau=-0.05 * sp.sin(3 * time) - 0.02)
+        connect(self.src.p, self.motor.p)
+        connect(self.src.n, self.motor.n, self.gnd.p)
+        self.P_motor = MechanicalPowerSensor()
+        connect(self.motor.flange, self.P_motor.flange_a)
+        shaft = self.P_motor.flange_b
+        if self._rotor == "external":
+            shaft = self.motor.add_rotor(self, shaft)
+        connect(shaft, self.load.flange)
+
+
+def test_motor_with_its_rotor_outside_moves_alike_and_reads_the_air_gap_power():
+    from acausal.energy import balance
+    runs = {r: compile_model(_RotorBench(r)) for r in ("internal", "external")}
+    res = {r: sim.simulate(0.5, n_points=501, rtol=1e-10, atol=1e-12) for r, sim in runs.items()}
+    inside, outside = res["internal"], res["external"]
+    for name in ("motor.i", "motor.w"):
+        assert np.allclose(outside[name], inside[name], rtol=1e-6, atol=1e-6 * np.max(np.abs(inside[name])))
+    k = DCMotor.k.default
+    air_gap = k * outside["motor.i"] * outside["motor.w"]
+    assert np.allclose(outside["P_motor.P"], air_gap, rtol=1e-9, atol=1e-9 * np.max(np.abs(air_gap)))
+    # the shaft reading of the internal rotor is the air-gap power less the rotor's friction and kinetic power
+    assert np.max(np.abs(inside["P_motor.P"] - air_gap)) > 1e-3 * np.max(np.abs(air_gap))
+    # the friction moved out of the motor's account into the rotor's, the balance closes either way
+    assert np.allclose(outside["motor.loss_power"], outside["motor.copper_loss"])
+    assert np.allclose(outside["rotor_friction.loss_power"], inside["motor.friction_loss"], rtol=1e-6,
+                       atol=1e-9)
+    for r, sim in runs.items():
+        assert abs(balance(res[r], sim.accounts).residual) < 1e-7
+    acc = runs["external"].accounts
+    assert acc.stages["P_motor.P"] == ["motor.loss_power"]
+    assert "rotor_friction.loss_power" in acc.stages[""]
+
+
+def test_motor_keeping_its_rotor_refuses_add_rotor():
+    from acausal import ModelError
+    with pytest.raises(ModelError, match="add_rotor needs rotor='external'"):
+        DCMotor().add_rotor(Model(), None)
+    with pytest.raises(ModelError, match="rotor"):
+        DCMotor(rotor="outside")

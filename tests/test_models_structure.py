@@ -69,13 +69,16 @@ def test_accounts_of_the_paper_actuator_are_found_by_convention(replay):
     acc = replay.accounts
     assert acc.sensors == ("P_source.P", "P_driver.P", "P_motor.P", "P_link.P", "P_output.P")
     assert acc.losses == ("supply.loss_power", "rect.loss_power", "driver.loss_power", "motor.loss_power",
-                          "planetary.loss_power", "helical.loss_power", "link.loss_power")
-    assert acc.stored == ("rect.bus_energy", "motor.energy", "planetary.energy", "helical.energy", "link.energy")
+                          "rotor_friction.loss_power", "planetary.loss_power", "helical.loss_power",
+                          "link.loss_power")
+    assert acc.stored == ("rect.bus_energy", "motor.energy", "rotor.energy", "planetary.energy", "helical.energy",
+                          "link.energy")
     assert acc.sources == ("supply.source_power",)
     assert "rect.diode.loss_power" not in acc.losses  # inside an accounted component: counted by it
     r = run_condition(Condition(0.008, 2.0))
     assert r.stages == {"driver": ["supply.loss_power", "rect.loss_power", "driver.loss_power"],
-                        "motor": ["motor.loss_power"], "gearing": ["planetary.loss_power", "helical.loss_power"],
+                        "motor": ["motor.loss_power"],  # the air gap's k i w is the motor point (paper Eq. 6)
+                        "gearing": ["rotor_friction.loss_power", "planetary.loss_power", "helical.loss_power"],
                         "output": ["link.loss_power"]}
 
 

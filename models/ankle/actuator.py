@@ -2,12 +2,14 @@
 
 ::
 
-    supply -[P_source]- rectifier - PWM driver -[P_driver]- DC motor -[P_motor]- gears (planetary 86:1, helical
-        10:1) -[P_link]- MACCEPA -[P_output]- torque_sensor - ankle joint (moved along the gait)
+    supply -[P_source]- rectifier - PWM driver -[P_driver]- DC motor -[P_motor]- rotor - gears (planetary 86:1,
+        helical 10:1) -[P_link]- MACCEPA -[P_output]- torque_sensor - ankle joint (moved along the gait)
 
 ``P_*`` are power sensors at the paper's five measurement points (Fig. 6): source (electrical, supply -> driver
-side), driver output (electrical, at the motor terminals), motor shaft, moment arm ("link") and joint ("output"),
-mechanical ones positive in the direction supply -> joint. The energy accounts (losses, stored energies, the
+side), driver output (electrical, at the motor terminals), motor (the air-gap power ``k i w``, as the paper computes
+it from the motor current and speed, Eq. 6: the motor's rotor inertia and friction, ``motor.J`` and ``motor.b``,
+sit behind the sensor as ``rotor`` and ``rotor_friction``), moment arm ("link") and joint ("output"), mechanical
+ones positive in the direction supply -> joint. The energy accounts (losses, stored energies, the
 measurement points) are found by convention from the components (:mod:`acausal.energy`): nothing here lists them.
 
 :class:`DriveTrain` is the partial model every ankle drive shares (supply to gear output); :class:`AnkleActuator`
@@ -126,7 +128,7 @@ class DriveTrain(Model):
         lossless = dict(R_on=0.0, k_sw=0.0, P_q=0.0) if o["driver"] == "ideal" else {}
         self.driver = self.driver_cls(command="voltage", saturate=self.saturate, **lossless)
         self.P_driver = ElectricalPowerSensor()
-        self.motor = DCMotor(**self.motor_options())
+        self.motor = DCMotor(rotor="external", **self.motor_options())
         self.gnd = Ground()
         connect(self.supply.p, self.P_source.pc, self.P_source.pv)
         if o["supply"] == "battery":
@@ -140,9 +142,12 @@ class DriveTrain(Model):
         connect(self.driver.mot_p, self.P_driver.pc, self.P_driver.pv)
         connect(self.P_driver.nc, self.motor.p)
         connect(self.driver.mot_n, self.P_driver.nv, self.motor.n)
+        # the motor point as the paper computes it (Eq. 6, Fig. 6: from the motor current and speed, k i w; there
+        # is no torque sensor on the motor shaft): between the air gap and the rotor, whose inertia and friction
+        # (the motor's J, b) are on the far side with the gears
         self.P_motor = MechanicalPowerSensor()
         connect(self.motor.flange, self.P_motor.flange_a)
-        return self.build_gears(self.P_motor.flange_b)
+        return self.build_gears(self.motor.add_rotor(self, self.P_motor.flange_b))
 
     def build_gears(self, shaft):
         """The transmission from the motor-side flange ``shaft``; returns its output flange."""

@@ -12,7 +12,7 @@ and faster the required duty exceeds the EPOS2's 0.9 (1.11 at 2 s, 0.89 at 2.5 s
 motor voltage), i.e. this drive train could not follow there.
 Registered as ``direct_drive`` (no precompression).
 
-Measurement points: source, driver output, motor shaft and joint ("output"); ``link`` is the joint as well.
+Measurement points: source, driver output, motor (k i w) and joint ("output"); ``link`` is the joint as well.
 """
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ stride with 60 kg (a scan on a grid refined by Nelder-Mead; deterministic). For 
 about 210 N m/rad at theta0 of about 11 deg plantarflexion (peak 60 W against the direct drive's 193 W).
 ``parallel.c`` and ``parallel.phi_rel0`` (= theta0) are run-time parameters.
 
-Measurement points: source, driver output, motor shaft as in the paper; "link" is the drive's power into the
+Measurement points: source, driver output, motor (k i w) as in the paper; "link" is the drive's power into the
 joint (gear output), "output" the power into the gait (drive plus spring). Over a stride the spring returns
 what it stores, so link and output energies agree; their peaks differ.
 """

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 #: the note under the output stage of the paper's actuator, whose MACCEPA is modelled lossless
 LOSSLESS_LINKAGE = "output loss 0 J\n(MACCEPA modelled\nlossless)"
-LABELS = {"source": "source", "driver": "driver output", "motor": "motor shaft", "link": "moment arm (link)",
+LABELS = {"source": "source", "driver": "driver output", "motor": "motor (k i w)", "link": "moment arm (link)",
           "output": "joint (output)"}
 
 
@@ -16,4 +16,4 @@ def loss_names_from_groups(loss_groups: dict, link: str = "linkage") -> list:
         names = [n.split(".")[0] for n in loss_groups.get(stage, [])]
         return f"\n({', '.join(names)})" if names and names != [stage] else ""
     return [("driver", "driver loss" + who("driver")), ("motor", "motor loss" + who("motor")),
-            ("link", "gearing loss" + who("gearing")), ("output", f"output loss\n({link})")]
+            ("link", "rotor and gearing loss" + who("gearing")), ("output", f"output loss\n({link})")]
