@@ -14,20 +14,20 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
-from acausal.models.ankle.paper import HEADLINE, comparison, pick  # noqa: E402
+from acausal.models.ankle.paper import BENCH, HEADLINE, comparison, pick  # noqa: E402
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 2.0
-LABELS = {"source": "source (driver input)", "driver": "driver output (motor terminals)", "motor": "motor shaft",
+LABELS = {"source": "source (driver input)", "driver": "driver output (motor terminals)", "motor": "motor (k i w)",
           "link": "moment arm (link)", "output": "joint (output)"}
 
 
 def main(out_dir: Path, results=None) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    r = pick(results, P, T)
+    r = pick(results, P, T, model=BENCH)
     t_ms = 1e3 * r.time
     power = r.power
     csv_path = write_columns(out_dir / "fig08_power_chain.csv",
@@ -52,7 +52,7 @@ def main(out_dir: Path, results=None) -> dict:
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3)
     png = save_figure(fig, out_dir / "fig08_power_chain.png",
-                      shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
+                      shows=f"simulation of the bench: AnkleActuator ({BENCH}), preset {HEADLINE}")
 
     md = md_table(["measurement point", "energy per stride [J]", "mean power [W]", "peak magnitude of power [W]",
                    "time of the peak [ms]"],

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from acausal.models.ankle.protocol import POINTS  # noqa: E402
-from acausal.models.ankle.paper import BESIDE, HEADLINE, comparison, pick  # noqa: E402
+from acausal.models.ankle.paper import BENCH, BESIDE, HEADLINE, comparison, pick  # noqa: E402
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.sankey import LABELS, LOSSLESS_LINKAGE, loss_names_from_groups  # noqa: E402
@@ -31,8 +31,8 @@ WHY_LOSS = {"driver": "driver", "motor": ["gears", "motor"], "link": "gears", "o
 def main(out_dir: Path, results=None) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    r = pick(results, P, T)
-    lib = pick(results, P, T, preset=BESIDE)
+    r = pick(results, P, T, model=BENCH)
+    lib = pick(results, P, T, model=BENCH, preset=BESIDE)
     paper_e, paper_eff, paper_loss = PAPER["table1_energy"], PAPER["table1_efficiency"], PAPER["table1_loss"]
     eff, loss = r.efficiency, r.loss_fraction
 
@@ -52,7 +52,7 @@ def main(out_dir: Path, results=None) -> dict:
                     pct(lib.loss_fraction[k])] for k in POINTS])
     motor_abs = r.stage_loss["motor"]
     paper_motor_abs = paper_e["driver"] - paper_e["motor"]
-    md += (f"\n\nEnergy per stride integrated over the last simulated stride (replay, `{HEADLINE}` preset; the "
+    md += (f"\n\nEnergy per stride integrated over the last simulated stride (the bench: {BENCH}, `{HEADLINE}` preset; the "
            f"a-priori `{BESIDE}` preset beside it). "
            f"Losses in joules: driver {r.stage_loss['driver']:.1f} "
            f"(paper {paper_e['source'] - paper_e['driver']:.1f}), "
@@ -74,7 +74,7 @@ def main(out_dir: Path, results=None) -> dict:
     fig.suptitle("Table 1: where the energy of one stride goes (8 mm precompression, 2 s/stride; "
                  "arrow widths proportional to J per stride)", fontsize=11)
     png = save_figure(fig, out_dir / "table1_sankey.png",
-                      shows=f"simulation: AnkleActuator (replay), preset {HEADLINE}")
+                      shows=f"simulation of the bench: AnkleActuator ({BENCH}), preset {HEADLINE}")
     flows = []
     for name, e in (("simulation", r.energy), ("paper", paper_e)):
         for (a, b), (_, lname) in zip(zip(POINTS, POINTS[1:]), loss_names):

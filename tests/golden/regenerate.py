@@ -20,6 +20,7 @@ CASES = {
     "direct_drive_3s": Condition(0.008, 3.0, model="direct_drive"),
     "closed_loop_18mm_3s": Condition(0.018, 3.0, model="closed_loop", strides=3),
     "paper_fit_replay_8mm_2s": Condition(0.008, 2.0, preset="paper_fit"),
+    "paper_fit_bench_8mm_2s": Condition(0.008, 2.0, model="closed_loop", preset="paper_fit"),
     "paper_fit_direct_drive_3s": Condition(0.008, 3.0, model="direct_drive", preset="paper_fit"),
 }
 
