@@ -329,3 +329,36 @@ def test_a_step_in_time_is_a_time_event_the_integrator_stops_at(method):
     # evaluate() without modes sets the time events' modes from t
     vals = sim.evaluate(np.array([0.2, 0.5]), x=np.zeros((1, 2)), names=["der(c.x)"])
     assert list(vals["der(c.x)"]) == [0.0, 2.0]
+
+
+class _Drain(Component):
+    """A tank drained at 1/s until empty (x = 0 at t = 1 s), its outflow counted by y with a rate 1/(x + 1e-3)
+    that no integrator can follow past x = -1e-3: the draining mode cannot be integrated on past the instant it
+    ends, by more than a thousandth of a second."""
+
+    x = Variable(start=1.0, fixed=True)
+    y = Variable(start=0.0, fixed=True)
+    on = Discrete(start=1.0)
+
+    def equations(self):
+        return [Eq(der(self.x), -self.on), Eq(der(self.y), self.on / (self.x + 1e-3))]
+
+    def events(self):
+        return [Event(self.x, on_falling={self.on: 0})]
+
+
+class _DrainModel(Model):
+    def build(self):
+        self.tank = _Drain()
+
+
+def test_an_output_interval_no_run_can_cross_is_gone_in_parts():
+    """One output interval of 10 s, a crossing at 1 s past which the old mode blows up 1 ms later: the compiled
+    path goes the interval in parts until one shows the crossing, instead of falling back to the scipy path."""
+    sim = compile_model(_DrainModel())
+    for tol, err in (({}, 1e-4), (dict(rtol=1e-10, atol=1e-12), 1e-6)):
+        res = sim.simulate(10.0, n_points=2, **tol)
+        assert res.solver.startswith("CVODES (compiled path"), res.solver
+        assert [(round(t, 9), direction) for t, _, direction in res.events] == [(1.0, "falling")]
+        assert res["tank.x"][-1] == pytest.approx(0.0, abs=1e-9)
+        assert res["tank.y"][-1] == pytest.approx(np.log(1001.0), rel=err)  # int_0^1 dt / (1 - t + 1e-3)

@@ -12,7 +12,10 @@ event's assignments, the cascade of mode changes and the restart follow the scip
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
-(capped at :data:`WINDOW_STEPS` steps) is retried on half the window. A crossing costs one more run, over its output
+(capped at :data:`WINDOW_STEPS` steps) is retried on half the window; a single output interval that no run can
+cross (a crossing inside it, past which the old mode cannot be integrated) is gone in parts of what is left of
+it, halved after a run that fails and doubled after one that does not (at most :data:`INTERVAL_HALVINGS`
+halvings), until a part shows the crossing. A crossing costs one more run, over its output
 interval with :data:`DENSE` output times, its tolerances :data:`LOCATE_TOL` times the window's: Brent's
 trials read a Hermite interpolant of those states, not runs of their own (every run restarts CVODES cold, at order
 one and a tiny step, so trial runs were what made events expensive), and the tighter run locates a gently crossing,
@@ -38,6 +41,7 @@ WINDOW_STEPS = 4_000  # CVODES steps per run at most: a run that cannot go on (t
 LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tighter than the window's
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
 LOCATE_DEPTH = 3  # runs of runs' brackets where the cubic between two output times cannot be trusted
+INTERVAL_HALVINGS = 40  # an output interval no run can cross is gone in parts down to 2**-40 of what is left
 
 
 def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
@@ -62,6 +66,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     Q = {name: np.zeros(N) for name in names}
     events = []
     t, x, k_out, window = t_start, np.asarray(x0, dtype=float), 0, WINDOW
+    halvings = 0  # > 0: the next output interval could not be crossed in one run; go a 2**-halvings part of it
     done = {name: 0.0 for name in names}  # integral from t_start to t
     off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
     while True:
@@ -73,15 +78,25 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         if k_out == N:
             break
         grid = t_out[k_out:k_out + window]
+        if halvings:  # a part of the interval up to the next output (no output there)
+            grid = np.array([t + (grid[0] - t) * 0.5**halvings])
         try:
             Xs, Qs = path.integrate(t, x, grid, p, d, u, *args, integrals=names, variation=True,
                                     max_num_steps=WINDOW_STEPS)
         except SimulationError:
-            if window == 1:
+            if window > 1:
+                window //= 2  # the old mode may not go on far past a crossing: look closer
+            elif halvings < INTERVAL_HALVINGS:
+                halvings += 1  # not even to the next output: a part of the way
+            else:
                 raise
-            window //= 2  # the old mode may not go on far past a crossing: look closer
             continue
         hit = _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, off)
+        if hit is None and halvings:  # on from the part's end (its state is no output), with a longer part
+            done = {name: done[name] + Qs[name][-1] for name in names}
+            t, x = float(grid[-1]), Xs[:, -1].copy()
+            halvings = max(halvings - 1, 1)
+            continue
         if hit is None:
             X[:, k_out:k_out + grid.size], D[:, k_out:k_out + grid.size] = Xs, d[:, None]
             for name in names:
@@ -102,7 +117,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         k_out += upto
         x_e, d, off = handle_event(cm, events, hits, t_e, x_e, p, d, d_new, u, max_events)
         t, x = t_e, x_e
-        window = 1  # events come in groups: start close after one
+        window, halvings = 1, 0  # events come in groups: start close after one
     def later(more):  # the same run again, those integrated with the states
         if not path.integrable(more, u):  # none has a compiled form: nothing to run again for
             return {}
