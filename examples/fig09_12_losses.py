@@ -6,7 +6,7 @@ needs more than the driver's duty limit (the motor cannot follow at 48 V) are ha
 
 Writes ``fig09_driver_loss.png``, ``fig10_motor_loss.png``, ``fig11_gearing_loss.png``,
 ``fig12_output_loss.png``, each with its CSV.
-Run: ``python examples/fig09_12_losses.py`` (into ``results/``; runs the 36-condition sweep).
+Run: ``python examples/fig09_12_losses.py`` (into ``results/``; runs the bench and replay sweeps, 2 x 36 conditions).
 """
 from __future__ import annotations
 

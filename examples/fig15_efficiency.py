@@ -1,8 +1,9 @@
 """Fig. 15 of the paper: overall efficiency of the actuator (joint work / source energy per stride) over
-precompression x stride time; conditions where the motor cannot follow at 48 V are hatched.
+precompression x stride time on the bench model (closed loop); conditions where the motor cannot follow at 48 V
+(the replay of the plan needs more than 0.9 duty) are hatched.
 
 Writes ``fig15_efficiency.png`` and ``fig15_efficiency.csv``.
-Run: ``python examples/fig15_efficiency.py`` (into ``results/``; runs the 36-condition sweep).
+Run: ``python examples/fig15_efficiency.py`` (into ``results/``; runs the bench and replay sweeps, 2 x 36 conditions).
 """
 from __future__ import annotations
 

@@ -52,7 +52,8 @@ def main(out_dir: Path, results=None) -> dict:
                     pct(lib.loss_fraction[k])] for k in POINTS])
     motor_abs = r.stage_loss["motor"]
     paper_motor_abs = paper_e["driver"] - paper_e["motor"]
-    md += (f"\n\nEnergy per stride integrated over the last simulated stride (the bench: {BENCH}, `{HEADLINE}` preset; the "
+    md += (f"\n\nEnergy per stride integrated over the last simulated stride (the bench: {BENCH}, `{HEADLINE}` "
+           "preset; the "
            f"a-priori `{BESIDE}` preset beside it). "
            f"Losses in joules: driver {r.stage_loss['driver']:.1f} "
            f"(paper {paper_e['source'] - paper_e['driver']:.1f}), "
