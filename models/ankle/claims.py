@@ -288,7 +288,7 @@ OPPOSES = {
     "C9": "the paper's direct drive was the bench's output motor (unpublished drive train, about 10 % under the "
           "target torque); the model's is the actuator's own motor and gears delivering the full gait torque",
     "C10": "at 8 mm and 2 s/stride the arm returns little power: the driver output dips no deeper than the moment "
-           "arm's own negative peak; dips of -40 to -60 W appear only at the shortest strides",
+           "arm's own negative peak; dips of -30 to -70 W appear only at the shortest strides",
     "C11": "the motor follows at 48 V only on a diagonal band of the 1.2 s map (soft springs and low or high "
            "precompressions need more than 0.9 duty), and there the efficiency varies by about a point",
     "C12": "the driver's constant draw costs more per stride at 2 s; the paper's maps come from its Eq. 4 model, "
