@@ -43,9 +43,10 @@ TABLE2_PRESETS = ["paper_datasheet", "paper_estimated_total", "paper_optimized_t
 #: what neither the paper nor the inference fixes, and how the inference's choices act (named in the report where
 #: sim and paper differ > 25 %)
 ASSUMPTIONS = {
-    "driver": "the driver's constant draw is inferred within the paper's measured 10-15 W; its bridge resistance "
-              "(0.05 ohm) and switching-loss coefficient (0.004) are assumptions, the rectifier returns nothing; "
-              "the paper's driver was tuned near 8 mm (4.2.1), ours has no tuning-dependent loss",
+    "driver": "the driver's constant draw (within the paper's measured 10-15 W), bridge resistance and switching-"
+              "loss coefficient are inferred, and end on the current-dependent ends of their ranges, unidentified; "
+              "the rectifier returns nothing; the paper's driver was tuned near 8 mm (4.2.1), ours has no "
+              "tuning-dependent loss",
     "gears": "the planetary's mesh efficiency and output drag are inferred (ranges: catalogue 55-75 %, 0-15 mN m at "
              "the motor); the helical stage's 90 % is assumed; the mesh efficiency is the same in every condition, "
              "so the gearing loss varies over the grid only through the drag",
