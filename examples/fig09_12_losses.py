@@ -19,8 +19,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.ankle.paper import (BENCH, D_MAX, HEADLINE, comparison, grid, grid_rows, heatmap,  # noqa: E402
-                                        required_duty)
+from acausal.models.ankle.paper import (BENCH, HEADLINE, comparison, followed, grid, grid_rows,  # noqa: E402
+                                        heatmap, required_duty)
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
@@ -43,7 +43,7 @@ FIGURES = [
 
 def _trend(results, key, along: str, duty: dict) -> str:
     """Does the loss grow along stride time / precompression at every fixed other coordinate (feasible only)?"""
-    ok = [r for r in results if duty[(r.condition.P, r.condition.stride_time)] <= D_MAX]
+    ok = followed(results, duty)
     groups = {}
     for r in ok:
         fixed, moving = ((r.condition.P, r.condition.stride_time) if along == "T"
@@ -68,7 +68,7 @@ def main(out_dir: Path, results=None) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     bench = grid(results)
     duty = required_duty(results)
-    feasible = [r for r in bench if duty[(r.condition.P, r.condition.stride_time)] <= D_MAX] or bench
+    feasible = followed(bench, duty) or bench
     figures, csvs, lines = [], [], []
     for stem, key, stage, title, paper_says, table1 in FIGURES:
         fig, ax = plt.subplots(figsize=(7.2, 5.8))

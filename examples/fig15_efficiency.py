@@ -14,8 +14,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from acausal.models.ankle.paper import (BENCH, D_MAX, HEADLINE, comparison, grid, grid_rows, heatmap,  # noqa: E402
-                                        pick, required_duty)
+from acausal.models.ankle.paper import (BENCH, HEADLINE, comparison, followed, grid, grid_rows,  # noqa: E402
+                                        heatmap, pick, required_duty)
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
@@ -39,7 +39,7 @@ def main(out_dir: Path, results=None) -> dict:
                          grid_rows(bench, {"efficiency_pct": lambda r: 100 * r.efficiency["output"],
                                            "E_source_J": lambda r: r.energy["source"],
                                            "E_output_J": lambda r: r.energy["output"]}, duty))
-    feasible = [r for r in bench if duty[(r.condition.P, r.condition.stride_time)] <= D_MAX] or bench
+    feasible = followed(bench, duty) or bench
     best = max(feasible, key=lambda r: r.efficiency["output"])
     worst = min(feasible, key=lambda r: r.efficiency["output"])
     md = md_table(["", "precompression [mm]", "stride time [s]", "overall efficiency"],

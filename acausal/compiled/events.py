@@ -151,7 +151,7 @@ def _scan(cm, path, times, states, var, p, d, u, args, depth, off):
         if np.any(leaving) and not np.any(crossed & ~leaving) and depth < MAX_DEPTH:
             hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
         elif np.any(crossed):
-            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args, off=off)
+            hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args, off)
         elif np.any((var[:, k + 1] - var[:, k] >= (np.abs(za) + np.abs(zb)) * (1 - 1e-9)) & (za != 0)) \
                 and depth < MAX_DEPTH:  # the variation could have gone to zero and back
             hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
@@ -180,10 +180,10 @@ def _zero_values(cm, times, states, p, d, u, off) -> np.ndarray:
     ``off`` they are watched at."""
     z = np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape)
                   for v in cm.funcs["zeros"](times, states, p, d, u)])
-    return z if off is None else z - np.asarray(off)[:, None]
+    return z - np.asarray(off)[:, None]
 
 
-def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0, off=None):
+def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, off, depth=0):
     """The crossing(s) in ``(a, b]`` by Brent's method (:func:`acausal.modes.crossings`, the scipy path's own);
     None when they change no mode.
 
@@ -218,7 +218,7 @@ def _locate(cm, path, a, b, xa, xb, za, zb, p, d, u, args, depth=0, off=None):
             crossing = np.flatnonzero(_crossed(zm[:, j], zm[:, j + 1]))
             if depth < LOCATE_DEPTH and not run.smooth(j, args):
                 hit = _locate(cm, path, run.nodes[j], run.nodes[j + 1], run.states[:, j], run.states[:, j + 1],
-                              zn[:, j], zn[:, j + 1], p, d, u, args, depth + 1, off)
+                              zn[:, j], zn[:, j + 1], p, d, u, args, off, depth + 1)
                 if hit is not None:
                     return hit
                 handled.update({int(i): j + 1 for i in crossing})

@@ -123,6 +123,12 @@ def required_duty(results, preset: str = HEADLINE) -> dict:
     return {(r.condition.P, r.condition.stride_time): r.max_duty for r in grid(results, "replay", preset)}
 
 
+def followed(results, duty: dict) -> list[StrideResult]:
+    """The results of the conditions where the motor can follow the plan (``duty`` as :func:`required_duty` gives
+    it: the replay's required duty within the driver's limit)."""
+    return [r for r in results if duty[(r.condition.P, r.condition.stride_time)] <= D_MAX]
+
+
 def infeasible(results, preset: str = HEADLINE) -> list[StrideResult]:
     """Replay conditions (of one preset) whose required duty exceeds the driver's 0.9: the motor could not
     follow there."""
