@@ -227,13 +227,12 @@ class ServoProblem(Problem):
         ``YYYY-MM-DD_HHhMMmSS``): seconds after the first; None (their order) when a name has none."""
         from datetime import datetime
 
-        times = []
-        for e in exps:
-            found = _STAMP.search(e.name)
-            if not found:
-                return None
-            times.append((datetime.strptime(found.group(0), "%Y-%m-%d_%Hh%Mm%S") - datetime(2000, 1, 1)).total_seconds())
-        return "elapsed session time [s] (from the recordings' names)", [t - min(times) for t in times]
+        found = [_STAMP.search(e.name) for e in exps]
+        if not all(found):
+            return None
+        stamps = [datetime.strptime(f.group(0), "%Y-%m-%d_%Hh%Mm%S") for f in found]
+        return ("elapsed session time [s] (from the recordings' names)",
+                [(s - min(stamps)).total_seconds() for s in stamps])
 
     def heldout(self) -> dict:
         return {"signal": POSITION, "unit": "rad", "split": self.split_text}
