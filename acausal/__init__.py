@@ -7,8 +7,8 @@ numeric code); ``simulate`` many times with other parameters; read any variable 
 from sympy import Eq  # equations are written as Eq(lhs, rhs)
 
 from .compiler import CompiledModel, compile_model
-from .components import (Component, Connector, Discrete, Event, Flow, Input, Model, Parameter, Potential, Start,
-                         Variable, connect)
+from .components import (Component, Connector, Discrete, Event, Flow, Indeterminate, Input, Model, Parameter,
+                         Potential, Start, Variable, connect)
 from .connectors import Flange, HeatPort, Pin, RealInput, RealOutput
 from .export import export_fmu
 from .errors import (AcausalError, ConnectError, DataError, ModelError, SignalError, SimulationError,
@@ -22,7 +22,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Model", "Component", "Connector", "Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start",
-    "Event", "connect", "der", "time", "Eq", "compile_model", "CompiledModel", "Result", "export_fmu",
+    "Event", "Indeterminate", "connect", "der", "time", "Eq", "compile_model", "CompiledModel", "Result", "export_fmu",
     "Pin", "Flange", "HeatPort", "RealInput", "RealOutput",
     "Signal", "Constant", "ExpressionSignal", "ParametricSignal", "PeriodicSpline", "SampledSignal", "FourierSeries",
     "AcausalError", "ModelError", "ConnectError", "StructureError", "SignalError", "SimulationError", "DataError",

@@ -168,7 +168,7 @@ class CodeGenerator:
                     ys = [var_symbol(v) for v in st.vars]
                     res = [self._signal_symbols(r) for r in st.residuals]
                     J = [[self._signal_symbols(e) for e in row] for row in st.jac]
-                    self._jac_block(k, ys, res, J, D, items)
+                    self._jac_block(k, ys, res, J, D, items, split=bool(st.split))
         return items, D
 
     def _emit_linear(self, k, vars_, A, b, items):
@@ -187,8 +187,9 @@ class CodeGenerator:
         """Describe numeric block ``k`` (its variables, the components of its equations and its start values) for
         the error messages of :mod:`acausal.runtime`; generated code passes ``_labels[k]`` with its time."""
         if k not in self._labels:
+            free = [rule is not None for rule in st.split] if getattr(st, "split", None) else ()
             self._labels[k] = runtime.Block("nonlinear" if isinstance(st, NewtonSolve) else "linear", st.vars,
-                                            sorted(set(st.origins)), getattr(st, "guesses", ()))
+                                            sorted(set(st.origins)), getattr(st, "guesses", ()), free)
 
     def _emit_newton(self, k, st, items):
         """Call the residual/Jacobian function of Newton block ``k``; the function itself is generated once
@@ -201,14 +202,16 @@ class CodeGenerator:
         args = ", ".join(self.names[s] for s in ext)
         targets = ", ".join(self.names[var_symbol(v)] for v in st.vars)
         guesses = ", ".join(repr(float(g)) for g in st.guesses)
+        split = f", split=_newton_split{k}" if st.split else ""
         items.append(("code", f"{targets}, = _newton(_newton_block{k}, ({guesses},), ({args}{',' if args else ''}), "
-                              f"_labels[{k}], t=t)", set(ext)))
+                              f"_labels[{k}], t=t{split})", set(ext)))
 
     def _define_newton(self, k, st):
         ys = [var_symbol(v) for v in st.vars]
         res = [self._signal_symbols(r) for r in st.residuals]
         J = [[self._signal_symbols(e) for e in row] for row in st.jac]
-        ext = sorted({s for e in res + [x for row in J for x in row] for s in e.free_symbols} - set(ys),
+        rules = [self._signal_symbols(e) for rule in (st.split or ()) if rule for e in rule]
+        ext = sorted({s for e in res + [x for row in J for x in row] + rules for s in e.free_symbols} - set(ys),
                      key=lambda s: s.name)
         args = [self.names[s] for s in ext]
         local = dict(self.names)
@@ -227,6 +230,23 @@ class CodeGenerator:
         lines.append(f"    return ({rr},), ({jj},)")
         self._blocks.append("\n".join(lines))
         self._newton_args[k] = ext
+        if st.split:
+            self._define_split(k, st, ys, args, local)
+
+    def _define_split(self, k, st, ys, args, local):
+        """``_newton_split{k}(_y, *args)``: the nominal values and scales of block ``k``'s tear variables
+        (:attr:`~acausal.solve.NewtonSolve.split`; a determined variable's nominal is its iterate, its scale 1)."""
+        pr = _Printer(local)
+        nominal, scale = [], []
+        for i, rule in enumerate(st.split):
+            if rule is None:
+                nominal.append(f"_y[{i}]")
+                scale.append("1.0")
+            else:
+                nominal.append(pr.doprint(self._signal_symbols(rule[0])))
+                scale.append(pr.doprint(self._signal_symbols(rule[1])))
+        head = f"def _newton_split{k}(_y, {', '.join(args)}):" if args else f"def _newton_split{k}(_y):"
+        self._blocks.append(f"{head}\n    return ({', '.join(nominal)},), ({', '.join(scale)},)")
 
     def _jac_assign(self, sym, expr, D, items):
         d = {}
@@ -249,13 +269,21 @@ class CodeGenerator:
         if out:
             D[sym] = out
 
-    def _jac_block(self, k, ys, res, J, D, items):
-        """Implicit-function rule: dy/dx_c = -J^-1 * sum_s dr/ds * ds/dx_c over symbols s outside the block."""
+    def _jac_block(self, k, ys, res, J, D, items, split=False):
+        """Implicit-function rule: dy/dx_c = -J^-1 * sum_s dr/ds * ds/dx_c over symbols s outside the block.
+        A ``split`` block (indeterminate tear variables) may be singular: there the derivative is that of its
+        weighted least-norm solution with the scales held (``_linsolve(..., scale=...)``)."""
         m = len(ys)
         yset = set(ys)
         cols = sorted({c for r in res for s in r.free_symbols if s in D and s not in yset for c in D[s]})
         if not cols:
             return
+        scale = ""
+        if split:
+            args = "".join(f", {self.names[s]}" for s in self._newton_args[k])
+            items.append(("code", f"_B{k}s = _newton_split{k}(({', '.join(self.names[y] for y in ys)},){args})[1]",
+                          set(self._newton_args[k]) | set(ys)))
+            scale = f", scale=_B{k}s"
         jn = [[f"_B{k}j{i}_{j}" for j in range(m)] for i in range(m)]
         for i in range(m):
             for j in range(m):
@@ -280,8 +308,8 @@ class CodeGenerator:
                 D[y][c] = js
                 targets.append(name)
             rows = "[" + ", ".join("[" + ", ".join(r) + "]" for r in jn) + "]"
-            items.append(("code", f"{', '.join(targets)}, = _linsolve({rows}, [{', '.join(w)}], _labels[{k}], t)",
-                          set()))
+            items.append(("code", f"{', '.join(targets)}, = _linsolve({rows}, [{', '.join(w)}], _labels[{k}], t"
+                                  f"{scale})", set()))
 
     # ------------------------------------------------------------------ emission
     def _render(self, fname, items, result_lines, extra_used=()):
@@ -502,5 +530,6 @@ def _step_exprs(st):
     if isinstance(st, LinearSolve):
         return [e for row in st.A for e in row] + list(st.b)
     if isinstance(st, NewtonSolve):
-        return list(st.residuals) + [e for row in st.jac for e in row]
+        return (list(st.residuals) + [e for row in st.jac for e in row]
+                + [e for rule in (st.split or ()) if rule for e in rule])
     return []

@@ -36,7 +36,9 @@ def compile_model(model) -> "CompiledModel":
     system = reduce_index(check_balance(system))
     _check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
-    system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes))
+    free = {n: (_resolve(nominal, flat), _resolve(scale, flat), origin)
+            for n, (nominal, scale, origin) in flat.indeterminates.items() if n not in flat.aliases}
+    system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes), indeterminates=free)
     gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs))
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
     funcs = gen.generate(zeros)

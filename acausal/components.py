@@ -37,7 +37,7 @@ from .signals import as_signal_expr
 from .symbols import par_symbol, time, var_symbol
 
 __all__ = ["Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start", "Event",
-           "Component", "Model", "Connector", "connect"]
+           "Indeterminate", "Component", "Model", "Connector", "connect"]
 
 
 # --------------------------------------------------------------------------------------------- declarations
@@ -189,6 +189,28 @@ class Event:
     on_falling: dict = field(default_factory=dict)
     doc: str = ""
     reinit: dict = field(default_factory=dict)
+
+
+@dataclass
+class Indeterminate:
+    """A variable the equations may leave undetermined in some mode, and the rule that picks its value then.
+
+    Two friction elements stuck together on one rigid shaft (a bearing and a stuck gear: the MSL's LossyGearDemo2,
+    "if both friction models are stuck, there is no unique solution") hold the shaft with the sum of their torques;
+    the split between them is free. Where the equations of a block leave such variables free, the solver takes,
+    among all the block's solutions, the one that minimises ``sum((var - nominal)**2 / scale)`` over the block's
+    indeterminate variables (a weighted least-norm solution; ``nominal`` and ``scale`` are expressions, evaluated
+    at that solution). Where the equations determine the variable, the rule changes nothing.
+
+    A stick/slip element declares its holding torque with ``nominal`` the middle of its breakaway band and
+    ``scale`` its half-width: the shares of a stuck group then use the same fraction of each element's band (for
+    elements on one shaft), so they reach their limits together, exactly when no split can hold the shaft any
+    more (:class:`~acausal.partials.PartialFriction`)."""
+
+    var: sp.Symbol
+    nominal: sp.Expr
+    scale: sp.Expr
+    doc: str = ""
 
 
 # --------------------------------------------------------------------------------------------- describing
@@ -417,6 +439,11 @@ class Component:
 
     def events(self) -> list:
         """State events (:class:`Event`) of this component."""
+        return []
+
+    def indeterminates(self) -> list:
+        """Variables the equations may leave undetermined in some mode (:class:`Indeterminate`), with the rule
+        that picks their values there."""
         return []
 
     # ---- values

@@ -94,6 +94,8 @@ class FlatModel:
     fixed_constants: dict = field(default_factory=dict)
     written: list = field(default_factory=list)  # the equations as written, before alias elimination
     time_events: dict = field(default_factory=dict)  # mode name -> threshold time (expression of parameters)
+    # variable name -> (nominal, scale, origin): the rule for a variable the equations may leave free (Indeterminate)
+    indeterminates: dict = field(default_factory=dict)
 
     def equations_of(self, component: str | None = None) -> list:
         """The equations as written (:class:`FlatEquation`, ``text`` set) of the component at path
@@ -154,6 +156,11 @@ def flatten(model: Component) -> FlatModel:
         for ev in c.events():
             flat.events.append(FlatEvent(sp.sympify(ev.zero), dict(ev.on_rising), dict(ev.on_falling), origin,
                                          dict(ev.reinit)))
+        for ind in c.indeterminates():
+            name = getattr(ind.var, "name", None)
+            if name not in flat.variables:
+                raise ModelError(f"{origin}: Indeterminate({ind.var!r}) is not a variable of the model")
+            flat.indeterminates[name] = (sp.sympify(ind.nominal), sp.sympify(ind.scale), origin)
     for c in comps:
         if not isinstance(c, Connector):
             _connection_equations(c, flat, is_root=c is model)

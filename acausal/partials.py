@@ -8,9 +8,10 @@ reaction torque on it; the component writes only its own law.
 """
 import abc
 
+import sympy as sp
 from sympy import Eq
 
-from .components import Component, Discrete, Event, Parameter, Variable
+from .components import Component, Discrete, Event, Indeterminate, Parameter, Variable
 from .connectors import Flange, Pin
 from .errors import ModelError
 from .symbols import der
@@ -159,6 +160,9 @@ class PartialElementaryRotationalToElectrical(OnePort, PartialElementaryOneFlang
         return [*super().equations(), Eq(self.phi, self.flange.phi - self.phi_support), Eq(self.w, der(self.phi))]
 
 
+MIN_BAND = 1e-12  # N m: the smallest half-width of a breakaway band a stuck group's split uses (an open brake's 0)
+
+
 class PartialFriction(Component):
     """The stick/slip machine of a friction element (MSL ``PartialFriction``): modes forward, stuck, backward.
 
@@ -184,6 +188,20 @@ class PartialFriction(Component):
         S, F = self.stuck, self.forward
         return [Eq(a, der(w)), Eq(tau, S * self.sa + (1 - S) * (F * slide_fwd + (1 - F) * slide_bwd)),
                 Eq(a, (1 - S) * self.sa)]
+
+    def breakaway(self) -> tuple:
+        """``(break_fwd, break_bwd)``: the holding torques at which the element breaks away forward and backward
+        (expressions; ``break_bwd <= break_fwd``). A subclass that uses :meth:`indeterminates` writes it."""
+        raise NotImplementedError(f"{type(self).__name__} does not say its breakaway torques (breakaway())")
+
+    def indeterminates(self) -> list:
+        """The holding torque ``sa`` while stuck is free when another stuck element holds the same shaft: the shares
+        are chosen as equal fractions of each element's band (``nominal`` its middle, ``scale`` its half-width, at
+        least :data:`MIN_BAND` N m), so that the stuck group breaks away when no share holds it any more
+        (:class:`~acausal.components.Indeterminate`)."""
+        fwd, bwd = self.breakaway()
+        return [Indeterminate(self.sa, (fwd + bwd) / 2, sp.Max((fwd - bwd) / 2, MIN_BAND),
+                              doc="holding torque while stuck: its share of a stuck group")]
 
     def friction_events(self, w, break_fwd, break_bwd) -> list:
         S, F = self.stuck, self.forward

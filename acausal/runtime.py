@@ -19,12 +19,14 @@ LINE_SEARCH_HALVINGS = 10  # the damped Newton step is halved at most this often
 class Block:
     """An algebraic block as its failure messages name it: ``kind`` (``"linear"`` or ``"nonlinear"``), its
     variables ``vars`` (names), ``origins`` (the components its equations come from, e.g. ``"Resistor 'R'"``) and,
-    for a Newton block, the start values ``starts`` its iteration begins from (in the variables' units)."""
+    for a Newton block, the start values ``starts`` its iteration begins from (in the variables' units) and which
+    of its variables are indeterminate (``free``, :class:`~acausal.components.Indeterminate`)."""
 
-    __slots__ = ("kind", "vars", "origins", "starts")
+    __slots__ = ("kind", "vars", "origins", "starts", "free")
 
-    def __init__(self, kind: str, vars, origins, starts=()):
+    def __init__(self, kind: str, vars, origins, starts=(), free=()):
         self.kind, self.vars, self.origins, self.starts = kind, tuple(vars), tuple(origins), tuple(starts)
+        self.free = tuple(bool(f) for f in free)
 
     def __str__(self):
         return (f"the {self.kind} block of {', '.join(map(repr, self.vars))} "
@@ -54,25 +56,67 @@ def piecewise(*args):
                      default=np.nan)
 
 
-def linsolve(A_rows, b, block=None, t=None) -> list:
+def linsolve(A_rows, b, block=None, t=None, scale=None) -> list:
     """Solve ``A y = b`` for every broadcast sample; ``A_rows`` is a list of rows of entries.
 
     ``block`` (a :class:`Block` or a description) and ``t`` (the time, s; a float or an array broadcasting with
-    the entries) name the block and the time in the :class:`SimulationError` a singular system raises."""
+    the entries) name the block and the time in the :class:`SimulationError` a singular system raises.
+    ``scale`` (one entry per unknown): the system may be singular; where it is, the solution minimising
+    ``sum(y**2 / scale)`` (:func:`least_norm`)."""
     m = len(b)
-    entries = [e for row in A_rows for e in row] + list(b)
+    entries = [e for row in A_rows for e in row] + list(b) + list(scale if scale is not None else ())
     arrs = np.broadcast_arrays(*[np.asarray(e, dtype=float) for e in entries])
     shape = arrs[0].shape
     A = np.stack(arrs[: m * m], axis=-1).reshape(shape + (m, m))
-    rhs = np.stack(arrs[m * m:], axis=-1)[..., None]
+    rhs = np.stack(arrs[m * m: m * m + m], axis=-1)
+    if scale is not None:
+        try:
+            y = least_norm(A, rhs, np.stack(arrs[m * m + m:], axis=-1), getattr(block, "free", None))
+        except np.linalg.LinAlgError:
+            raise _singular_linear(A, block, t) from None
+        return [y[..., i] for i in range(m)]
     try:
-        y = np.linalg.solve(A, rhs)[..., 0]
+        y = np.linalg.solve(A, rhs[..., None])[..., 0]
     except np.linalg.LinAlgError:
         raise _singular_linear(A, block, t) from None
     return [y[..., i] for i in range(m)]
 
 
-def newton(fun, guesses, args, label, tol: float = 1e-12, maxiter: int = 60, t=None) -> list:
+SPLIT_RCOND = 1e-10  # singular values below this fraction of the largest count as zero in a split block's solve
+
+
+def least_norm(A, b, scale, free=None) -> np.ndarray:
+    """The solution ``y`` of ``A y = b`` (shapes ``(..., m, m)``, ``(..., m)``) minimising ``sum(y**2 / scale)``
+    (``scale`` > 0, shape ``(..., m)``) where ``A`` is singular (singular values below :data:`SPLIT_RCOND` of the
+    largest count as zero); where it is regular, the solution. Least squares where the system has no solution
+    (the caller judges its residual). ``free`` (booleans, one per unknown): the unknowns the system may leave
+    undetermined; a singular direction that moves another one raises ``numpy.linalg.LinAlgError``."""
+    root = np.sqrt(scale)
+    u, sv, vh = np.linalg.svd(A * root[..., None, :])
+    keep = sv > SPLIT_RCOND * sv[..., :1]
+    if free is not None and not all(free) and not keep.all():
+        null = np.abs(vh) * ~keep[..., :, None]  # the right singular vectors of the dropped singular values
+        if np.any(null[..., [not f for f in free]] > 1e-8):
+            raise np.linalg.LinAlgError("singular in a determined variable")
+    inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
+    z = np.swapaxes(vh, -1, -2) @ (inv[..., None] * (np.swapaxes(u, -1, -2) @ b[..., None]))
+    return root * z[..., 0]
+
+
+def _split_step(J, r, y, split, args, free=None):
+    """The Newton step of a block with indeterminate variables (``split(y, *args)`` gives their nominal values
+    and scales, :class:`~acausal.components.Indeterminate`): the solution of ``J dy = -r`` that brings ``y + dy``
+    nearest to the nominal values in the scales' weights (the plain Newton step where ``J`` is regular). Shapes:
+    ``J (..., m, m)``, ``r`` and ``y`` ``(..., m)``; ``free`` as :func:`least_norm` takes it."""
+    nominal, scale = split(list(np.moveaxis(y, -1, 0)), *args)
+    shape = y.shape[:-1]
+    nominal = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape) for v in nominal], axis=-1)
+    scale = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape) for v in scale], axis=-1)
+    off = y - nominal
+    return least_norm(J, (J @ off[..., None])[..., 0] - r, scale, free) - off
+
+
+def newton(fun, guesses, args, label, tol: float = 1e-12, maxiter: int = 60, t=None, split=None) -> list:
     """Solve ``r(y, *args) = 0`` by damped Newton with the exact Jacobian: ``fun(y, *args)`` returns ``(r, J)``.
 
     Vectorised: ``y`` entries broadcast with ``args`` (time samples, parameter batches). Each iteration solves
@@ -87,14 +131,18 @@ def newton(fun, guesses, args, label, tol: float = 1e-12, maxiter: int = 60, t=N
     converge, the Jacobian is singular, or the residual is not finite even on the shortest step; the message
     gives the last iterate and what to try. Trial points may overflow (an exponential far from its solution):
     numpy's warnings are silenced inside, the values judged.
+
+    ``split(y, *args)`` (a block with indeterminate variables, :class:`~acausal.components.Indeterminate`) gives
+    their nominal values and scales: every step is :func:`_split_step`, so where ``J`` is singular the iteration
+    ends at the solution nearest to the nominal values (evaluated there) in the scales' weights.
     """
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if all(np.ndim(a) == 0 for a in args):
-            return _newton_point(fun, guesses, args, label, tol, maxiter, t)
-        return _newton_samples(fun, guesses, args, label, tol, maxiter, t)
+            return _newton_point(fun, guesses, args, label, tol, maxiter, t, split)
+        return _newton_samples(fun, guesses, args, label, tol, maxiter, t, split)
 
 
-def _newton_point(fun, guesses, args, label, tol, maxiter, t) -> list:
+def _newton_point(fun, guesses, args, label, tol, maxiter, t, split=None) -> list:
     """:func:`newton` at one sample (every argument a scalar, as in the integrator's calls): the same iteration
     on numpy scalars, without the stacking and broadcasting that would cost most of its time."""
     m = len(guesses)
@@ -105,7 +153,13 @@ def _newton_point(fun, guesses, args, label, tol, maxiter, t) -> list:
     if not np.isfinite(nr):
         raise _newton_error("the residual is not finite at the start values", label, t, y, r, True)
     for _ in range(maxiter):
-        if m == 1:
+        if split is not None:
+            try:
+                dy = _split_step(np.array(J, dtype=float), r, np.array(y, dtype=float), split, args,
+                                 getattr(label, "free", None))
+            except np.linalg.LinAlgError:
+                raise _newton_error("singular Jacobian", label, t, y, r, True) from None
+        elif m == 1:
             j = J[0][0]
             if j == 0:
                 raise _newton_error("singular Jacobian", label, t, y, r, True)
@@ -146,7 +200,7 @@ def _newton_point(fun, guesses, args, label, tol, maxiter, t) -> list:
 _NOT_FINITE = "the residual is not finite on the Newton step nor on the shortest damped step"
 
 
-def _newton_samples(fun, guesses, args, label, tol, maxiter, t) -> list:
+def _newton_samples(fun, guesses, args, label, tol, maxiter, t, split=None) -> list:
     """:func:`newton` over broadcast samples (arrays of time samples or parameter sets)."""
     shape = np.broadcast_shapes(*[np.shape(a) for a in args]) if args else ()
     y = [np.broadcast_to(np.asarray(g, dtype=float), shape).copy() for g in guesses]
@@ -159,7 +213,11 @@ def _newton_samples(fun, guesses, args, label, tol, maxiter, t) -> list:
         J_arr = bstack([e for row in J for e in row] + [np.zeros(shape)])[: m * m]
         J_arr = np.moveaxis(J_arr.reshape((m, m) + J_arr.shape[1:]), (0, 1), (-2, -1))
         try:
-            dy = np.linalg.solve(J_arr, -np.moveaxis(r_arr, 0, -1)[..., None])[..., 0]
+            if split is not None:
+                dy = _split_step(J_arr, np.moveaxis(r_arr, 0, -1), np.stack(y, axis=-1), split, args,
+                                 getattr(label, "free", None))
+            else:
+                dy = np.linalg.solve(J_arr, -np.moveaxis(r_arr, 0, -1)[..., None])[..., 0]
         except np.linalg.LinAlgError:
             raise _newton_error("singular Jacobian", label, t, y, r_arr, _singular_samples(J_arr)) from None
         y_new = [y[i] + dy[..., i] for i in range(m)]

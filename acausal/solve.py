@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 
 import sympy as sp
 
+from .errors import ModelError
 from .structure import EquationSystem
 from .symbols import par_symbol, var_symbol
 
@@ -45,24 +46,48 @@ class NewtonSolve:
     jac: list
     origins: list  # the components of every equation of the block (eliminated ones are inside the residuals)
     guesses: list  # start values of the tear variables: every evaluation starts Newton from them
+    # per tear variable, (nominal, scale) of an Indeterminate the block may leave free, or None: where the Jacobian
+    # is singular, the solution minimising sum((y - nominal)**2 / scale) over them (acausal.runtime.newton)
+    split: list | None = None
 
 
-def solve_blocks(system: EquationSystem, starts: dict, modes=()) -> EquationSystem:
+def solve_blocks(system: EquationSystem, starts: dict, modes=(), indeterminates=None) -> EquationSystem:
     """``system`` (after BLT) with its ``steps``: every block solved, in evaluation order. ``starts`` (variable
     name -> start value) seeds Newton's method where a block needs it. ``modes``: the names of the discrete
     modes; a coefficient that vanishes for some mode values (``1 - stuck``) is never divided by (see
-    :func:`_may_vanish`)."""
-    steps = []
+    :func:`_may_vanish`). ``indeterminates``: variable name -> ``(nominal, scale, origin)``
+    (:class:`~acausal.components.Indeterminate`); a block with two or more of them may leave them free in some
+    mode: they stay its tear variables and it is solved by Newton with their rule (:attr:`NewtonSolve.split`)."""
+    steps, solved = [], set()
     ms = frozenset(par_symbol(m) for m in modes)
+    indeterminates = indeterminates or {}
     for eqs, unknowns in system.blocks:
         ys = [var_symbol(u) for u in unknowns]
         rs = [system.residuals[e] for e in eqs]
         orig = [system.origins[e] for e in eqs]
+        free = {u: indeterminates[u] for u in unknowns if u in indeterminates}
         if len(eqs) == 1:
             steps.extend(_solve_scalar(rs[0], ys[0], unknowns[0], orig, starts, ms))
+        elif len(free) >= 2:
+            block = _tear(rs, ys, unknowns, orig, starts, ms, free)
+            _check_split_inputs(block[0], free, set(system.unknowns) - solved - set(unknowns))
+            steps.extend(block)
         else:
             steps.extend(_tear(rs, ys, unknowns, orig, starts, ms))
+        solved.update(unknowns)
     return replace(system, steps=steps)
+
+
+def _check_split_inputs(head, free, later):
+    """The rules of a split block's indeterminate variables (``head``, its :class:`NewtonSolve`) use only what is
+    known when the block is solved (``later``: the unknowns solved after it); ModelError naming the component
+    otherwise."""
+    for name, rule in zip(head.vars, head.split):
+        late = sorted(s.name for e in (rule or ()) for s in e.free_symbols if s.name in later)
+        if late:
+            raise ModelError(f"{free[name][2]}: the rule of Indeterminate({name!r}) uses {', '.join(late)}, which "
+                             "the model computes only after the block that solves it; write the rule with what the "
+                             "block's equations use")
 
 
 MODE_VALUES = (0, 1)  # the values a mode is checked at (the library's modes are flags)
@@ -126,24 +151,33 @@ def _pivot_score(a):
     return 2 + len(a.free_symbols)
 
 
-def _tear(rs, ys, unknowns, orig, starts, modes=frozenset()):
+def _tear(rs, ys, unknowns, orig, starts, modes=frozenset(), free=None):
     """Tearing: repeatedly eliminate the unknown that some block equation gives linearly with a coefficient free
     of block unknowns (cheapest pivot first: +-1, then numbers, then the fewest symbols; among equal pivots the
     equation with the fewest block unknowns left, so the order of the block's unknowns does not decide),
     substituting it into the other equations. A linear block is solved this way entirely. What remains (the tear variables) is solved
     by sympy LU (linear, small), a numeric linear solve (linear, large) or Newton (nonlinear); the eliminated
-    unknowns then follow explicitly."""
+    unknowns then follow explicitly.
+
+    ``free`` (name -> ``(nominal, scale, origin)``): indeterminate unknowns; they are never eliminated, and the
+    block becomes a :class:`NewtonSolve` whose ``split`` carries their rule in the tear variables (the eliminated
+    unknowns substituted), so that the run-time solve can pick the weighted least-norm solution where they are
+    free."""
     cur = list(rs)
     eqs = list(range(len(rs)))
     vars_ = list(range(len(ys)))
     yset = set(ys)
     elim = []
+    free = free or {}
+    rules = {u: [sp.sympify(nominal), sp.sympify(scale)] for u, (nominal, scale, _) in free.items()}
     while vars_:
         best = None
         left = {ys[v] for v in vars_}
         for e in eqs:
             width = len(cur[e].free_symbols & left)  # block unknowns still in the equation
             for v in vars_:
+                if unknowns[v] in free:
+                    continue
                 a = cur[e].diff(ys[v])
                 if a == 0 or (a.free_symbols & yset) or _may_vanish(a, modes):
                     continue
@@ -163,6 +197,8 @@ def _tear(rs, ys, unknowns, orig, starts, modes=frozenset()):
         vars_.remove(v)
         for e2 in eqs:
             cur[e2] = cur[e2].xreplace({ys[v]: expr})
+        for rule in rules.values():
+            rule[:] = [x.xreplace({ys[v]: expr}) for x in rule]
     if not vars_:
         return list(reversed(elim))
     tear = [unknowns[v] for v in vars_]
@@ -170,6 +206,10 @@ def _tear(rs, ys, unknowns, orig, starts, modes=frozenset()):
     res = [cur[e] for e in eqs]
     jac = [[r.diff(y) for y in tsyms] for r in res]
     tset = set(tsyms)
+    if free:
+        split = [tuple(rules[u]) if u in rules else None for u in tear]
+        return [NewtonSolve(tear, res, jac, list(orig), [starts.get(u, 0.0) for u in tear], split)] \
+            + list(reversed(elim))
     if all(not (j.free_symbols & tset) for row in jac for j in row):
         zero = {y: 0 for y in tsyms}
         b = [-r.xreplace(zero) for r in res]

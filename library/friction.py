@@ -149,9 +149,11 @@ class _DryFriction(PartialFriction):
         slide_fwd, slide_bwd, _, _ = self._torques()
         return [*self.friction_equations(w, a, tau, slide_fwd, slide_bwd), Eq(self.loss_power, tau * w)]
 
+    def breakaway(self) -> tuple:
+        return self._torques()[2:]
+
     def _dry_events(self, w) -> list:
-        _, _, break_fwd, break_bwd = self._torques()
-        return self.friction_events(w, break_fwd, break_bwd)
+        return self.friction_events(w, *self.breakaway())
 
 
 class Clutch(PartialCompliantWithRelativeStates, _DryFriction):

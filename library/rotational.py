@@ -336,8 +336,11 @@ class StickSlipGear(PartialGear, PartialFriction):
                 *self.friction_equations(self.w_a, self.a_a, self.tau_loss, fwd, bwd),
                 Eq(self.loss_power, self.tau_loss * self.w_a)]
 
+    def breakaway(self) -> tuple:
+        return self._loss()
+
     def events(self):
-        return self.friction_events(self.w_a, *self._loss())
+        return self.friction_events(self.w_a, *self.breakaway())
 
 
 class Gearbox(Model):

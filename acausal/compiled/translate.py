@@ -245,6 +245,9 @@ def translate(cm, exprs, signals: Signals, t, x, p, d, given: dict | None = None
                 env[var_symbol(v)] = y[i]
         elif all(var_symbol(v) in env for v in st.vars):
             continue
+        elif st.split:
+            raise Unsupported(f"the block of {', '.join(map(repr, st.vars))} may leave them undetermined (friction "
+                              "elements stuck together): its weighted least-norm solve runs in Python")
         elif algebraic is not None:
             zs = [ca.SX.sym(f"z{len(algebraic)}_{i}") for i in range(len(st.vars))]
             for v, z in zip(st.vars, zs):

@@ -396,6 +396,10 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
     for k, st in enumerate(cm.steps):
         if not isinstance(st, NewtonSolve):
             continue
+        if st.split:
+            raise ExportError(f"the block of {', '.join(map(repr, st.vars))} (equations from "
+                              f"{', '.join(sorted(set(st.origins)))}) may leave them undetermined (friction elements "
+                              "stuck together); the FMU's C runtime has no weighted least-norm solve for it")
         local = dict(names)
         for i, v in enumerate(st.vars):
             local[v] = f"y[{i}]"
