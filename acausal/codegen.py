@@ -31,7 +31,8 @@ from sympy.printing.numpy import NumPyPrinter
 from . import runtime
 from .errors import ModelError
 from .signals import SignalCall
-from .solve import Assign, LinearSolve, NewtonSolve
+from .parameter_values import binding_totals
+from .solve import Assign, LinearSolve, NewtonSolve, step_exprs, step_vars
 from .symbols import der_name, time, var_symbol
 
 
@@ -82,7 +83,7 @@ class CodeGenerator:
         self._namespace: dict = {}  # globals of the generated functions (set by generate)
         self._sens_cache: dict = {}  # sensitivity functions generated on demand
         for k, st in enumerate(self.steps):
-            for v in _step_vars(st):
+            for v in step_vars(st):
                 self.defined_by[var_symbol(v)] = k
 
     # ------------------------------------------------------------------ helpers
@@ -119,7 +120,7 @@ class CodeGenerator:
             if k is None or k in need:
                 continue
             need.add(k)
-            for e in _step_exprs(self.steps[k]):
+            for e in step_exprs(self.steps[k]):
                 todo.extend(e.free_symbols)
         return sorted(need)
 
@@ -426,7 +427,7 @@ class CodeGenerator:
             seeds[par_symbol(name)] = {n + j: e for j, e in col.items()}
         step_ids = list(range(len(self.steps))) if outputs is None else \
             self._slice({s for o in outs for s in o.free_symbols})
-        for e in [e for k in step_ids for e in _step_exprs(self.steps[k])] + outs:
+        for e in [e for k in step_ids for e in step_exprs(self.steps[k])] + outs:
             for call in (e.atoms(SignalCall) if e.has(SignalCall) else ()):
                 hit = sorted({wrt[c - n] for s in call.args[2].free_symbols for c in seeds.get(s, {}) if c >= n})
                 if hit:
@@ -486,50 +487,3 @@ def pr_const(e):
 def _cse_symbols(prefix):
     for i in itertools.count():
         yield sp.Symbol(f"{prefix}{i}", real=True)
-
-
-def binding_totals(params, wrt, bindings) -> dict:
-    """``{parameter: {j: d parameter / d wrt[j]}}`` (sympy, nonzero entries only) through the chain of
-    ``bindings`` (parameter -> expression of other parameters); a parameter named in ``wrt`` is independent."""
-    from .symbols import par_symbol
-
-    wrt = tuple(wrt)
-    exprs = {k: sp.sympify(e) for k, e in (bindings or {}).items() if k not in wrt}
-    bound = {k: e.xreplace({s: par_symbol(s.name) for s in e.free_symbols}) for k, e in exprs.items()}
-    memo: dict = {}
-
-    def total(name, j):
-        if (name, j) not in memo:
-            if name == wrt[j]:
-                memo[name, j] = sp.Integer(1)
-            elif name in bound:
-                e = bound[name]
-                memo[name, j] = sp.Add(*[e.diff(s) * total(s.name, j) for s in e.free_symbols])
-            else:
-                memo[name, j] = sp.Integer(0)
-        return memo[name, j]
-
-    out = {}
-    for name in params:
-        col = {j: total(name, j) for j in range(len(wrt))}
-        col = {j: e for j, e in col.items() if e != 0}
-        if col:
-            out[name] = col
-    return out
-
-
-def _step_vars(st):
-    if isinstance(st, Assign):
-        return [st.var]
-    return list(st.vars)
-
-
-def _step_exprs(st):
-    if isinstance(st, Assign):
-        return [st.expr]
-    if isinstance(st, LinearSolve):
-        return [e for row in st.A for e in row] + list(st.b)
-    if isinstance(st, NewtonSolve):
-        return (list(st.residuals) + [e for row in st.jac for e in row]
-                + [e for rule in (st.split or ()) if rule for e in rule])
-    return []

@@ -1,6 +1,7 @@
 """Parameter values of a compiled model: the order in which the parameter vector is computed (bound parameters after
 those their expressions use) and the check of every value (a number, or an array for a batch of runs) against its
-parameter's bounds, with errors naming the parameter and its owner."""
+parameter's bounds, with errors naming the parameter and its owner; and the derivatives of bound parameters through
+their chain of bindings (:func:`binding_totals`, for sensitivities)."""
 from __future__ import annotations
 
 import math
@@ -9,6 +10,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import ModelError
+from .symbols import par_symbol
 
 
 def parameter_plan(flat) -> list:
@@ -67,3 +69,31 @@ def check_parameter(info, v) -> bool:
         raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is above its maximum {info.max} "
                          f"[{info.unit}]")
     return batch
+
+
+def binding_totals(params, wrt, bindings) -> dict:
+    """``{parameter: {j: d parameter / d wrt[j]}}`` (sympy, nonzero entries only) through the chain of
+    ``bindings`` (parameter -> expression of other parameters); a parameter named in ``wrt`` is independent."""
+    wrt = tuple(wrt)
+    exprs = {k: sp.sympify(e) for k, e in (bindings or {}).items() if k not in wrt}
+    bound = {k: e.xreplace({s: par_symbol(s.name) for s in e.free_symbols}) for k, e in exprs.items()}
+    memo: dict = {}
+
+    def total(name, j):
+        if (name, j) not in memo:
+            if name == wrt[j]:
+                memo[name, j] = sp.Integer(1)
+            elif name in bound:
+                e = bound[name]
+                memo[name, j] = sp.Add(*[e.diff(s) * total(s.name, j) for s in e.free_symbols])
+            else:
+                memo[name, j] = sp.Integer(0)
+        return memo[name, j]
+
+    out = {}
+    for name in params:
+        col = {j: total(name, j) for j in range(len(wrt))}
+        col = {j: e for j, e in col.items() if e != 0}
+        if col:
+            out[name] = col
+    return out

@@ -221,3 +221,22 @@ def _tear(rs, ys, unknowns, orig, starts, modes=frozenset(), free=None):
     else:
         head = [NewtonSolve(tear, res, jac, list(orig), [starts.get(u, 0.0) for u in tear])]
     return head + list(reversed(elim))
+
+
+def step_vars(st) -> list:
+    """The variables a solved step defines."""
+    if isinstance(st, Assign):
+        return [st.var]
+    return list(st.vars)
+
+
+def step_exprs(st) -> list:
+    """The expressions a solved step evaluates (what it depends on)."""
+    if isinstance(st, Assign):
+        return [st.expr]
+    if isinstance(st, LinearSolve):
+        return [e for row in st.A for e in row] + list(st.b)
+    if isinstance(st, NewtonSolve):
+        return (list(st.residuals) + [e for row in st.jac for e in row]
+                + [e for rule in (st.split or ()) if rule for e in rule])
+    return []

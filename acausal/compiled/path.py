@@ -282,7 +282,7 @@ class CompiledPath:
         """``(X, S)``: states ``(n, N)`` and their sensitivities ``S = dx / d wrt`` ``(n, q, N)`` at the times
         ``t``, integrated together by CVODES from ``t_start`` (``S = 0`` there): ``dS/dt = f_x S + f_p B`` with
         CasADi's exact derivatives, ``B`` the derivatives of the parameters with respect to ``wrt`` through
-        their ``bindings`` (:func:`acausal.codegen.binding_totals`)."""
+        their ``bindings`` (:func:`acausal.parameter_values.binding_totals`)."""
         entry = self._rhs_entry(u)
         if entry["z_index"]:
             raise SimulationError("compiled path: sensitivities of a model with a Newton block run on the scipy path")
@@ -314,7 +314,7 @@ class CompiledPath:
     def _sens_integrator(self, entry, wrt, bindings, tau, rtol, atol):
         import casadi as ca
 
-        from ..codegen import binding_totals
+        from ..parameter_values import binding_totals
         from .translate import Converter
         from ..symbols import par_symbol
         cm = self.cm
