@@ -362,3 +362,55 @@ def test_an_output_interval_no_run_can_cross_is_gone_in_parts():
         assert [(round(t, 9), direction) for t, _, direction in res.events] == [(1.0, "falling")]
         assert res["tank.x"][-1] == pytest.approx(0.0, abs=1e-9)
         assert res["tank.y"][-1] == pytest.approx(np.log(1001.0), rel=err)  # int_0^1 dt / (1 - t + 1e-3)
+
+
+class _Clock(Component):
+    """``x = t``; from ``x = c`` on, ``y`` grows at 1 (a mode that a state event turns on)."""
+
+    c = Parameter(0.5)
+    x = Variable(start=0.0, fixed=True)
+    y = Variable(start=0.0, fixed=True)
+    on = Discrete(start=0.0)
+
+    def equations(self):
+        return [Eq(der(self.x), 1), Eq(der(self.y), self.on)]
+
+    def events(self):
+        return [Event(self.x - self.c, on_rising={self.on: 1})]
+
+
+class _ClockModel(Model):
+    def build(self):
+        self.k = _Clock()
+
+
+def _spy_runs(monkeypatch, fail=None):
+    """Record every compiled-path run as ``(t_start, t_end)``; ``fail(t_start, t_end)`` true makes it fail as a
+    solver would (a SimulationError). A run that makes 10000 calls stops with an AssertionError (it stalls)."""
+    from acausal.compiled.path import CompiledPath
+    integrate, runs = CompiledPath.integrate, []
+
+    def spied(self, t_start, x0, t_out, *args, **kw):
+        runs.append((float(t_start), float(t_out[-1])))
+        assert len(runs) < 10_000, f"the run stalls at t = {t_start!r} s"
+        if fail is not None and fail(float(t_start), float(t_out[-1])):
+            raise SimulationError("compiled path: this run fails (test)")
+        return integrate(self, t_start, x0, t_out, *args, **kw)
+
+    monkeypatch.setattr(CompiledPath, "integrate", spied)
+    return runs
+
+
+def test_an_interval_no_run_gets_into_goes_to_the_scipy_path_instead_of_stalling(monkeypatch):
+    """After the event at 0.499999 s no run that starts there can be taken (a failing consistent initialisation):
+    the interval up to the output at 0.5 s is gone in parts, halved after each failure, until a part rounds to the
+    event's own time. Such a part has nothing to integrate and "succeeded" without moving, so the halvings went back
+    and forth forever; now the run stops there and goes to the scipy path, which says why."""
+    sim = compile_model(_ClockModel())
+    c = 0.5 - 1e-6
+    runs = _spy_runs(monkeypatch, fail=lambda a, b: c < a < 0.5 and b > a)
+    res = sim.simulate(1.0, n_points=11, params={"k.c": c})
+    assert "no run gets past" in res.solver, res.solver
+    assert res.events[0][0] == pytest.approx(c, abs=1e-9)
+    assert res["k.y"][-1] == pytest.approx(1.0 - c, abs=1e-6)
+    assert len(runs) < 200

@@ -42,6 +42,7 @@ LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tight
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
 LOCATE_DEPTH = 3  # runs of runs' brackets where the cubic between two output times cannot be trusted
 INTERVAL_HALVINGS = 40  # an output interval no run can cross is gone in parts down to 2**-40 of what is left
+SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
 
 
 def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
@@ -70,7 +71,9 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     done = {name: 0.0 for name in names}  # integral from t_start to t
     off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
     while True:
-        while k_out < N and t_out[k_out] <= t:  # outputs at the restart time itself
+        # outputs at the restart time itself, or within round-off of it (an event a few ulps before an output: no
+        # run can be that short, and the state does not move over it)
+        while k_out < N and t_out[k_out] <= t + SAME_TIME_ULPS * np.spacing(abs(t)):
             X[:, k_out], D[:, k_out] = x, d
             for name in names:
                 Q[name][k_out] = done[name]
@@ -80,6 +83,9 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         grid = t_out[k_out:k_out + window]
         if halvings:  # a part of the interval up to the next output (no output there)
             grid = np.array([t + (grid[0] - t) * 0.5**halvings])
+            if not grid[0] > t:  # parts below round-off: no run gets on from t in this mode
+                raise SimulationError(f"compiled path ({path.integrator_name(u)}): no run gets past t = {t!r} s "
+                                      f"towards the output at {t_out[k_out]!r} s in the present modes")
         try:
             Xs, Qs = path.integrate(t, x, grid, p, d, u, *args, integrals=names, variation=True,
                                     max_num_steps=WINDOW_STEPS)
@@ -95,7 +101,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         if hit is None and halvings:  # on from the part's end (its state is no output), with a longer part
             done = {name: done[name] + Qs[name][-1] for name in names}
             t, x = float(grid[-1]), Xs[:, -1].copy()
-            halvings = max(halvings - 1, 1)
+            halvings -= 1  # doubled: back to whole windows after a part at half the interval
             continue
         if hit is None:
             X[:, k_out:k_out + grid.size], D[:, k_out:k_out + grid.size] = Xs, d[:, None]
