@@ -53,11 +53,13 @@ def load_example(name: str):
     return module
 
 
-def run_example(name: str, out_dir: str) -> dict:
-    """``examples/<name>.py``'s ``main(out_dir)`` in this process (``executor="serial"``: it already runs beside the
-    sweep, in a worker of its pool), the parts of its output the report reads (a module-level function returning
-    plain data, so a process pool can run it)."""
-    out = load_example(name).main(Path(out_dir), executor="serial")
+def run_example(name: str, out_dir: str, results=None) -> dict:
+    """``examples/<name>.py``'s ``main`` in this process, and the parts of its output the report reads (a
+    module-level function returning plain data, so a process pool can run it). Without ``results`` the example
+    simulates on its own (``executor="serial"``: it already runs in a worker of the pool, beside the sweep); with
+    them it plots the protocol's results."""
+    main = load_example(name).main
+    out = main(Path(out_dir), executor="serial") if results is None else main(Path(out_dir), results)
     return {k: out[k] for k in ("title", "markdown", "figures", "csv", "comparisons") if k in out}
 
 
@@ -77,9 +79,9 @@ def cmd_paper(args) -> int:
         early = {name: pool.submit(run_example, name, str(out)) for name in SELF_CONTAINED}
         results = report.run_all(conditions, progress=not args.no_progress, executor=pool)
         t_sim = time.perf_counter() - t0
-        outputs = []
-        for name in EXAMPLES:
-            outputs.append(early[name].result() if name in early else load_example(name).main(out, results))
+        # the examples that plot the results, in the pool as well (their figures take seconds each)
+        later = {name: pool.submit(run_example, name, str(out), results) for name in EXAMPLES if name not in early}
+        outputs = [(early[name] if name in early else later[name]).result() for name in EXAMPLES]
     elapsed = time.perf_counter() - t0
     path = report.write_report(out, results, outputs, quick=args.quick, elapsed=elapsed)
     print(f"acausal paper: simulated in {t_sim:.1f} s, figures and report in {elapsed - t_sim:.1f} s",
