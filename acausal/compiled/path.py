@@ -196,6 +196,20 @@ class CompiledPath:
                     failed = _first_line(exc)
                 else:
                     failed = None
+            if failed is not None and "IDACalcIC" in failed and B == 1:
+                # IDAS's consistent initialisation failed (its line search, at a kink of a Max or Min of the
+                # Newton block). The start is consistent already (the Python Newton solve of the algebraic
+                # variables); with the state derivatives there, IDAS starts without initialising.
+                xdot0 = span * self._state_rates(entry, t_start, call["x0"][:, 0], call["z0"][:, 0], P[2:, 0])
+                retry = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
+                                         None if first_step is None else first_step / span, int(max_num_steps), xdot0)
+                with _solver_messages() as said:
+                    try:
+                        out = retry(**call)
+                    except RuntimeError as exc:
+                        failed = _first_line(exc)
+                    else:
+                        failed = None
             if failed is not None:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"
@@ -205,6 +219,14 @@ class CompiledPath:
                 Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
         scale = np.array([1 / VARIATION_SCALE if isinstance(k, tuple) else 1.0 for k in names])
         return [(X[b], dict(zip(names, Q[b] * scale[:, None]))) for b in range(B)]
+
+    def _state_rates(self, entry, t, x, z, pds) -> np.ndarray:
+        """The state derivatives at ``(t, x)`` with the algebraic variables ``z`` (``pds``: parameters, then modes)."""
+        import casadi as ca
+        if "rates" not in entry["cache"]:
+            entry["cache"]["rates"] = ca.Function("rates", [entry["t"], entry["x"], entry["z"], entry["pds"]],
+                                                  [entry["f"]])
+        return np.asarray(entry["cache"]["rates"](t, x, z, pds), dtype=float).ravel()
 
     def _algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
         vals = self.cm.funcs["all_values"](t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u)
@@ -238,10 +260,11 @@ class CompiledPath:
             return t_out, Xn.reshape((len(x0),) + tn.shape)
         return states
 
-    def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step, max_num_steps=MAX_NUM_STEPS):
+    def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step, max_num_steps=MAX_NUM_STEPS,
+                    xdot0=None):
         import casadi as ca
         key = (id(entry), names, tau.tobytes(), rtol, atol, max_step, first_step, max_num_steps)
-        integ = self._integrators.get(key)
+        integ = self._integrators.get(key) if xdot0 is None else None  # one made for its start is not kept
         if integ is None:
             if len(self._integrators) > 256:
                 self._integrators.clear()
@@ -259,8 +282,12 @@ class CompiledPath:
             plugin = "idas" if entry["z"].numel() else "cvodes"  # Newton blocks: a DAE, their variables algebraic
             if plugin == "idas":  # the error test on the states only: the algebraic variables follow from them
                 opts["suppress_algebraic"] = True
+                if xdot0 is not None:  # the start is consistent as given: no initialisation of IDAS's own
+                    opts["calc_ic"] = False
+                    opts["init_xdot"] = [float(v) for v in xdot0]
             integ = ca.integrator("acausal", plugin, dae, 0.0, tau.tolist(), opts)
-            self._integrators[key] = integ
+            if xdot0 is None:
+                self._integrators[key] = integ
         return integ
 
 
