@@ -146,23 +146,23 @@ def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, off):
 
 def _scan(cm, path, times, states, var, p, d, u, args, depth, off):
     z = _zero_values(cm, times, states, p, d, u, off)
-    for k in range(times.size - 1):
+    za_all, zb_all = z[:, :-1], z[:, 1:]
+    crossed_all = _crossed(za_all, zb_all)  # [zero function, interval]
+    # the variation could have gone to zero and back
+    bounced_all = (var[:, 1:] - var[:, :-1] >= (np.abs(za_all) + np.abs(zb_all)) * (1 - 1e-9)) & (za_all != 0)
+    suspect = np.any(crossed_all, axis=0) | (np.any(bounced_all, axis=0) & (depth < MAX_DEPTH))
+    for k in np.flatnonzero(suspect & (times[1:] > times[:-1])):  # in time order, empty intervals skipped
         a, b = times[k], times[k + 1]
-        if b <= a:
-            continue
         za, zb = z[:, k], z[:, k + 1]
         xa = states[:, k]
-        crossed = _crossed(za, zb)
+        crossed = crossed_all[:, k]
         leaving = crossed & (za == 0)  # from an exact zero (at rest): the direction right after a decides
         if np.any(leaving) and not np.any(crossed & ~leaving) and depth < MAX_DEPTH:
             hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
         elif np.any(crossed):
             hit = _locate(cm, path, a, b, xa, states[:, k + 1], za, zb, p, d, u, args, off)
-        elif np.any((var[:, k + 1] - var[:, k] >= (np.abs(za) + np.abs(zb)) * (1 - 1e-9)) & (za != 0)) \
-                and depth < MAX_DEPTH:  # the variation could have gone to zero and back
-            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
         else:
-            hit = None
+            hit = _refine(cm, path, a, b, xa, p, d, u, args, depth, off)
         if hit is not None:
             return hit
     return None
