@@ -119,17 +119,25 @@ class CompiledPath:
         key = ("set", tuple(names), variation)  # the integrator calls this per run: build each set once
         if key in entry["cache"]:
             return entry["cache"][key]
+        new = [name for name in dict.fromkeys(names) if name not in entry["cache"]]
+        if new:  # translated together: the steps they share are converted once
+            exprs = {name: integrand_expr(self.cm, name) for name in new}
+            new = [name for name in new if exprs[name] is not None]
+            entry["cache"].update({name: False for name, e in exprs.items() if e is None})
+            try:
+                qs = translate(self.cm, [exprs[name] for name in new], entry["signals"], entry["t"], entry["x"],
+                               entry["p"], entry["d"], given=entry["given"]) if new else []
+                entry["cache"].update(zip(new, qs))
+            except Unsupported:  # one at a time: which of them has no CasADi form
+                for name in new:
+                    try:
+                        entry["cache"][name] = translate(self.cm, [exprs[name]], entry["signals"], entry["t"],
+                                                         entry["x"], entry["p"], entry["d"], given=entry["given"])[0]
+                    except Unsupported:
+                        entry["cache"][name] = False
         done, exprs = [], []
         for name in names:
-            q = entry["cache"].get(name)
-            if q is None:
-                expr = integrand_expr(self.cm, name)
-                try:
-                    q = translate(self.cm, [expr], entry["signals"], entry["t"], entry["x"], entry["p"],
-                                  entry["d"], given=entry["given"])[0] if expr is not None else False
-                except Unsupported:
-                    q = False
-                entry["cache"][name] = q
+            q = entry["cache"][name]
             if q is not False:
                 done.append(name)
                 exprs.append(q)
