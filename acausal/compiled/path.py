@@ -197,31 +197,20 @@ class CompiledPath:
                 if key not in self._integrators:
                     self._integrators[key] = integ.map(B, "thread", threads) if threads > 1 else integ.map(B)
                 integ = self._integrators[key]
-            with _solver_messages() as said:
-                try:
-                    out = integ(**call)
-                except RuntimeError as exc:
-                    failed = _first_line(exc)
-                else:
-                    failed = None
+            out, failed, said = _run(integ, call)
             if failed is not None and "IDACalcIC" in failed and B == 1:
                 # IDAS's consistent initialisation failed (its line search, at a kink of a Max or Min of the
                 # Newton block). The start is consistent already (the Python Newton solve of the algebraic
                 # variables); with the state derivatives there, IDAS starts without initialising.
                 xdot0 = span * self._state_rates(entry, t_start, call["x0"][:, 0], call["z0"][:, 0], P[2:, 0])
-                retry = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
-                                         None if first_step is None else first_step / span, int(max_num_steps), xdot0)
-                with _solver_messages() as said:
-                    try:
-                        out = retry(**call)
-                    except RuntimeError as exc:
-                        failed = _first_line(exc)
-                    else:
-                        failed = None
+                out, failed, said = _run(self._integrator(entry, names, qexpr, tau, float(rtol), float(atol),
+                                                          max_step / span,
+                                                          None if first_step is None else first_step / span,
+                                                          int(max_num_steps), xdot0), call)
             if failed is not None:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"
-                                      + (f" (SUNDIALS: {said()})" if said() else "")) from None
+                                      + (f" (SUNDIALS: {said})" if said else "")) from None
             X[:, :, ~at_start] = np.asarray(out["xf"]).reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
                 Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
@@ -383,6 +372,16 @@ def _scaled_time(entry):
         out = ca.substitute(expr, entry["t"], t0 + s * span)
         return span * out if rate else out
     return s, ca.vertcat(t0, span, entry["pds"]), scaled
+
+
+def _run(integ, call) -> tuple:
+    """``(outputs, None, "")`` of one integrator call, or ``(None, its failure, what SUNDIALS printed)``."""
+    with _solver_messages() as said:
+        try:
+            return integ(**call), None, ""
+        except RuntimeError as exc:
+            failed = _first_line(exc)
+    return None, failed, said()
 
 
 def _first_line(exc) -> str:
