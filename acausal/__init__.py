@@ -4,7 +4,6 @@ Write components as classes with ports, parameters and sympy equations; connect 
 (flatten, alias elimination, Pantelides index reduction with dummy derivatives, BLT, sympy solving, generated
 numeric code); ``simulate`` many times with other parameters; read any variable by its hierarchical name.
 """
-from sympy import Eq  # equations are written as Eq(lhs, rhs)
 
 from .compiler import CompiledModel, compile_model
 from .components import (Component, Connector, Discrete, Event, Flow, Indeterminate, Input, Model, Parameter,
@@ -15,7 +14,7 @@ from .errors import (AcausalError, ConnectError, DataError, ModelError, SignalEr
                      StructureError)
 from .result import Result
 from .signals import Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline, SampledSignal, Signal
-from .symbols import der, time
+from .symbols import Eq, der, time  # equations are written as Eq(lhs, rhs)
 from .trust import UntrustedResult, UntrustedResultWarning
 
 __version__ = "0.1.0"

@@ -171,7 +171,12 @@ def flatten(model: Component) -> FlatModel:
 
 def _residual(eq, origin):
     if isinstance(eq, sp.Equality):
-        return eq.lhs - eq.rhs
+        res = eq.lhs - eq.rhs
+        if res.is_number:  # written unevaluated (acausal.Eq): one that holds always or never is an error here
+            raise ModelError(f"{origin}: the equation {sp.sstr(eq.lhs)} = {sp.sstr(eq.rhs)} "
+                             f"{'holds whatever the variables are' if res == 0 else 'can never hold'}: it determines "
+                             "nothing; write equations of the component's variables")
+        return res
     if isinstance(eq, bool) or eq in (sp.true, sp.false):
         raise ModelError(f"{origin}: an equation evaluated to {eq}; write equations with sympy.Eq(lhs, rhs)")
     try:

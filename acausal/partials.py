@@ -9,12 +9,11 @@ reaction torque on it; the component writes only its own law.
 import abc
 
 import sympy as sp
-from sympy import Eq
 
 from .components import Component, Discrete, Event, Indeterminate, Parameter, Variable
 from .connectors import Flange, Pin
 from .errors import ModelError
-from .symbols import der
+from .symbols import Eq, der
 
 
 def check_option(component, option: str, value, allowed: tuple):

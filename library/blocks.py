@@ -8,9 +8,8 @@ delayed Sine's kink) is a time event: the compiler turns each relation of time i
 its threshold, so the integrator stops there exactly.
 """
 import sympy as sp
-from sympy import Eq
 
-from acausal import Component, Discrete, Event, Input, Parameter, RealInput, RealOutput, Variable, der, time
+from acausal import Component, Discrete, Eq, Event, Input, Parameter, RealInput, RealOutput, Variable, der, time
 
 
 class SignalSource(Component):

@@ -23,9 +23,9 @@ import math
 from numbers import Real
 
 import sympy as sp
-from sympy import Eq, Max, Min
+from sympy import Max, Min
 
-from acausal import Component, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
+from acausal import Component, Eq, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.partials import check_option
 
 __all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "DutyPositionController",

@@ -5,9 +5,8 @@ is ``v*i``. The motor's ``flange.tau`` is the torque acting on the motor at its 
 delivers to its load is ``-flange.tau``).
 """
 import sympy as sp
-from sympy import Eq
 
-from acausal import Component, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
+from acausal import Component, Eq, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.connectors import HeatPort, Pin
 from acausal.partials import PartialElementaryRotationalToElectrical, check_option
 

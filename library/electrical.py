@@ -5,9 +5,9 @@ Also the supply side of a drive: :class:`Supply`, :class:`IdealDiode`, :class:`B
 :class:`NonRegenerativeRectifier` built from them.
 """
 import sympy as sp
-from sympy import Eq
 
-from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
+from acausal import (Component, Discrete, Eq, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect,
+                     der)
 from acausal.connectors import Pin
 from acausal.partials import OnePort, PartialElementaryRotationalToElectrical
 

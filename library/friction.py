@@ -35,9 +35,8 @@ For the same reason the Stribeck curve uses ``|w|_c = sqrt(w^2 + w_c^2)`` (its d
 the curve's value there is lower by a factor ``exp(-(w_c/w_s)^alpha)``, 1e-5 with the defaults).
 """
 import sympy as sp
-from sympy import Eq
 
-from acausal import Parameter, RealInput, Variable, der
+from acausal import Eq, Parameter, RealInput, Variable, der
 from acausal.errors import ModelError
 from acausal.partials import (PartialCompliantWithRelativeStates, PartialElementaryTwoFlangesAndSupport2,
                               PartialFriction)

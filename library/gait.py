@@ -28,9 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
-from sympy import Eq
-
-from acausal import Component, Input, Parameter, RealOutput, Variable, time
+from acausal import Component, Eq, Input, Parameter, RealOutput, Variable, time
 from acausal.connectors import Flange
 from acausal.errors import DataError, ModelError
 from acausal.partials import PartialElementaryOneFlangeAndSupport2

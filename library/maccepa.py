@@ -25,9 +25,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from sympy import Eq
-
-from acausal import Parameter, Variable
+from acausal import Eq, Parameter, Variable
 from acausal.errors import ModelError
 from acausal.partials import PartialCompliant, PartialCompliantWithRelativeStates
 

@@ -4,9 +4,9 @@ A flange torque acts *on* the component; power flowing into a component through 
 ``flange.tau * der(flange.phi)``.
 """
 import sympy as sp
-from sympy import Eq
 
-from acausal import Component, Discrete, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect, der
+from acausal import (Component, Discrete, Eq, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect,
+                     der)
 from acausal.connectors import Flange
 from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates, PartialFriction,
                               PartialElementaryOneFlangeAndSupport2, PartialGear, PartialTwoFlanges, check_option)

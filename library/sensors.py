@@ -7,9 +7,7 @@ as a causal :class:`~acausal.connectors.RealOutput` ``power`` (to feed a control
 plain variable ``P`` [W] to read by name from a result (``res["sensor.P"]``). Sign conventions follow the MSL
 (flow into a component positive), spelled out with a sketch in each class.
 """
-from sympy import Eq
-
-from acausal import Component, RealOutput, Variable, der
+from acausal import Component, Eq, RealOutput, Variable, der
 from acausal.connectors import Flange, Pin
 
 __all__ = ["ElectricalPowerSensor", "MechanicalPowerSensor"]

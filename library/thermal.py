@@ -21,9 +21,9 @@ Typical use, a motor winding heated by its copper loss::
 """
 import abc
 
-from sympy import Eq, exp
+from sympy import exp
 
-from acausal import Component, Input, Parameter, RealInput, RealOutput, Variable, der, time
+from acausal import Component, Eq, Input, Parameter, RealInput, RealOutput, Variable, der, time
 from acausal.connectors import HeatPort
 
 __all__ = ["HeatCapacitor", "Element1D", "ThermalConductor", "ThermalResistor", "DecayingTemperatureStep",

@@ -435,3 +435,25 @@ def test_overriding_a_bound_parameter_names_what_it_is_bound_to():
         cm.simulate(0.1, params={"box.mesh.ratio": 20.0})
     res = cm.simulate(0.1, params={"box.ratio": 20.0})  # the one to set: the mesh follows it
     assert res["box.mesh.ratio"][0] == 20.0
+
+
+class _Idle(Component):
+    """An equation that holds whatever the variables are, and one that can never hold (both written with
+    ``acausal.Eq``, which leaves them as written)."""
+
+    def __init__(self, never: bool, **kw):
+        super().__init__(**kw)
+        self.never = never
+
+    def equations(self):
+        return [Eq(sp.Integer(1), 2) if self.never else Eq(sp.Symbol("q") - sp.Symbol("q"), 0)]
+
+
+@pytest.mark.parametrize("never, what", [(False, "holds whatever the variables are"), (True, "can never hold")])
+def test_an_equation_that_holds_always_or_never_names_its_component(never, what):
+    class M(Model):
+        def build(self):
+            self.idle = _Idle(never)
+
+    with pytest.raises(ModelError, match=rf"_Idle 'idle': the equation .* {what}"):
+        compile_model(M())
