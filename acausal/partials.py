@@ -166,8 +166,9 @@ class PartialFriction(Component):
     """The stick/slip machine of a friction element (MSL ``PartialFriction``): modes forward, stuck, backward.
 
     A subclass declares its relative speed ``w`` and acceleration ``a`` (``a = der(w)``), its friction torque
-    ``tau`` (positive opposing forward motion), and calls :meth:`friction_equations` and :meth:`friction_events`
-    with the torque it transmits while sliding forward/backward and the limits at which it breaks away::
+    ``tau`` (positive opposing forward motion), writes :meth:`breakaway` (the limits at which it breaks away), and
+    calls :meth:`friction_equations` with the torque it transmits while sliding forward/backward and
+    :meth:`friction_events` with its speed::
 
         tau = stuck sa + (1 - stuck) (forward slide_fwd + (1 - forward) slide_bwd)      a = (1 - stuck) sa
 
@@ -188,10 +189,12 @@ class PartialFriction(Component):
         return [Eq(a, der(w)), Eq(tau, S * self.sa + (1 - S) * (F * slide_fwd + (1 - F) * slide_bwd)),
                 Eq(a, (1 - S) * self.sa)]
 
+    @abc.abstractmethod
     def breakaway(self) -> tuple:
         """``(break_fwd, break_bwd)``: the holding torques at which the element breaks away forward and backward
-        (expressions; ``break_bwd <= break_fwd``). A subclass that uses :meth:`indeterminates` writes it."""
-        raise NotImplementedError(f"{type(self).__name__} does not say its breakaway torques (breakaway())")
+        (expressions; ``break_bwd <= break_fwd``), what its events and its share of a stuck group use."""
+        raise ModelError(f"{type(self).__name__}: a friction element writes breakaway(), the holding torques at "
+                         "which it breaks away forward and backward")
 
     def indeterminates(self) -> list:
         """The holding torque ``sa`` while stuck is free when another stuck element holds the same shaft: the shares
@@ -202,8 +205,9 @@ class PartialFriction(Component):
         return [Indeterminate(self.sa, (fwd + bwd) / 2, sp.Max((fwd - bwd) / 2, MIN_BAND),
                               doc="holding torque while stuck: its share of a stuck group")]
 
-    def friction_events(self, w, break_fwd, break_bwd) -> list:
+    def friction_events(self, w) -> list:
         S, F = self.stuck, self.forward
+        break_fwd, break_bwd = self.breakaway()
         sliding_fwd, sliding_bwd = (1 - S) * F, (1 - S) * (1 - F)
         # forward side: the speed while sliding forward, the margin to breaking away forward while stuck, -1 while
         # sliding backward (no crossing there); the backward side mirrors it

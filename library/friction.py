@@ -151,9 +151,6 @@ class _DryFriction(PartialFriction):
     def breakaway(self) -> tuple:
         return self._torques()[2:]
 
-    def _dry_events(self, w) -> list:
-        return self.friction_events(w, *self.breakaway())
-
 
 class Clutch(PartialCompliantWithRelativeStates, _DryFriction):
     """Clutch between two flanges (MSL ``Clutch``): friction torque ``tau = flange_b.tau`` opposing the relative
@@ -167,7 +164,7 @@ class Clutch(PartialCompliantWithRelativeStates, _DryFriction):
         return [*super().equations(), *self._dry_friction(self.w_rel, self.a_rel, self.tau)]
 
     def events(self):
-        return self._dry_events(self.w_rel)
+        return self.friction_events(self.w_rel)
 
 
 class Brake(PartialElementaryTwoFlangesAndSupport2, _DryFriction):
@@ -188,4 +185,4 @@ class Brake(PartialElementaryTwoFlangesAndSupport2, _DryFriction):
                 *self._dry_friction(self.w, self.a, self.tau)]
 
     def events(self):
-        return self._dry_events(self.w)
+        return self.friction_events(self.w)

@@ -340,7 +340,7 @@ class StickSlipGear(PartialGear, PartialFriction):
         return self._loss()
 
     def events(self):
-        return self.friction_events(self.w_a, *self.breakaway())
+        return self.friction_events(self.w_a)
 
 
 class Gearbox(Model):

@@ -119,20 +119,21 @@ class CompiledPath:
         key = ("set", tuple(names), variation)  # the integrator calls this per run: build each set once
         if key in entry["cache"]:
             return entry["cache"][key]
+        def conv(es):
+            return translate(self.cm, es, entry["signals"], entry["t"], entry["x"], entry["p"], entry["d"],
+                             given=entry["given"])
+
         new = [name for name in dict.fromkeys(names) if name not in entry["cache"]]
         if new:  # translated together: the steps they share are converted once
             exprs = {name: integrand_expr(self.cm, name) for name in new}
             new = [name for name in new if exprs[name] is not None]
             entry["cache"].update({name: False for name, e in exprs.items() if e is None})
             try:
-                qs = translate(self.cm, [exprs[name] for name in new], entry["signals"], entry["t"], entry["x"],
-                               entry["p"], entry["d"], given=entry["given"]) if new else []
-                entry["cache"].update(zip(new, qs))
+                entry["cache"].update(zip(new, conv([exprs[name] for name in new]) if new else []))
             except Unsupported:  # one at a time: which of them has no CasADi form
                 for name in new:
                     try:
-                        entry["cache"][name] = translate(self.cm, [exprs[name]], entry["signals"], entry["t"],
-                                                         entry["x"], entry["p"], entry["d"], given=entry["given"])[0]
+                        entry["cache"][name] = conv([exprs[name]])[0]
                     except Unsupported:
                         entry["cache"][name] = False
         done, exprs = [], []

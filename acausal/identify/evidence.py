@@ -141,7 +141,8 @@ def _cos(a, b) -> float:
 def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) -> dict:
     """The fit refitted per recording and its trend over the session (module docstring). ``fit``: the model to
     refit (a :class:`~.diagnose.Fit`: the diagnosis's final one); ``bounds``: parameter -> (lower, upper) the
-    per-recording values are kept in; ``order``: ``(label, x)`` with ``x`` the recordings' positions in the session (default: their order).
+    per-recording values are kept in; ``order``: ``(label, x)`` with ``x`` the recordings' positions in the
+    session (default: their order).
     Returns ``{"axis", "recordings": [{"experiment", "x", params...}], "trends": {param: {...}}, "drifting":
     [param...], "explained_by": {param: [candidate ids]}}``."""
     names = list(fit.cal.names)
