@@ -173,7 +173,7 @@ class CompiledModel:
 
     def equations(self, component: str | None = None, solved: bool = False):
         """The model's equations, one per line under the component (or connection) they come from; ``print``
-        it (a :class:`~acausal.components.Listing`, a ``str``).
+        it (a :class:`~acausal.describe.Listing`, a ``str``).
 
         ``component``: a component's path (``"motor"``), for its equations and those of everything inside it
         with the connections made inside it; None for the whole model. By default the equations are shown as

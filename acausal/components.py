@@ -34,6 +34,7 @@ import sympy as sp
 
 from .errors import ConnectError, ModelError
 from .signals import as_signal_expr
+from .describe import ClassOrInstanceMethod, describe_component, doc_table
 from .symbols import par_symbol, time, var_symbol
 
 __all__ = ["Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start", "Event",
@@ -213,98 +214,10 @@ class Indeterminate:
     doc: str = ""
 
 
-# --------------------------------------------------------------------------------------------- describing
-class Listing(str):
-    """Text that shows as itself (not as a quoted string) in a notebook or at the prompt: what
-    :meth:`Component.describe` and :meth:`CompiledModel.equations <acausal.compiler.CompiledModel.equations>`
-    return. It is a ``str``: ``print`` it, search it, write it to a file."""
-
-    def __repr__(self):
-        return str(self)
-
-
-class _ClassOrInstanceMethod:
-    """A method that works on the class (``DCMotor.describe()``) and on an instance (``motor.describe()``)."""
-
-    def __init__(self, fn):
-        self.fn = fn
-        self.__doc__ = fn.__doc__
-
-    def __get__(self, obj, owner=None):
-        return lambda *a, **k: self.fn(owner, obj, *a, **k)
-
-
 def _within(d: Parameter, value: float) -> bool:
     """Whether a number given to parameter ``d`` is finite and lies within its declared bounds."""
     return not (value != value or abs(value) == float("inf") or (d.min is not None and value < d.min)
                 or (d.max is not None and value > d.max))
-
-
-def _number(v) -> str:
-    return "-" if v is None else f"{v:g}" if isinstance(v, (int, float)) else str(v)
-
-
-def _bounds(d) -> str:
-    if d.min is None and d.max is None:
-        return ""
-    return f"[{_number(d.min) if d.min is not None else '-inf'}, {_number(d.max) if d.max is not None else 'inf'}]"
-
-
-def _table(rows, indent="    ") -> list:
-    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]) - 1)]
-    return [indent + "  ".join(c.ljust(w) for c, w in zip(r[:-1], widths)) + ("  " + r[-1] if r[-1] else "")
-            for r in rows]
-
-
-def describe_component(cls, obj=None) -> Listing:
-    """The parameter table (value or default, unit, bounds, doc, the device a datasheet default belongs to),
-    the ports and the variables of a component class, or of an instance with the values it was given."""
-    decl = cls.declarations()
-    where = f"{cls.__module__}.{cls.__qualname__}"
-    head = f"{cls.__name__} ({where})" if obj is None or not obj._path else f"{cls.__name__} {obj._path!r} ({where})"
-    lines = [head]
-    doc = " ".join(x.strip() for x in (cls.__doc__ or "").strip().split("\n\n")[0].split("\n")).rstrip(":")
-    if doc and not doc.startswith("Parameters"):
-        lines.append("  " + doc + ("." if not doc.endswith(".") else ""))
-    pars = [(k, d) for k, d in decl.items() if isinstance(d, Parameter)]
-    if pars:
-        lines.append("  parameters (name = value, unit, bounds, doc):")
-        rows = []
-        for k, d in pars:
-            given = obj is not None and k in obj._values
-            value = obj._values[k] if given else d.default
-            text = ("" if given or not d.device else f"[default of {d.device}] ") + d.doc
-            rows.append((k, "=", _number(value) if value is not None else "(required)", d.unit, _bounds(d), text))
-        lines += _table(rows)
-    ports = [(k, d) for k, d in decl.items() if isinstance(d, Connector)]
-    if obj is not None:
-        ports += [(k, v) for k, v in obj._children.items() if isinstance(v, Connector) and k not in decl]
-    if ports:
-        lines.append("  ports:")
-        lines += _table([(k, type(d).__name__, f"({d.domain})", d.doc) for k, d in ports])
-    inputs = [(k, d) for k, d in decl.items() if isinstance(d, Input)]
-    if inputs:
-        lines.append("  inputs (prescribed signals):")
-        lines += _table([(k, d.unit, d.doc) for k, d in inputs])
-    var = [(k, d) for k, d in decl.items() if isinstance(d, (Variable, Discrete))]
-    if var:
-        lines.append("  variables (name, unit, start, doc):")
-        lines += _table([(k, getattr(d, "unit", "mode"),
-                          f"start {_number(d.start)}" + (" fixed" if getattr(d, "fixed", False) else ""), d.doc)
-                         for k, d in var])
-    return Listing("\n".join(lines))
-
-
-def _doc_table(cls) -> str:
-    """The parameter table appended to a component class's docstring (what ``help()`` shows)."""
-    rows = [(k, "=", _number(d.default) if d.default is not None else "(required)", d.unit, _bounds(d),
-             (f"[default of {d.device}] " if d.device else "") + d.doc)
-            for k, d in cls.declarations().items() if isinstance(d, Parameter)]
-    lines = ["Parameters (name = default, unit, bounds, doc):"] + _table(rows)
-    ports = [(k, d) for k, d in cls.declarations().items() if isinstance(d, Connector)]
-    if ports:
-        lines += ["Ports:"] + _table([(k, type(d).__name__, f"({d.domain})", d.doc) for k, d in ports])
-    return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------------------------- components
@@ -318,7 +231,7 @@ class Component:
     shows the same parameter table after the class's own docstring."""
 
     doc_string = ""
-    describe = _ClassOrInstanceMethod(describe_component)
+    describe = ClassOrInstanceMethod(describe_component)
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -326,7 +239,7 @@ class Component:
             doc = cls.__doc__ or ""
             rest = [ln for ln in doc.splitlines()[1:] if ln.strip()]
             pad = min((len(ln) - len(ln.lstrip()) for ln in rest), default=0) * " "
-            cls.__doc__ = doc.rstrip() + "\n\n" + "\n".join(pad + ln for ln in _doc_table(cls).splitlines())
+            cls.__doc__ = doc.rstrip() + "\n\n" + "\n".join(pad + ln for ln in doc_table(cls).splitlines())
 
     def __init__(self, doc: str = "", **values):
         object.__setattr__(self, "_path", "")

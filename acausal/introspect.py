@@ -6,7 +6,7 @@ import fnmatch
 
 import sympy as sp
 
-from .components import Listing
+from .describe import Listing
 from .solve import Assign, LinearSolve, NewtonSolve
 from .symbols import der, split_der, var_symbol
 
