@@ -123,10 +123,16 @@ def required_duty(results, preset: str = HEADLINE) -> dict:
     return {(r.condition.P, r.condition.stride_time): r.max_duty for r in grid(results, "replay", preset)}
 
 
+def duty_of(r: StrideResult, duty: dict | None = None) -> float:
+    """The duty the plan of ``r``'s condition requires: ``duty`` (as :func:`required_duty` gives it) at its
+    precompression and stride time, or the result's own when None."""
+    return r.max_duty if duty is None else duty[(r.condition.P, r.condition.stride_time)]
+
+
 def followed(results, duty: dict) -> list[StrideResult]:
     """The results of the conditions where the motor can follow the plan (``duty`` as :func:`required_duty` gives
     it: the replay's required duty within the driver's limit)."""
-    return [r for r in results if duty[(r.condition.P, r.condition.stride_time)] <= D_MAX]
+    return [r for r in results if duty_of(r, duty) <= D_MAX]
 
 
 def infeasible(results, preset: str = HEADLINE) -> list[StrideResult]:
@@ -340,9 +346,7 @@ def heatmap(ax, results, value, label: str, cmap: str = "viridis", fmt: str = "{
     from matplotlib.patches import Patch, Rectangle
 
     Ps, Ts, grid = as_grid(results, value)
-    required = duty
-    _, _, duty = as_grid(results, lambda r: r.max_duty if required is None else
-                         required[(r.condition.P, r.condition.stride_time)])
+    _, _, duty = as_grid(results, lambda r, required=duty: duty_of(r, required))
     im = ax.imshow(grid, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax)
     ax.set_xticks(range(len(Ts)), [f"{T:g}" for T in Ts])
     ax.set_yticks(range(len(Ps)), [f"{1e3 * P:g}" for P in Ps])
@@ -387,7 +391,7 @@ def grid_rows(results, columns: dict, duty: dict | None = None) -> list[dict]:
         row = dict(model=r.condition.model, preset=r.condition.preset, P_mm=1e3 * r.condition.P,
                    stride_time_s=r.condition.stride_time)
         row.update({k: f(r) for k, f in columns.items()})
-        d = r.max_duty if duty is None else duty[(r.condition.P, r.condition.stride_time)]
+        d = duty_of(r, duty)
         row.update(max_duty=d, motor_can_follow=d <= D_MAX)
         rows.append(row)
     return rows
