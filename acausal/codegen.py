@@ -81,7 +81,7 @@ class CodeGenerator:
         self.signal_orders: dict = {}  # token -> highest order used
         self.defined_by: dict = {}
         self._namespace: dict = {}  # globals of the generated functions (set by generate)
-        self._sens_cache: dict = {}  # sensitivity functions generated on demand
+        self._sens_cache: dict = {}  # sensitivity and value functions generated on demand
         for k, st in enumerate(self.steps):
             for v in step_vars(st):
                 self.defined_by[var_symbol(v)] = k
@@ -393,7 +393,24 @@ class CodeGenerator:
         self._namespace = ns  # shared by functions generated later (sensitivity_function)
         return {k: ns[k] for k in ("all_values", "rhs", "rhs_vec", "jac", "zeros")}
 
-    # ------------------------------------------------------------------ sensitivities (generated on demand)
+    # ------------------------------------------------------------------ generated on demand
+    def values_function(self, names):
+        """Generate (once per tuple of names, then cached) ``f(t, x, p, d, u) -> list`` of the named unknowns only:
+        the backward slice of the steps they need (what the trust checks evaluate at many points)."""
+        names = tuple(names)
+        key = ("values", names)
+        if key not in self._sens_cache:
+            syms = [var_symbol(v) for v in names]
+            items, _ = self._body(self._slice(syms))
+            fname = f"values{len(self._sens_cache)}"
+            outs = ", ".join(self.names[s] for s in syms)
+            src = self._render(fname, items, [f"    return [{outs}{',' if len(syms) == 1 else ''}]"])
+            ns = dict(self._namespace)
+            exec(compile("\n\n".join(self._blocks + [src]) + "\n", f"<acausal generated {fname}>", "exec"), ns)
+            self._sens_cache[key] = ns[fname]
+        return self._sens_cache[key]
+
+
     def sensitivity_function(self, wrt, bindings=None, outputs=None):
         """Generate (once per argument set, then cached) ``sens(t, x, p, d, u) -> (values, dx, dp)``.
 

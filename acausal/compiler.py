@@ -124,6 +124,7 @@ class CompiledModel:
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
         self._param_plan = parameter_plan(flat)
+        self._defaults = None  # the default parameter vector, once param_vector has built it
         # parameters bound to an expression of others: not overridable (they would disagree with the others)
         self._bound = {name: binding for name, _, binding, _ in self._param_plan if binding is not None}
         self._event_assign = _event_assignment_table(flat)
@@ -302,6 +303,8 @@ class CompiledModel:
         broadcast in the generated code; use :meth:`param_batch` for the usual case.
         """
         params = _mapping(params, "params")
+        if not params and self._defaults is not None:
+            return self._defaults.copy()
         for k in params:
             if k not in self._param_index:
                 raise self.unknown_name_error(k, "parameter", self.param_names)
@@ -323,7 +326,10 @@ class CompiledModel:
             for i, n in enumerate(self.param_names):
                 out[i] = values[n]
             return out
-        return np.array([values[n] for n in self.param_names], dtype=float)
+        vector = np.array([values[n] for n in self.param_names], dtype=float)
+        if not params:  # the defaults, checked: the same for every run that overrides nothing
+            self._defaults = vector.copy()
+        return vector
 
     def _bound_message(self, name: str) -> str:
         binding = self._bound[name]

@@ -12,6 +12,17 @@ from .signals import SignalCall
 from .symbols import der_name, split_der
 
 
+def _plain(cm) -> bool:
+    """Whether evaluating ``cm``'s unknowns cannot fail: every step an assignment, no numeric input signal (a
+    numeric block can fail to converge, a signal refuse a time). Worked out once per model."""
+    found = cm.__dict__.get("_plain_values")
+    if found is None:
+        from .solve import Assign
+        found = not cm.input_names and all(isinstance(st, Assign) for st in cm.steps)
+        cm.__dict__["_plain_values"] = found
+    return found
+
+
 class Result:
     """Output of a simulation.
 
@@ -38,11 +49,23 @@ class Result:
         self.inputs = u
         self.modes = D
         self.events = events
-        self._unknowns = dict(zip(cm.unknown_names, _as_rows(cm.funcs["all_values"](self.t, X, p, D, u),
-                                                            self.t.shape)))
-        for i, n in enumerate(cm.state_names):
-            self._unknowns[n] = X[i]
+        self._states_by_name = dict(zip(cm.state_names, X))
+        self._values = None  # every unknown by name, evaluated at the outputs when first asked for (_unknowns)
+        if not _plain(cm):  # a numeric block or an input signal can fail: evaluated now, its error from simulate
+            self._unknowns
         self._cache: dict = {}
+
+    @property
+    def _unknowns(self) -> dict:
+        """Every state and unknown by name (arrays over :attr:`t`)."""
+        if self._values is None:
+            cm = self.model
+            values = dict(zip(cm.unknown_names, _as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
+                                                                                self.modes, self.inputs),
+                                                         self.t.shape)))
+            values.update(self._states_by_name)
+            self._values = values
+        return self._values
 
     # ------------------------------------------------------------------ access
     def names(self, pattern: str | None = None, parameters: bool = False) -> list:
@@ -59,6 +82,8 @@ class Result:
             return False
 
     def __getitem__(self, name: str) -> np.ndarray:
+        if name in self._states_by_name:
+            return self._states_by_name[name]
         if name in self._unknowns:
             return self._unknowns[name]
         if name in self._cache:

@@ -18,6 +18,7 @@ after index reduction is evaluated algebraically at the output times.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -222,7 +223,7 @@ def _simulate_compiled(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, fi
         nodes = path.gauss_states(t_start, x0, t_out, p, d, u, *args)
     else:
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
-    if not np.all(np.isfinite(X)):
+    if not np.isfinite(X).all():
         raise SimulationError("compiled path: non-finite states")
     later = path.quadratures_later(t_start, x0, t_out, p, d, u, *args) if nodes is not None else None
     return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals, more_integrals=later,
@@ -238,11 +239,12 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
                          f"{sorted(METHODS)}")
     t_start, t_end = _number(t_start, "t_start"), _number(t_end, "t_end")
     for what, value in (("t_start", t_start), ("t_end", t_end)):
-        if not np.isfinite(value):  # an infinite span never ends (and has no output grid)
+        if not math.isfinite(value):  # an infinite span never ends (and has no output grid)
             raise ModelError(f"simulate: {what} must be a finite time, got {value}")
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
-    check_tolerances(rtol, atol, "simulate")
+    if not (type(rtol) is float and type(atol) is float and rtol > 0 and atol >= 0):  # the usual case, quickly
+        check_tolerances(rtol, atol, "simulate")
     for what, step in (("max_step", max_step), ("first_step", first_step)):
         if step is not None and not _number(step, what) > 0:
             raise ModelError(f"simulate: {what} must be positive, got {step}")
@@ -253,14 +255,13 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
     if t_eval is None:
         if not isinstance(n_points, (int, np.integer)) or n_points < 1:
             raise ModelError(f"simulate: n_points must be a positive integer, got {n_points!r}")
-        t_out = np.linspace(t_start, t_end, n_points)
-    else:
-        try:
-            t_out = np.asarray(t_eval, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError("simulate: t_eval must be an array of times") from None
-        if t_out.ndim != 1:
-            raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
+        return t_start, t_end, np.linspace(t_start, t_end, n_points)  # increasing, from t_start to t_end
+    try:
+        t_out = np.asarray(t_eval, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError("simulate: t_eval must be an array of times") from None
+    if t_out.ndim != 1:
+        raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
     if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
         raise ModelError("t_eval must be increasing and within [t_start, t_end]")
     return t_start, t_end, t_out
@@ -352,11 +353,12 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
     if starts is not None and not isinstance(starts, Mapping):
         raise ModelError(f"starts must be a dict by variable name, got {type(starts).__name__}")
     starts = dict(starts or {})
-    names = set(cm.names()) | set(flat.variables)
-    for k, v in starts.items():
-        if k not in names:
-            raise cm.unknown_name_error(k, "variable", sorted(names))
-        starts[k] = _number(v, f"start value of {k!r}")
+    if starts:
+        names = set(cm.names()) | set(flat.variables)
+        for k, v in starts.items():
+            if k not in names:
+                raise cm.unknown_name_error(k, "variable", sorted(names))
+            starts[k] = _number(v, f"start value of {k!r}")
     x = np.empty(len(cm.state_names))
     fixed_state = np.zeros(len(cm.state_names), dtype=bool)
     for i, n in enumerate(cm.state_names):
@@ -368,9 +370,11 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
             x[i] = starts.pop(n)
             fixed_state[i] = True
     targets = {}  # non-state fixed variables: name -> value
-    for n, info in flat.variables.items():
-        if info.fixed and n not in cm.state_names:
-            targets[n] = info.start
+    if "_fixed_non_states" not in cm.__dict__:  # which they are is structure: found once per model
+        states = set(cm.state_names)
+        cm.__dict__["_fixed_non_states"] = [n for n, info in flat.variables.items() if info.fixed and n not in states]
+    for n in cm.__dict__["_fixed_non_states"]:
+        targets[n] = flat.variables[n].start
     for n, v in starts.items():
         targets[n] = float(v)
     # fixed starts of variables that alias elimination found to be constant (parameter expressions)

@@ -22,6 +22,7 @@ longer than any sensible one (a stiff model on an explicit method) stops with an
 """
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -78,41 +79,48 @@ def conditioning(res, rtol, atol) -> list:
     error tolerance: one finding naming the worst three, their equations and the states they hang on."""
     cm = res.model
     n = len(cm.state_names)
-    acc = cm.accounts
-    index = {name: i for i, name in enumerate(cm.unknown_names)}
-    watched = [] if acc is None else [index[v] for v in dict.fromkeys(acc.losses + acc.sources + acc.stored)
-                                      if v in index]
-    if n == 0 or res.t.size == 0 or not watched:
+    watched, power, values = _watched(cm)
+    N = res.t.size
+    if n == 0 or N == 0 or not watched:
         return []
-    k = np.unique(np.linspace(0, res.t.size - 1, min(SAMPLES, res.t.size)).astype(int))
-    t, X = res.t[k], np.asarray(res.states, dtype=float)[:, k]
-    D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
+    k = _samples(N)
+    X = np.asarray(res.states, dtype=float)
+    t, Xk = res.t[k], X[:, k]
     m = t.size
-    tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
-        np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(X)
-    # one evaluation of every perturbed point: the samples, then the samples with state j moved, for each j
-    Xs = np.tile(X, (1, n + 1))
-    for j in range(n):
-        Xs[j, (j + 1) * m:(j + 2) * m] += tol[j]
-    Ds = D if np.ndim(D) == 1 else np.tile(D, (1, n + 1))
+    if isinstance(atol, float) and isinstance(rtol, float):
+        tol = atol + rtol * np.abs(Xk)
+    else:
+        tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
+            np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(Xk)
+    # one evaluation of the watched variables at every output and at the samples with state j moved, for each j
+    T, XX = np.empty(N + n * m), np.empty((n, N + n * m))
+    T[:N], XX[:, :N] = res.t, X
+    T[N:].reshape(n, m)[:] = t
+    Xs = XX[:, N:].reshape(n, n, m)  # [state, moved state, sample], a view
+    Xs[:] = Xk[:, None, :]
+    j = np.arange(n)
+    Xs[j, j] += tol
+    D = res.modes
+    if np.ndim(D) == 2:
+        D = np.concatenate([D, np.tile(np.asarray(D)[:, k], (1, n))], axis=1)
     with np.errstate(all="ignore"):
-        rows = cm.funcs["all_values"](np.tile(t, n + 1), Xs, res.params, Ds, res.inputs)
-        vals = _rows([rows[i] for i in watched], (n + 1) * m)
-        dv = np.abs(vals[:, m:].reshape(len(watched), n, m) - vals[:, None, :m])  # [variable, state, sample]
+        vals = _rows(values(T, XX, res.params, D, res.inputs), N + n * m)
+        R = vals[:, :N]
+        dv = np.abs(vals[:, N:].reshape(len(watched), n, m) - R[:, None, k])  # [variable, state, sample]
+        top, low = R.max(axis=1), R.min(axis=1)
+        span, size = top - low, np.maximum(np.abs(top), np.abs(low))
     dv[~np.isfinite(dv)] = 0.0
-    worst = dv.argmax(axis=1)  # [variable, sample]: the state that moves it most
     moved = dv.max(axis=1)  # [variable, sample]
-    R = _rows([res[cm.unknown_names[i]] for i in watched], res.t.size)
-    with np.errstate(all="ignore"):
-        span, size = R.max(axis=1) - R.min(axis=1), np.abs(R).max(axis=1)
     span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
-    power = np.array([cm.unknown_names[i] in acc.losses or cm.unknown_names[i] in acc.sources for i in watched])
     # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
     # stored energies) in the model, a millionth of it (an inductor that never carries current)
-    floor = np.where(power, span[power].max(initial=0.0), span[~power].max(initial=0.0))
-    scale = np.maximum.reduce([span, 1e-3 * size, 1e-6 * floor])
+    floor = np.where(power, span.max(where=power, initial=0.0), span.max(where=~power, initial=0.0))
+    scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
     peak = moved.max(axis=1)
-    ratio = np.divide(peak, scale, out=np.zeros_like(peak), where=scale > 0)
+    ratio = peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
+    if not (ratio > CONDITION_LIMIT).any():
+        return []
+    worst = dv.argmax(axis=1)  # [variable, sample]: the state that moves it most
     duration = float(res.t[-1] - res.t[0]) or 1.0
     negligible = peak * np.where(power, duration, 1.0) < ENERGY_FLOOR
     bad = [q for q in np.argsort(-ratio, kind="stable") if ratio[q] > CONDITION_LIMIT and not negligible[q]]
@@ -135,6 +143,28 @@ def conditioning(res, rtol, atol) -> list:
     return [f"variables not determined by the integration: {', '.join(items)}{more} move by more than "
             f"{CONDITION_LIMIT:g} of their range when a state moves by its error tolerance "
             f"({', '.join(dict.fromkeys(states))}): tighten atol/rtol, or make the model less stiff{culprits}"]
+
+
+def _watched(cm) -> tuple:
+    """``(indices into cm.unknown_names, is-a-power mask, their generated function)`` of the variables the
+    conditioning check watches: the model's loss and source powers and stored energies (found once per model)."""
+    found = cm.__dict__.get("_trust_watched")
+    if found is None:
+        acc = cm.accounts
+        index = {name: i for i, name in enumerate(cm.unknown_names)}
+        names = [] if acc is None else [v for v in dict.fromkeys(acc.losses + acc.sources + acc.stored) if v in index]
+        found = ([index[v] for v in names], np.array([v in acc.losses or v in acc.sources for v in names], dtype=bool),
+                 cm.generator.values_function(names) if names else None)
+        cm.__dict__["_trust_watched"] = found
+    return found
+
+
+@functools.lru_cache(maxsize=64)
+def _samples(size: int) -> np.ndarray:
+    """The output indices the conditioning is checked at: :data:`SAMPLES` evenly spread, both ends included."""
+    k = np.unique(np.linspace(0, size - 1, min(SAMPLES, size)).astype(int))
+    k.setflags(write=False)
+    return k
 
 
 def _rows(values, length: int) -> np.ndarray:
