@@ -57,7 +57,7 @@ class Result:
 
     @property
     def _unknowns(self) -> dict:
-        """Every state and unknown by name (arrays over :attr:`t`)."""
+        """Every state and unknown by name (arrays over :attr:`t`), evaluated when first asked for."""
         if self._values is None:
             cm = self.model
             values = dict(zip(cm.unknown_names, _as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
@@ -66,6 +66,16 @@ class Result:
             values.update(self._states_by_name)
             self._values = values
         return self._values
+
+    def evaluated(self) -> bool:
+        """Whether every unknown has been evaluated at the outputs (a model of plain assignments waits until one is
+        asked for)."""
+        return self._values is not None
+
+    def unknowns_at(self, t, X, D) -> list:
+        """Every unknown (in ``unknown_names`` order) at other points of this run's parameters and inputs: times
+        ``t``, states ``X`` and modes ``D`` (one column per time, or a constant vector); rows over ``t``."""
+        return _as_rows(self.model.funcs["all_values"](t, X, self.params, D, self.inputs), np.shape(t))
 
     # ------------------------------------------------------------------ access
     def names(self, pattern: str | None = None, parameters: bool = False) -> list:

@@ -79,7 +79,7 @@ def conditioning(res, rtol, atol) -> list:
     error tolerance: one finding naming the worst three, their equations and the states they hang on."""
     cm = res.model
     n = len(cm.state_names)
-    watched, power, values = _watched(cm)
+    watched, power, names = _watched(cm)
     N = res.t.size
     if n == 0 or N == 0 or not watched:
         return []
@@ -92,21 +92,25 @@ def conditioning(res, rtol, atol) -> list:
     else:
         tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
             np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(Xk)
-    # one evaluation of the watched variables at every output and at the samples with state j moved, for each j
-    T, XX = np.empty(N + n * m), np.empty((n, N + n * m))
-    T[:N], XX[:, :N] = res.t, X
-    T[N:].reshape(n, m)[:] = t
-    Xs = XX[:, N:].reshape(n, n, m)  # [state, moved state, sample], a view
-    Xs[:] = Xk[:, None, :]
+    # the samples with state j moved, for each j
+    Xs = np.repeat(Xk[:, None, :], n, axis=1)  # [state, moved state, sample]
     j = np.arange(n)
     Xs[j, j] += tol
-    D = res.modes
-    if np.ndim(D) == 2:
-        D = np.concatenate([D, np.tile(np.asarray(D)[:, k], (1, n))], axis=1)
+    D = res.modes if np.ndim(res.modes) == 1 else np.tile(np.asarray(res.modes)[:, k], (1, n))
+    Xs = Xs.reshape(n, n * m)
     with np.errstate(all="ignore"):
-        vals = _rows(values(T, XX, res.params, D, res.inputs), N + n * m)
-        R = vals[:, :N]
-        dv = np.abs(vals[:, N:].reshape(len(watched), n, m) - R[:, None, k])  # [variable, state, sample]
+        if res.evaluated():  # the outputs' values are there: every unknown at the moved samples
+            moved_rows = res.unknowns_at(np.concatenate([t] * n), Xs, D)
+            vals = np.array([moved_rows[i] for i in watched])
+            R = np.array([res[name] for name in names])
+        else:  # only the watched variables (a slice of the steps), at the outputs and the moved samples at once
+            if np.ndim(res.modes) == 2:
+                D = np.concatenate([res.modes, D], axis=1)
+            both = _rows(cm.generator.values_function(names)(np.concatenate([res.t] + [t] * n),
+                                                             np.concatenate([X, Xs], axis=1), res.params, D,
+                                                             res.inputs), N + n * m)
+            R, vals = both[:, :N], both[:, N:]
+        dv = np.abs(vals.reshape(len(watched), n, m) - R[:, None, k])  # [variable, state, sample]
         top, low = R.max(axis=1), R.min(axis=1)
         span, size = top - low, np.maximum(np.abs(top), np.abs(low))
     dv[~np.isfinite(dv)] = 0.0
@@ -114,7 +118,10 @@ def conditioning(res, rtol, atol) -> list:
     span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
     # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
     # stored energies) in the model, a millionth of it (an inductor that never carries current)
-    floor = np.where(power, span.max(where=power, initial=0.0), span.max(where=~power, initial=0.0))
+    spans = span.tolist()
+    kinds = power.tolist()
+    floor = np.where(power, max((s for s, pw in zip(spans, kinds) if pw), default=0.0),
+                     max((s for s, pw in zip(spans, kinds) if not pw), default=0.0))
     scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
     peak = moved.max(axis=1)
     ratio = peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
@@ -146,15 +153,15 @@ def conditioning(res, rtol, atol) -> list:
 
 
 def _watched(cm) -> tuple:
-    """``(indices into cm.unknown_names, is-a-power mask, their generated function)`` of the variables the
-    conditioning check watches: the model's loss and source powers and stored energies (found once per model)."""
+    """``(indices into cm.unknown_names, is-a-power mask, names)`` of the variables the conditioning check watches:
+    the model's loss and source powers and stored energies (found once per model)."""
     found = cm.__dict__.get("_trust_watched")
     if found is None:
         acc = cm.accounts
         index = {name: i for i, name in enumerate(cm.unknown_names)}
         names = [] if acc is None else [v for v in dict.fromkeys(acc.losses + acc.sources + acc.stored) if v in index]
         found = ([index[v] for v in names], np.array([v in acc.losses or v in acc.sources for v in names], dtype=bool),
-                 cm.generator.values_function(names) if names else None)
+                 names)
         cm.__dict__["_trust_watched"] = found
     return found
 

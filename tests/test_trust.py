@@ -44,6 +44,21 @@ def test_warn_returns_the_result_with_its_findings_and_off_checks_nothing(stiff)
         stiff.simulate(1.0, trust="maybe")
 
 
+@pytest.mark.parametrize("R", [1e-9, 0.1])
+def test_the_check_finds_the_same_before_and_after_the_results_values_are_evaluated(R):
+    """A result of plain assignments evaluates its unknowns when first asked for: before that the check evaluates
+    the watched variables itself (a slice of the steps), after it every unknown at the moved samples only."""
+    from acausal.trust import conditioning
+    cm = compile_model(_stiff_rc(R))
+    lazy = cm.simulate(1.0, method="BDF", trust="off")
+    assert not lazy.evaluated()
+    before = conditioning(lazy, 1e-6, 1e-9)
+    assert not lazy.evaluated()  # the check did not evaluate every unknown
+    lazy["C.i"]
+    assert lazy.evaluated() and conditioning(lazy, 1e-6, 1e-9) == before
+    assert bool(before) == (R < 1e-3) and (not before or "R.loss_power" in before[0])
+
+
 def test_the_same_circuit_with_a_sane_resistance_passes():
     res = compile_model(_stiff_rc(R=0.1)).simulate(1.0)
     assert res.trust == [] and abs(res.energy_balance().residual) < 1e-5

@@ -117,8 +117,13 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         X[:, k_out:k_out + upto], D[:, k_out:k_out + upto] = Xs[:, :upto], d[:, None]
         for name in names:
             Q[name][k_out:k_out + upto] = done[name] + Qs[name][:upto]
-        if names:
-            _, q_e = path.integrate(t, x, np.array([t_e]), p, d, u, *args, integrals=names)
+        if names:  # the integrals up to the event: from the last output before it (a short run)
+            if upto:
+                t_a, x_a = float(grid[upto - 1]), Xs[:, upto - 1]
+                done = {name: done[name] + Qs[name][upto - 1] for name in names}
+            else:
+                t_a, x_a = t, x
+            _, q_e = path.integrate(t_a, x_a, np.array([t_e]), p, d, u, *args, integrals=names)
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
         x_e, d, off = handle_event(cm, events, hits, t_e, x_e, p, d, d_new, u, max_events)

@@ -19,7 +19,6 @@ import os
 import sys
 import tempfile
 import threading
-import weakref
 
 import numpy as np
 
@@ -198,10 +197,13 @@ class CompiledPath:
                 tau = even  # evenly spaced up to the round-off of the times: one integrator per count (cached)
             integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
                                      None if first_step is None else first_step / span, int(max_num_steps))
-            P = np.empty((2 + len(ps[0]) + len(d), B))
-            P[0], P[1], P[2 + len(ps[0]):] = t_start, span, np.reshape(d, (-1, 1))
-            for b, p in enumerate(ps):
-                P[2:2 + len(p), b] = p
+            if B == 1:
+                P = np.concatenate(([t_start, span], ps[0], d))[:, None]
+            else:
+                P = np.empty((2 + len(ps[0]) + len(d), B))
+                P[0], P[1], P[2 + len(ps[0]):] = t_start, span, np.reshape(d, (-1, 1))
+                for b, p in enumerate(ps):
+                    P[2:2 + len(p), b] = p
             X0 = np.asarray(x0s, dtype=float).T
             call = {"x0": X0, "p": P}
             if entry["z_index"]:  # the algebraic variables' start: the Python Newton iteration's values there
@@ -226,9 +228,14 @@ class CompiledPath:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"
                                       + (f" (SUNDIALS: {said})" if said else "")) from None
-            X[:, :, ~at_start] = np.asarray(out["xf"]).reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
+            if B == 1 and at_start.sum() == 1 and at_start[0] and isinstance(back, slice):  # the usual run
+                X[0, :, 1:] = out["xf"]
+            else:
+                X[:, :, ~at_start] = out["xf"].reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
-                Q[:, :, ~at_start] = np.asarray(out["qf"]).reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
+                Q[:, :, ~at_start] = out["qf"].reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
+        if not names:
+            return [(X[b], {}) for b in range(B)]
         scale = np.array([1 / VARIATION_SCALE if isinstance(k, tuple) else 1.0 for k in names])
         return [(X[b], dict(zip(names, Q[b] * scale[:, None]))) for b in range(B)]
 
@@ -405,7 +412,7 @@ def _call(integ, call) -> dict:
     and writes in place (no conversion to and from CasADi matrices: 50 us of a 0.65 ms run). CasADi stores a
     matrix by columns, which is the row-major layout of its transpose. One buffer per integrator and thread (a
     buffer holds one evaluation's memory)."""
-    bufs = _BUFFERS.setdefault(integ, {})
+    bufs = integ.__dict__.setdefault("_acausal_buffers", {})  # on the Python object: hashing it costs more
     key = threading.get_ident()
     if key not in bufs:
         ins = [(i, name, integ.size_in(i)) for i, name in enumerate(integ.name_in()) if integ.nnz_in(i)]
@@ -474,5 +481,4 @@ def _solver_messages():
             os.lseek(sink, 0, os.SEEK_SET)
 
 
-_BUFFERS = weakref.WeakKeyDictionary()  # integrator -> {thread: its buffer} (see _call)
 _SINK: list = []  # the descriptor of _solver_messages's scratch file, opened on first use
