@@ -368,8 +368,10 @@ class CodeGenerator:
         rhs_ids = self._slice(dnames)
         items, _ = self._body(rhs_ids)
         vals = ", ".join(self.names[d] for d in dnames)
-        srcs.append(self._render("rhs", items, [f"    return _np_array([{vals}], dtype=float)"]))
-        srcs.append(self._render("rhs_vec", items, [f"    return _bstack([{vals}{',' if len(dnames) == 1 else ''}])"]))
+        rhs = self._render("rhs", items, [f"    return _np_array([{vals}], dtype=float)"])
+        srcs.append(rhs)  # rhs_vec: the same body (one common-subexpression pass), returning a stack
+        srcs.append(rhs.replace("def rhs(", "def rhs_vec(", 1).rsplit("\n", 1)[0]
+                    + f"\n    return _bstack([{vals}{',' if len(dnames) == 1 else ''}])")
         items, D = self._body(rhs_ids, with_jac=True)
         n = len(self.states)
         rows = []

@@ -204,7 +204,7 @@ def max_torque(P, k, A, B):
     return _out(tmax[inv].reshape(P.shape)), _out(amax[inv].reshape(P.shape))
 
 
-def inverse_torque(T, P, k, A, B, tol=1e-12):
+def inverse_torque(T, P, k, A, B, tol=1e-12, reach=None):
     """alpha(T, P) [rad] on the monotonic branch through alpha = 0 (``|alpha| <= alpha_at_max``), inverting Eq. 3.
 
     ``T`` and ``P`` broadcast. All samples are solved at once by safeguarded Newton iteration: a Newton step
@@ -212,7 +212,8 @@ def inverse_torque(T, P, k, A, B, tol=1e-12):
     (zero stiffness at alpha = 0, ``T ~ alpha^3``) converges too. Stops per sample when
     ``|T(alpha) - T| <= tol |T|`` or the bracket is a few ulps wide.
     Raises :class:`ModelError` naming the count, first index, torque and reachable maximum of samples with
-    ``|T| > T_max(P)``, and naming any invalid parameter.
+    ``|T| > T_max(P)``, and naming any invalid parameter. ``reach``: :func:`max_torque` of these ``P``, ``k``, ``A``,
+    ``B`` when the caller has it already (several inversions at the same precompressions).
     """
     A, B = _geometry(A, B)
     k = _scalar("k", k, "N/m")
@@ -222,8 +223,8 @@ def inverse_torque(T, P, k, A, B, tol=1e-12):
         flat = np.flatnonzero(~np.isfinite(T))[0]
         raise ModelError(f"MACCEPA inverse: torque T = {float(T.flat[flat])!r} N m" +
                          (f" at index {_index(flat, T.shape)}" if T.ndim else "") + " is not finite")
-    T, P = np.broadcast_arrays(T, P)
-    tmax, amax = (np.asarray(x) for x in max_torque(P, k, A, B))
+    reach = [np.asarray(x) for x in (max_torque(P, k, A, B) if reach is None else reach)]  # per precompression
+    T, P, tmax, amax = np.broadcast_arrays(T, P, *reach)
     target = np.abs(T)
     out = target > tmax * (1.0 + 1e-14)
     if np.any(out):

@@ -25,7 +25,7 @@ import numpy as np
 
 from acausal import ModelError, PeriodicSpline
 from acausal.library.gait import unit_cycle
-from acausal.library.maccepa import inverse_torque, torque
+from acausal.library.maccepa import inverse_torque, max_torque, torque
 
 N_PLAN = 400  # samples of the gait fraction for the planned trajectory
 ARM_LIMIT = np.pi  # rad: default mechanical range of the moment arm (no bound: the planned arm stays within 25 deg)
@@ -60,15 +60,17 @@ def _taut_ring(start, lo, hi):
     unconstrained optimum, a constant (the mean of ``start``): the samples where it leaves the band."""
     n = start.size
     i = np.arange(n)
+    before, after = np.roll(i, 1), np.roll(i, -1)  # neighbours around the ring
     x = np.full(n, np.mean(start))
     on_lo, on_hi = x < lo, x > hi
     for _ in range(_ITER_MAX):
-        act = np.flatnonzero(on_lo | on_hi)
+        on = on_lo | on_hi
+        act = np.flatnonzero(on)
         if act.size == 0:  # the constant lies in every band: optimal
             return x
         v = np.where(on_lo, lo, hi)[act]
         x = np.interp(np.where(i < act[0], i + n, i), np.append(act, act[0] + n), np.append(v, v[0]))
-        lam = np.where(on_lo | on_hi, 2 * x - np.roll(x, 1) - np.roll(x, -1), 0.0)
+        lam = np.where(on, 2 * x - x[before] - x[after], 0.0)
         new_lo, new_hi = lam + (lo - x) > 0, lam + (hi - x) < 0
         if np.array_equal(new_lo, on_lo) and np.array_equal(new_hi, on_hi):
             return x
@@ -96,11 +98,12 @@ def arm_angles(P, k: float, A: float, B: float, body_mass: float, tolerance: flo
         raise ModelError(f"planning: arm_limit must be > 0 rad, got {arm_limit!r}")
     s, theta, M = gait_samples(body_mass, n)
     Pc = np.asarray(P, dtype=float)[..., None]
-    phi = theta + inverse_torque(M, Pc, k, A, B)
+    most = max_torque(Pc, k, A, B)  # the linkage's reach, for each inversion below
+    phi = theta + inverse_torque(M, Pc, k, A, B, reach=most)
     if tolerance > 0 or np.max(np.abs(phi)) > arm_limit:
-        reach = np.max(np.abs(M))  # the band's ends stay within the linkage's reach
-        lo = theta + inverse_torque(np.clip(M - tolerance, -reach, reach), Pc, k, A, B)
-        hi = theta + inverse_torque(np.clip(M + tolerance, -reach, reach), Pc, k, A, B)
+        reach = np.max(np.abs(M))  # the band's ends stay within the gait's torques
+        lo = theta + inverse_torque(np.clip(M - tolerance, -reach, reach), Pc, k, A, B, reach=most)
+        hi = theta + inverse_torque(np.clip(M + tolerance, -reach, reach), Pc, k, A, B, reach=most)
         lo, hi = np.clip(lo, -arm_limit, arm_limit), np.clip(hi, -arm_limit, arm_limit)
         phi = _least_speed_in_band(phi, lo, hi)
     return s, theta, M, phi
