@@ -54,8 +54,9 @@ class ModelSpec:
     inputs: str = ""  # "module:function" (spec, run-time parameter values) -> {input: Signal}; "" = the model's own
     params: dict = field(default_factory=dict)  # fixed run-time parameter overrides
     uses_precompression: bool = True  # the condition's P sets P_nominal
-    # energy balances within 1.2e-7 on the paper's grids (the rule is 1e-6); energies within 1e-7 of rtol 1e-9's
-    tol: dict = field(default_factory=lambda: dict(rtol=1e-8, atol=1e-10))
+    # energy balances within 3.3e-7 on the paper's grids (the rule is 1e-6); energies within 1e-6 of rtol 1e-8's,
+    # which takes a fifth longer (balances within 1.3e-7)
+    tol: dict = field(default_factory=lambda: dict(rtol=3e-8, atol=1e-10))
     build_key: str = ""  # models with the same key share a compiled model (default: the name)
     limits: Limits = Limits()
     min_points_per_stride: int = 0  # output resolution needed (a model without states is integrated on it)
