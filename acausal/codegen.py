@@ -38,7 +38,7 @@ from .symbols import der_name, time, var_symbol
 
 class _Printer(NumPyPrinter):
     def __init__(self, names):
-        super().__init__({"fully_qualified_modules": True, "inline": True, "allow_unknown_functions": False})
+        super().__init__({"fully_qualified_modules": True, "inline": True, "allow_unknown_functions": False, "order": "none"})
         self._names = names
 
     def _print_Symbol(self, expr):
