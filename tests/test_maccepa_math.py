@@ -153,6 +153,17 @@ def test_inverse_round_trip(P):
     np.testing.assert_allclose(m.inverse_torque(m.torque(a0, P, K, A, B), P, K, A, B), a0, rtol=1e-8, atol=1e-10)
 
 
+def test_inverse_with_the_reach_given_is_the_same_and_still_refuses_what_is_out_of_it():
+    """Several inversions at the same precompressions (the planner's torque and its band's two ends) may pass the
+    linkage's reach once (``reach=``): the same angles, the same error past it."""
+    P = np.array([[0.0], [8 * MM], [18 * MM]])
+    reach = m.max_torque(P, K, A, B)
+    T = np.linspace(-1.0, 1.0, 7) * 0.99 * reach[0]
+    np.testing.assert_array_equal(m.inverse_torque(T, P, K, A, B, reach=reach), m.inverse_torque(T, P, K, A, B))
+    with pytest.raises(ModelError, match="out of reach"):
+        m.inverse_torque(1.01 * reach[0], P, K, A, B, reach=reach)
+
+
 def test_inverse_small_torque_without_precompression():
     # P = 0: T ~ c alpha^3 with c = k B^2 (A + B)^2 / (2 A^2); no stiffness at 0, still solved
     c = K * B ** 2 * (A + B) ** 2 / (2 * A ** 2)

@@ -37,7 +37,7 @@ from ..modes import apply_hits, crossings, handle_event, restarts, settle_modes
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
 WINDOW = 64  # output times per CVODES run at most: an event restarts the run, so the work after it is not thrown away
-WINDOW_STEPS = 4_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
+WINDOW_STEPS = 1_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
 LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tighter than the window's
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
 LOCATE_DEPTH = 3  # runs of runs' brackets where the cubic between two output times cannot be trusted
