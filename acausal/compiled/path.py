@@ -248,8 +248,13 @@ class CompiledPath:
         return np.asarray(entry["cache"]["rates"](t, x, z, pds), dtype=float).ravel()
 
     def _algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
-        vals = self.cm.funcs["all_values"](t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u)
-        return np.array([float(vals[i]) for i in entry["z_index"]])
+        """The algebraic variables at ``(t, x)``: the generated code's Newton solve of their blocks (only the steps
+        they need)."""
+        if "z_values" not in entry["cache"]:
+            names = [self.cm.unknown_names[i] for i in entry["z_index"]]
+            entry["cache"]["z_values"] = self.cm.generator.values_function(names)
+        vals = entry["cache"]["z_values"](t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u)
+        return np.array([float(v) for v in vals])
 
     def integrable(self, names, u) -> list:
         """The names among ``names`` whose integrand has a compiled form (what CVODES can integrate as a
