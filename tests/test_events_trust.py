@@ -414,3 +414,28 @@ def test_an_interval_no_run_gets_into_goes_to_the_scipy_path_instead_of_stalling
     assert res.events[0][0] == pytest.approx(c, abs=1e-9)
     assert res["k.y"][-1] == pytest.approx(1.0 - c, abs=1e-6)
     assert len(runs) < 200
+
+
+def test_a_crossing_at_the_end_of_a_part_writes_no_output_there(monkeypatch):
+    """A run that must go in parts (every run from 0 past 0.06 s fails) meets the event at the end of its first
+    part (0.05 s, half the way to the first output at 0.1 s): located there, as the locating run does when its own
+    solution no longer shows the sign change the part showed at its end. The part's end is no output time: the
+    outputs keep their own times' values (the part's state at 0.05 s was written into the output at 0.1 s)."""
+    import acausal.compiled.events as events
+    sim = compile_model(_ClockModel())
+    _spy_runs(monkeypatch, fail=lambda a, b: a == 0.0 and b > 0.06)
+    first_crossing, snapped = events._first_crossing, []
+
+    def at_the_part_end(cm, path, t, x, grid, Xs, *args):
+        hit = first_crossing(cm, path, t, x, grid, Xs, *args)
+        if hit is not None and grid.size == 1 and abs(hit[0] - grid[0]) < 1e-6 and grid[0] == 0.05:
+            snapped.append(grid[0])
+            return (float(grid[0]), Xs[:, -1].copy()) + tuple(hit[2:])
+        return hit
+
+    monkeypatch.setattr(events, "_first_crossing", at_the_part_end)
+    res = sim.simulate(1.0, n_points=11, params={"k.c": 0.05 - 1e-9})
+    assert snapped == [0.05] and res.solver.startswith("CVODES (compiled path"), res.solver
+    assert res.events[0][0] == pytest.approx(0.05, abs=1e-8)
+    np.testing.assert_allclose(res["k.x"], res.t, atol=1e-8)  # x = t at every output
+    np.testing.assert_allclose(res["k.y"], np.maximum(res.t - 0.05, 0.0), atol=1e-8)

@@ -113,7 +113,8 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             window = min(2 * window, WINDOW)
             continue
         t_e, x_e, hits, d_new = hit
-        upto = np.searchsorted(grid, t_e, side="right")  # outputs before the event keep this segment's values
+        # outputs before the event keep this segment's values (a part's end is no output: none)
+        upto = 0 if halvings else np.searchsorted(grid, t_e, side="right")
         X[:, k_out:k_out + upto], D[:, k_out:k_out + upto] = Xs[:, :upto], d[:, None]
         for name in names:
             Q[name][k_out:k_out + upto] = done[name] + Qs[name][:upto]
