@@ -3,7 +3,8 @@
 ``Friction`` (Modelica Standard Library, Modelica Association, BSD-3-Clause), rebuilt from this library's
 components (the gear is ``StickSlipGear``; the MSL's ``Clutch`` and ``Brake`` are the library's; a
 ``BearingFriction`` with stiction is a ``Brake`` at constant normal force, with a ``Damper`` for a friction torque
-that grows with speed). Conventions, tolerances and the other six examples: ``tests/test_msl_conformance.py``.
+that grows with speed). Conventions and tolerances: ``tests/test_msl_conformance.py``; the other six examples: it,
+``tests/test_msl_conformance_circuits.py`` and ``tests/test_msl_conformance_rectifier.py``.
 
 They are checked against hand-written references of the MSL's friction elements (mode by mode, closed-form mode
 changes or terminal events of a scipy integration): every mode change, the modes at the outputs, the speeds and
@@ -22,7 +23,7 @@ from acausal.library.blocks import Product, Ramp, SignalSource, Sine, Step
 from acausal.library.friction import Brake, Clutch
 from acausal.library.rotational import Damper, Fixed, Inertia, SignalTorque, SpringDamper, StickSlipGear
 
-from .test_msl_conformance import ATOL, BALANCE_TOL, METHODS, RTOL, check_energy, phase_tol
+from .msl_support import ATOL, BALANCE_TOL, METHODS, RTOL, check_energy, phase_tol
 
 
 # ==================================================================== 7-10. stick/slip: the gear demos and Friction

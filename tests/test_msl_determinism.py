@@ -2,7 +2,7 @@
 "deterministic across 10 fresh processes with different hash seeds").
 
 Ten subprocesses, each with its own ``PYTHONHASHSEED``, two at a time, each compiling and running all ten examples
-of ``tests/test_msl_conformance.py`` and ``tests/test_msl_conformance_stickslip.py`` from scratch at the default
+of ``tests/test_msl_conformance*.py`` from scratch at the default
 settings (``sim.simulate(t_end)``), and writing as JSON, for each: the path that ran (``res.solver``), every event (time, number, zero function, direction), the
 output times, a few trajectories at all outputs and the energy balance's residual, every float as its ``repr``
 (the shortest string that reads back to the same double, so equal strings mean equal bits). An example that
@@ -37,16 +37,18 @@ ROOT = Path(__file__).resolve().parents[1]
 def _examples():
     """(name, model factory, t_end, signals recorded) for the ten examples (eleven runs: LossyGearDemo3 twice)."""
     from tests import test_msl_conformance as C
+    from tests import test_msl_conformance_circuits as E
+    from tests import test_msl_conformance_rectifier as R
     from tests import test_msl_conformance_stickslip as S
 
     return [
         ("First", C.First, 0.2, ["inertia1.w", "inertia2.phi", "inertia3.w"]),
         ("DCPM_Start", C.DCPMStart, 2.0, ["la.i", "rotor.w"]),
-        ("CharacteristicIdealDiodes", C.CharacteristicIdealDiodes, 1.0,
+        ("CharacteristicIdealDiodes", E.CharacteristicIdealDiodes, 1.0,
          ["Ideal.i", "With_Ron_Goff.i", "With_Ron_Goff_Vknee.i", "With_Ron_Goff_Vknee.off"]),
-        ("Rectifier", C.Rectifier, 0.02, ["Capacitor1.v", "Inductor1.i", "Inductor2.i", "D3.off"]),
-        ("DiodeBridge2Pulse", C.DiodeBridge2PulseExample, 0.02, ["currentSensor.i", "rectifier.diode_p1.off"]),
-        ("SeriesResonance", C.SeriesResonance, 0.3, ["currentSensor1.i", "capacitor2.v"]),
+        ("Rectifier", R.Rectifier, 0.02, ["Capacitor1.v", "Inductor1.i", "Inductor2.i", "D3.off"]),
+        ("DiodeBridge2Pulse", E.DiodeBridge2PulseExample, 0.02, ["currentSensor.i", "rectifier.diode_p1.off"]),
+        ("SeriesResonance", E.SeriesResonance, 0.3, ["currentSensor1.i", "capacitor2.v"]),
         ("LossyGearDemo1", S.LossyGearDemo, 0.5, ["Inertia1.w", "Inertia2.phi", "gear.tau_loss", "gear.stuck"]),
         ("LossyGearDemo2", lambda: S.LossyGearDemo(bearing=True), 0.5,
          ["Inertia1.w", "gear.stuck", "gear.sa", "bearingFriction.sa"]),
