@@ -1,6 +1,6 @@
 """An exported FMU switches stick/slip modes as simulate() does (issue 21, finding 4 in the FMU's C runtime).
 
-MSL Friction (a clutch and a brake that stick and slip; tests/test_msl_conformance_stickslip.py) exported as an FMI
+MSL Friction (a clutch and a brake that stick and slip; tests/test_msl_conformance_friction.py) exported as an FMI
 2.0 Model Exchange FMU and run by fmpy on output grids where simulate() once lost the clutch's breakaway. Its C
 event iteration watches the indicators the knee rule overruled, and those leaving an exact zero right after an
 event, from where they are (acausal.modes.knee_offsets, ported to the C runtime): every mode change of the
@@ -13,7 +13,7 @@ import pytest
 from acausal.export import export_fmu
 
 from .fmu_support import require_fmu_tools
-from .test_msl_conformance_stickslip import FRICTION, Friction, friction_reference
+from .test_msl_conformance_friction import FRICTION, Friction, friction_reference
 
 require_fmu_tools()
 from fmpy import simulate_fmu  # noqa: E402

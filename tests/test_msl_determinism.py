@@ -38,6 +38,7 @@ def _examples():
     """(name, model factory, t_end, signals recorded) for the ten examples (eleven runs: LossyGearDemo3 twice)."""
     from tests import test_msl_conformance as C
     from tests import test_msl_conformance_circuits as E
+    from tests import test_msl_conformance_friction as F
     from tests import test_msl_conformance_rectifier as R
     from tests import test_msl_conformance_stickslip as S
 
@@ -56,7 +57,7 @@ def _examples():
          ["Inertia1.w", "gear.stuck", "gear.sa", "bearing_a.sa", "bearing_b.sa"]),
         ("LossyGearDemo3 (tau_bf2 = tau_bf1)", lambda: S.LossyGearDemo3(lumped=True), 1.0,
          ["Inertia1.w", "gear.tau_loss", "gear.stuck"]),
-        ("Friction", S.Friction, 3.0, ["inertia1.w", "inertia2.w", "inertia3.phi", "clutch.stuck", "brake.tau"]),
+        ("Friction", F.Friction, 3.0, ["inertia1.w", "inertia2.w", "inertia3.phi", "clutch.stuck", "brake.tau"]),
     ]
 
 
