@@ -125,6 +125,7 @@ class CompiledModel:
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
         self._param_plan = parameter_plan(flat)
         self._defaults = None  # the default parameter vector, once param_vector has built it
+        self.derived: dict = {}  # what the stages after compilation work out from the model once, by their own keys
         # parameters bound to an expression of others: not overridable (they would disagree with the others)
         self._bound = {name: binding for name, _, binding, _ in self._param_plan if binding is not None}
         self._event_assign = _event_assignment_table(flat)

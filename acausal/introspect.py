@@ -37,7 +37,7 @@ def equations_listing(cm, component, solved):
 
 def rate_expr(cm, name):
     """:meth:`CompiledModel.rate_expr <acausal.compiler.CompiledModel.rate_expr>`."""
-    cache = cm.__dict__.setdefault("_rate_cache", {})
+    cache = cm.derived.setdefault("rates", {})
     if name in cache:
         return cache[name]
     known = set(cm.unknown_names) | set(cm.state_names)
@@ -48,8 +48,8 @@ def rate_expr(cm, name):
     else:
         cache[name] = None
         return None
-    assigned = cm.__dict__.setdefault("_assigned", {st.var: st.expr for st in cm.steps
-                                                    if isinstance(st, Assign)})
+    assigned = cm.derived.setdefault("assigned", {st.var: st.expr for st in cm.steps
+                                                  if isinstance(st, Assign)})
     d = der(expr)
     out = None
     for _ in range(16):

@@ -15,11 +15,11 @@ from .symbols import der_name, split_der
 def _plain(cm) -> bool:
     """Whether evaluating ``cm``'s unknowns cannot fail: every step an assignment, no numeric input signal (a
     numeric block can fail to converge, a signal refuse a time). Worked out once per model."""
-    found = cm.__dict__.get("_plain_values")
+    found = cm.derived.get("plain values")
     if found is None:
         from .solve import Assign
         found = not cm.input_names and all(isinstance(st, Assign) for st in cm.steps)
-        cm.__dict__["_plain_values"] = found
+        cm.derived["plain values"] = found
     return found
 
 

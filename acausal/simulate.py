@@ -370,10 +370,10 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
             x[i] = starts.pop(n)
             fixed_state[i] = True
     targets = {}  # non-state fixed variables: name -> value
-    if "_fixed_non_states" not in cm.__dict__:  # which they are is structure: found once per model
+    if "fixed non-states" not in cm.derived:  # which they are is structure: found once per model
         states = set(cm.state_names)
-        cm.__dict__["_fixed_non_states"] = [n for n, info in flat.variables.items() if info.fixed and n not in states]
-    for n in cm.__dict__["_fixed_non_states"]:
+        cm.derived["fixed non-states"] = [n for n, info in flat.variables.items() if info.fixed and n not in states]
+    for n in cm.derived["fixed non-states"]:
         targets[n] = flat.variables[n].start
     for n, v in starts.items():
         targets[n] = float(v)

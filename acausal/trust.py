@@ -155,14 +155,14 @@ def conditioning(res, rtol, atol) -> list:
 def _watched(cm) -> tuple:
     """``(indices into cm.unknown_names, is-a-power mask, names)`` of the variables the conditioning check watches:
     the model's loss and source powers and stored energies (found once per model)."""
-    found = cm.__dict__.get("_trust_watched")
+    found = cm.derived.get("trust: watched")
     if found is None:
         acc = cm.accounts
         index = {name: i for i, name in enumerate(cm.unknown_names)}
         names = [] if acc is None else [v for v in dict.fromkeys(acc.losses + acc.sources + acc.stored) if v in index]
         found = ([index[v] for v in names], np.array([v in acc.losses or v in acc.sources for v in names], dtype=bool),
                  names)
-        cm.__dict__["_trust_watched"] = found
+        cm.derived["trust: watched"] = found
     return found
 
 
