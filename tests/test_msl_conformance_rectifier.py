@@ -1,7 +1,8 @@
 """MSL conformance (issue 21, item 6), ``Modelica.Electrical.Analog.Examples.Rectifier``: the full six-pulse
 bridge rebuilt from the library's components, checked switching by switching against a scipy event-by-event
 integration, and once more with its AC switched off by a Step and run a thousand times longer than its
-commutations last (no event lost in long steps). Sources, conventions and tolerances: ``tests/test_msl_conformance.py``."""
+commutations last (no event lost in long steps). Sources, conventions and tolerances:
+``tests/test_msl_conformance.py``."""
 
 from functools import lru_cache
 
