@@ -2,6 +2,7 @@
 :meth:`Component.describe <acausal.components.Component.describe>` and of a component class's docstring."""
 from __future__ import annotations
 
+
 class Listing(str):
     """Text that shows as itself (not as a quoted string) in a notebook or at the prompt: what
     :meth:`Component.describe` and :meth:`CompiledModel.equations <acausal.compiler.CompiledModel.equations>`

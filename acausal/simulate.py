@@ -243,8 +243,7 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
             raise ModelError(f"simulate: {what} must be a finite time, got {value}")
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
-    if not (type(rtol) is float and type(atol) is float and rtol > 0 and atol >= 0):  # the usual case, quickly
-        check_tolerances(rtol, atol, "simulate")
+    check_tolerances(rtol, atol, "simulate")
     for what, step in (("max_step", max_step), ("first_step", first_step)):
         if step is not None and not _number(step, what) > 0:
             raise ModelError(f"simulate: {what} must be positive, got {step}")
@@ -270,6 +269,8 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
 def check_tolerances(rtol, atol, who: str) -> None:
     """The integrator's relative and absolute tolerances: ``rtol`` positive, ``atol`` not negative (numbers,
     or one per state); a ModelError naming ``who`` otherwise."""
+    if type(rtol) is float and type(atol) is float and rtol > 0 and atol >= 0:  # the usual case, without numpy
+        return
     try:
         ok = bool(np.all(np.asarray(rtol, dtype=float) > 0) and np.all(np.asarray(atol, dtype=float) >= 0))
     except (TypeError, ValueError):

@@ -25,6 +25,7 @@ def Eq(lhs, rhs=0) -> sp.Equality:
     model is flattened, naming its component."""
     return sp.Equality(lhs, rhs, evaluate=False)
 
+
 _DER = re.compile(r"^der\((.*)\)$")
 
 

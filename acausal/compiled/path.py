@@ -160,9 +160,9 @@ class CompiledPath:
     # ------------------------------------------------------------------ integration
     def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=(),
                   variation=False, max_num_steps=MAX_NUM_STEPS):
-        """``(X, Q)``: states at the output times ``t_out`` (shape ``(n_states, len(t_out))``), integrated from
-        ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of each of
-        ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
+        """``(X, Q)``: states at the output times ``t_out`` (non-decreasing; shape ``(n_states, len(t_out))``),
+        integrated from ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of
+        each of ``integrals`` (names as :meth:`Result.energy <acausal.result.Result.energy>` takes them) that has a
         compiled form, integrated by CVODES under the same error control as the states (relative to each
         integral's own size: a port through which energy flows back and forth, netting little, is integrated to
         the tolerance of that net). With ``variation``, ``Q[("variation", i)]`` is the total variation of event
@@ -183,13 +183,13 @@ class CompiledPath:
         names, qexpr = self._quadratures(entry, integrals, variation) if integrals or variation else ((), None)
         X = np.empty((B, n, t_out.size))
         Q = np.zeros((B, len(names), t_out.size))
-        at_start = t_out <= t_start
-        X[:, :, at_start] = np.asarray(x0s, dtype=float)[:, :, None]
-        later = t_out[~at_start]
+        first = int(np.searchsorted(t_out, t_start, side="right"))  # the outputs at the start (t_out is sorted)
+        X[:, :, :first] = np.asarray(x0s, dtype=float)[:, :, None]
+        later = t_out[first:]
         if later.size:
             if later.size < 2 or (later[1:] > later[:-1]).all():
                 grid, back = later, slice(None)
-            else:  # CVODES takes strictly increasing output times
+            else:  # CVODES takes strictly increasing output times: repeated ones are read back
                 grid, back = np.unique(later, return_inverse=True)
             tau = (grid - t_start) / span
             even = np.arange(1, tau.size + 1) / tau.size
@@ -228,12 +228,9 @@ class CompiledPath:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"
                                       + (f" (SUNDIALS: {said})" if said else "")) from None
-            if B == 1 and at_start.sum() == 1 and at_start[0] and isinstance(back, slice):  # the usual run
-                X[0, :, 1:] = out["xf"]
-            else:
-                X[:, :, ~at_start] = out["xf"].reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
+            X[:, :, first:] = out["xf"].reshape(n, B, -1).transpose(1, 0, 2)[:, :, back]
             if names:
-                Q[:, :, ~at_start] = out["qf"].reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
+                Q[:, :, first:] = out["qf"].reshape(len(names), B, -1).transpose(1, 0, 2)[:, :, back]
         if not names:
             return [(X[b], {}) for b in range(B)]
         scale = np.array([1 / VARIATION_SCALE if isinstance(k, tuple) else 1.0 for k in names])
