@@ -119,7 +119,7 @@ def _solve_scalar(r, y, name, orig, starts, modes=frozenset()):
     if sp.count_ops(r) <= 40:
         try:
             sols = sp.solve(r, y, dict=False)
-        except (NotImplementedError, ValueError, TypeError):
+        except (NotImplementedError, ValueError, TypeError):  # sympy finds no closed form: Newton's method below
             sols = []
         real = [s for s in sols if not s.has(sp.I)]
         if len(real) == 1:
