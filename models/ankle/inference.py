@@ -134,13 +134,13 @@ TARGETS = (
     *(Target(f"C1.{p}", "C1", PAPER["table1_energy"][p], 0.05, True, (TABLE1,), _energy(p)) for p in POINTS),
     Target("C2.min", "C2", PAPER["fig9_driver_loss_range"][0], 0.02, False, GRID, _grid_extreme(min)),
     Target("C2.max", "C2", PAPER["fig9_driver_loss_range"][1], 0.02, False, GRID, _grid_extreme(max)),
-    # the claim reads the peak ratio as 1.3-1.6 (the paper: "about 40 % higher") and the energies within 10 %. The
-    # peak ratio gets three times the claim's sigma: the paper's direct drive was the bench's output motor, whose
-    # drive train is unpublished and which delivered about 10 % less than the target torque (4.1), so the ratio
-    # measures that motor as much as the actuator; at the claim's own sigma this one number (which no parameter in
-    # range reaches: see the record) would set the body mass and the linkage friction against Table 1
-    Target("C9.peak_ratio", "C9", 1.45, 0.1, True, FIG7,
-           lambda runs: runs[FIG7[1]].peak_power["source"] / runs[FIG7[0]].peak_power["source"]),
+    # C9 is fitted on its energy ratio only. Its peak ratio (the claim: 1.3-1.6, the paper: "about 40 % higher")
+    # is left to the claims table: the paper's direct drive was the bench's output motor, whose drive train is
+    # unpublished and which delivered about 10 % less than the target torque (4.1), while the model's direct drive
+    # is the actuator's own motor and gears at the full gait torque. The ratio measures that other motor: no value
+    # in range brings the model's below 2, and as a target (even at three times the claim's sigma) it held the
+    # gearhead's drag at zero against Table 1 (fit with it: cost 16, C9 peak at z = +3.7; without it: every
+    # other target within 1 sigma)
     Target("C9.energy_ratio", "C9", PAPER["fig7_energy_direct"] / PAPER["fig7_energy_actuator"], 0.033, True, FIG7,
            lambda runs: runs[FIG7[1]].energy["source"] / runs[FIG7[0]].energy["source"]),
 )
