@@ -158,9 +158,16 @@ def cmd_bench(args) -> int:
     effects = parse_effects(args.effect)
     sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
     truth = {bench_name(k): float(v) for k, v in _pairs(args.truth, "--truth")}
-    conds = bench.default_conditions(strides=args.strides, body_mass=args.body_mass)
+    if args.chain is not None and args.session is not None:
+        from acausal import ModelError
+        raise ModelError("--session records the Eq. (4) truth (its winding warms between recordings); it does not "
+                         "take --chain")
+    mass = args.body_mass
+    if mass is None:
+        mass = bench.truth_values(chain=args.chain).get("body_mass", bench.BODY_MASS) if args.chain else bench.BODY_MASS
+    conds = bench.default_conditions(strides=args.strides, body_mass=mass)
     if args.quick:
-        conds = [bench.BenchCondition(P, T, args.strides, body_mass=args.body_mass)
+        conds = [bench.BenchCondition(P, T, args.strides, body_mass=mass)
                  for P in (0.005, 0.011, 0.018) for T in (1.2, 2.0, 3.0)]
     print(f"acausal bench: {len(conds)} recordings, effects: {effects or 'none'}", file=sys.stderr)
     check_bench_folder(args.out, args.force)
@@ -168,7 +175,8 @@ def cmd_bench(args) -> int:
         paths = bench.run_session(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed,
                                   pause=args.session)
     else:
-        paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed)
+        paths = bench.run_bench(args.out, conds, effects=effects, truth=truth, sensors=sensors, seed=args.seed,
+                                chain=args.chain)
     print(f"wrote {len(paths)} recordings to {args.out} (answer key in {Path(args.out) / 'README.md'})")
     return 0
 
@@ -372,8 +380,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--session", type=float, default=None, metavar="PAUSE_S",
                        help="record the conditions one after another as one session, PAUSE_S seconds apart: the "
                             "winding stays warm between recordings, each JSON says when it started")
-    bench.add_argument("--body-mass", type=float, default=60.0, metavar="KG",
-                       help="body mass the gait torque is scaled with (default 60 kg)")
+    bench.add_argument("--body-mass", type=float, default=None, metavar="KG",
+                       help="body mass the gait torque is scaled with (default 60 kg, or the --chain preset's)")
+    bench.add_argument("--chain", default=None, metavar="PRESET",
+                       help="record the whole component chain (driver, gears, linkage with their losses) with this "
+                            "preset, e.g. paper_fit, instead of the Eq. (4) truth")
     bench.set_defaults(run=cmd_bench)
     fit = sub.add_parser("fit", help="calibrate model parameters on bench recordings (Table 2, Fig. 14)")
     fit.add_argument("data", help="folder of recordings")

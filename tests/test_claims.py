@@ -72,11 +72,15 @@ def test_design_claims_read_their_own_preset(tmp_path):
     assert other["holds"] == "not checked" and "library" in other["note"]
 
 
-def test_r_inflation_claim(tmp_path):
-    diag = [{"parameter": "motor.R", "truth": 0.7, "baseline": 2.0, "extended": 0.7}]
-    assert _claims(tmp_path, [], diagnosis_gear_losses=diag)["C13"]["holds"] == "yes"
-    diag[0]["baseline"] = 0.9
-    assert _claims(tmp_path, [], diagnosis_gear_losses=diag)["C13"]["holds"] == "no"
+def test_r_inflation_claim_reads_the_calibration_on_its_own_presets_chain(tmp_path):
+    t2 = [{"preset": "library", "parameter": "actuator resistance", "unit": "ohm", "motor_datasheet": 0.386,
+           "estimated_total": 0.7, "calibrated": 2.0, "std_error": 0.1}]
+    assert _claims(tmp_path, [], table2_calibrated=t2)["C13"]["holds"] == "yes"
+    t2[0]["calibrated"] = 3.6  # 5.1x: more than 25 % above the paper's 2.86x
+    assert _claims(tmp_path, [], table2_calibrated=t2)["C13"]["holds"] == "no"
+    t2[0]["preset"] = "paper_fit"  # recordings of another chain say nothing of this preset's
+    other = _claims(tmp_path, [], table2_calibrated=t2)["C13"]
+    assert other["holds"] == "not checked" and "library chain" in other["note"]
 
 
 def test_every_claim_is_a_prediction_until_a_fit_uses_it(tmp_path):

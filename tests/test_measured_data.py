@@ -165,6 +165,27 @@ def test_bench_command_line_body_mass_and_bad_input(tmp_path, capsys):
     assert rms[1] > 1.3 * rms[0]
 
 
+def test_bench_records_the_component_chain_of_a_preset(tmp_path, capsys):
+    """``chain``: the truth is the whole chain with a preset's values (driver, gear and linkage losses), not Eq. 4:
+    its driver's constant draw alone takes more from the supply than the Eq. 4 truth's ideal driver gives away."""
+    from acausal import ModelError
+    from acausal.cli import main
+    from acausal.models.ankle.presets import preset
+    cond = bench.BenchCondition(0.008, 2.0, strides=1)
+    eq4, chain = (bench.record(cond, seed=1, chain=c)[0] for c in (None, "paper_fit"))
+    power = [np.mean(c["supply_current_A"] * c["supply_voltage_V"]) for c in (eq4, chain)]
+    assert power[1] - power[0] > preset("paper_fit")["driver.P_q"]
+    bench.run_bench(tmp_path / "rec", [cond], seed=1, chain="paper_fit", executor="serial")
+    assert "preset `paper_fit`" in (tmp_path / "rec" / "README.md").read_text()
+    with pytest.raises(DataError, match="winding_temperature"):  # hidden effects are parts of the Eq. 4 truth
+        bench.run_bench(tmp_path / "a", [cond], effects={"winding_temperature": 1e-3}, chain="paper_fit")
+    with pytest.raises(ModelError, match="paper_fit"):  # an unknown preset lists the known ones
+        bench.run_bench(tmp_path / "b", [cond], chain="paper_fitt")
+    assert not (tmp_path / "b").exists()
+    assert main(["bench", "--out", str(tmp_path / "c"), "--chain", "paper_fit", "--session", "5"]) == 2
+    assert "--session" in capsys.readouterr().err
+
+
 # ---------------------------------------------------------------------------------------------- calibration
 def test_calibration_recovers_truth(clean_set):
     cal, exps = calibration.fit(clean_set, "R,J,b")

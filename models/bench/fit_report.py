@@ -16,22 +16,27 @@ from ..reporting.tables import md_table, write_csv  # noqa: E402
 from ..reporting.figures import save_figure  # noqa: E402
 
 
-def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None) -> dict:
+def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None,
+                preset: str | None = None) -> dict:
     """Write ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv`` and ``fig14_calibration.png``
-    (+ its CSV) into ``out_dir``; returns the example-output dictionary (title, figures, csv, markdown)."""
+    (+ its CSV) into ``out_dir``; returns the example-output dictionary (title, figures, csv, markdown).
+    ``preset``: the preset of the recordings' truth (a virtual bench of the component chain), written as a first
+    column of every row."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows = [dict(parameter=n, start=cal.start[n], value=cal.values[n], std_error=cal.std[n],
+    tag = {} if preset is None else {"preset": preset}
+    rows = [dict(tag, parameter=n, start=cal.start[n], value=cal.values[n], std_error=cal.std[n],
                  relative_std=cal.std[n] / abs(cal.values[n]) if cal.values[n] else np.inf) for n in cal.names]
     values_csv = write_csv(out / "calibration.csv", rows)
-    rm = [dict(recording=e, signal=s, rmse_train=cal.rmse_train[(e, s)], rmse_heldout=cal.rmse_test.get((e, s), np.nan))
-          for (e, s) in cal.rmse_train]
+    rm = [dict(tag, recording=e, signal=s, rmse_train=cal.rmse_train[(e, s)],
+               rmse_heldout=cal.rmse_test.get((e, s), np.nan)) for (e, s) in cal.rmse_train]
     rmse_csv = write_csv(out / "calibration_rmse.csv", rm)
     t2 = table2(cal)
-    t2_csv = write_csv(out / "table2_calibrated.csv", [dict(parameter=a, unit=b, motor_datasheet=c, estimated_total=d,
-                                                           calibrated=e, std_error=f) for a, b, c, d, e, f in t2])
+    t2_csv = write_csv(out / "table2_calibrated.csv", [dict(tag, parameter=a, unit=b, motor_datasheet=c,
+                                                           estimated_total=d, calibrated=e, std_error=f)
+                                                      for a, b, c, d, e, f in t2])
     ba = rmse_before_after(exps, cal, cal.signals)
-    fig_png, fig_csv = _fig14(out, cal, exps, figure_recording)
+    fig_png, fig_csv = _fig14(out, cal, exps, figure_recording, tag)
 
     md = [f"Data: {data_label}. {len(exps)} recordings; every third stride held out; fitted on "
           f"{', '.join(cal.signals)} (noise-scaled, robust soft-L1 loss); {cal.nfev} model evaluations; "
@@ -53,7 +58,7 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
                 before_after=ba)
 
 
-def _fig14(out: Path, cal, exps, name):
+def _fig14(out: Path, cal, exps, name, tag: dict):
     e = next((x for x in exps if x.name == name), None) or max(exps, key=lambda x: x.info["meta"]["stride_time_s"])
     before = e.predict({n: START[n] for n in cal.names if n in START})["motor_current_A"]
     after = e.predict(cal.values)["motor_current_A"]
@@ -72,8 +77,9 @@ def _fig14(out: Path, cal, exps, name):
         ax.legend(fontsize=8, loc="upper right")
     axes[1].set_xlabel(f"time [s] (recording {e.name}, first two strides)")
     png = save_figure(fig, out / "fig14_calibration.png",
-                      shows="model: AnkleActuator.eq4 (replay of the recordings), datasheet start vs calibrated")
-    csv = write_csv(out / "fig14_calibration.csv", [dict(time_s=a, measured_A=b, before_A=c, after_A=d)
+                      shows="model: AnkleActuator.eq4 (replay of the recordings"
+                            + (f" of the {tag['preset']} chain" if tag else "") + "), datasheet start vs calibrated")
+    csv = write_csv(out / "fig14_calibration.csv", [dict(tag, time_s=a, measured_A=b, before_A=c, after_A=d)
                                                     for a, b, c, d in zip(e.t[show], meas[show], before[show],
                                                                           after[show])])
     return png, csv

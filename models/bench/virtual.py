@@ -4,7 +4,10 @@ The bench does what the real one did (paper section 4): the output motor moves t
 condition's stride time, and the actuator's controller tracks the planned moment-arm angle for the condition's
 precompression (closed loop, :meth:`AnkleActuator.eq4 <acausal.models.ankle.actuator.AnkleActuator.eq4>`). The truth
 model is the paper's Eq. (4) structure with ``truth`` parameter values, plus hidden ``effects``
-(:mod:`acausal.models.ankle.effects`) at chosen sizes. Each condition is simulated for ``settle`` strides (discarded:
+(:mod:`acausal.models.ankle.effects`) at chosen sizes; or, with ``chain`` (a preset name such as ``"paper_fit"``),
+the whole component chain of the paper's bench (:data:`~acausal.models.ankle.protocol.BENCH`: supply, rectifier,
+EPOS2 driver, motor, lossy gears, frictional MACCEPA) with that preset's parameters (``truth`` on top): the bench as
+the paper recorded it, to calibrate a simpler model on (C13). Each condition is simulated for ``settle`` strides (discarded:
 the controller settles) and then ``strides`` recorded strides.
 
 Sensors (:class:`Sensors`), sampled at 1 kHz: 14-bit absolute encoders (AS5048A: 2 pi / 16384 steps) on the ankle
@@ -31,8 +34,8 @@ from acausal.library.drives import DCMotor
 from acausal.library.maccepa import Maccepa
 
 from ..ankle.actuator import AnkleActuator
-from ..ankle.presets import EQ4_LUMPED
-from ..ankle.protocol import PRECOMPRESSIONS, STRIDE_TIMES
+from ..ankle.presets import EQ4_LUMPED, preset
+from ..ankle.protocol import BENCH, PRECOMPRESSIONS, STRIDE_TIMES, compiled
 from ..ankle.effects import EFFECTS, effect
 from .recording_format import ANKLE_FORMAT, SIGNALS
 
@@ -99,21 +102,34 @@ class BenchCondition:
 _COMPILED: dict = {}
 
 
-def _truth_model(effects: tuple):
+def _truth_model(effects: tuple, chain: str | None = None):
+    if chain is not None:
+        if effects:
+            raise DataError(f"virtual bench: hidden effects ({', '.join(effects)}) are parts of the Eq. (4) truth; "
+                            f"the component chain (chain={chain!r}) has its losses as components already")
+        return compiled(BENCH).sim
     if effects not in _COMPILED:
         _COMPILED[effects] = compile_model(AnkleActuator.eq4(mode="closed_loop", effects=effects))
     return _COMPILED[effects]
 
 
+def truth_values(truth: dict | None = None, chain: str | None = None) -> dict:
+    """The truth's parameter overrides: Eq. (4)'s :data:`TRUTH`, or the preset ``chain`` of the component chain,
+    with ``truth`` on top."""
+    return {**(TRUTH if chain is None else preset(chain)), **(truth or {})}
+
+
 def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None = None,
-           sensors: Sensors = Sensors(), seed: int = 0, index: int = 0, final: dict | None = None) -> tuple:
-    """Simulate one condition on the truth model; returns ``(columns, meta)`` of the recording. ``final``: a dict
-    filled with the truth's winding temperature at the recording's end (``"winding_K"``: what a session carries to
-    its next recording; only with the ``winding_temperature`` effect)."""
+           sensors: Sensors = Sensors(), seed: int = 0, index: int = 0, final: dict | None = None,
+           chain: str | None = None) -> tuple:
+    """Simulate one condition on the truth model (``chain``: module docstring); returns ``(columns, meta)`` of the
+    recording. ``final``: a dict filled with the truth's winding temperature at the recording's end
+    (``"winding_K"``: what a session carries to its next recording; only with the ``winding_temperature``
+    effect)."""
     effects = dict(effects or {})
-    sim = _truth_model(tuple(sorted(effects)))
-    params = {**TRUTH, **(truth or {}), "stride_time": cond.stride_time, "P_nominal": cond.P, "link.k": K_SPRING,
-              "body_mass": cond.body_mass}
+    sim = _truth_model(tuple(sorted(effects)), chain)
+    params = {**truth_values(truth, chain), "stride_time": cond.stride_time, "P_nominal": cond.P,
+              "link.k": K_SPRING, "body_mass": cond.body_mass}
     for name, value in effects.items():
         params[effect(name).parameter] = value
     T = cond.stride_time
@@ -193,33 +209,40 @@ def default_conditions(strides: int = 6, body_mass: float = BODY_MASS) -> list:
 
 
 def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict | None = None,
-              sensors: Sensors = Sensors(), seed: int = 0, executor: Executor | str | None = None) -> list:
+              sensors: Sensors = Sensors(), seed: int = 0, executor: Executor | str | None = None,
+              chain: str | None = None) -> list:
     """Record every condition into ``out_dir`` (``P08mm_T2.0s.csv`` + ``.json`` ...) and describe the run in
     ``out_dir/README.md`` (truth, hidden effects, sensors: the answer key, which a loader ignores).
-    ``executor`` as in :func:`acausal.sweep.sweep` (default: a process pool on all cores; ``"serial"``).
+    ``executor`` as in :func:`acausal.sweep.sweep` (default: a process pool on all cores; ``"serial"``);
+    ``chain``: record the component chain with this preset instead of Eq. (4) (module docstring).
     Returns the CSV paths."""
     out = Path(out_dir)
     conditions = list(conditions or default_conditions())
     effects = dict(effects or {})
     for name in effects:
         effect(name)
-    jobs = [(c, effects, truth, sensors, seed, i) for i, c in enumerate(conditions)]
+    _truth_model(tuple(sorted(effects)), chain)  # a chain with effects, or an unknown preset, fails here, before
+    truth_values(truth, chain)  # any recording
+    jobs = [(c, effects, truth, sensors, seed, i, None, chain) for i, c in enumerate(conditions)]
     names = [f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s" for c in conditions]
-    about = {"written_by": "acausal bench", "seed": seed, "effects": effects}
+    about = {"written_by": "acausal bench", "seed": seed, "effects": effects, "chain": chain}
     out.mkdir(parents=True, exist_ok=True)
     write_manifest(out, names, complete=False, about=about)  # an interrupted run leaves this: loading then fails
     recs = sweep(_record, jobs, executor=executor)
     paths = [write_recording(out, name, cols, meta, ANKLE_FORMAT) for name, (cols, meta) in zip(names, recs)]
-    _write_readme(out, conditions, effects, {**TRUTH, **(truth or {})}, sensors, seed)
+    _write_readme(out, conditions, effects, truth_values(truth, chain), sensors, seed, chain)
     write_manifest(out, names, complete=True, about=about)
     return paths
 
 
-def _write_readme(out: Path, conditions, effects, truth, sensors, seed):
+def _write_readme(out: Path, conditions, effects, truth, sensors, seed, chain: str | None = None):
+    model = ("Eq. (4) structure with:" if chain is None else
+             f"the component chain of the paper's bench (`{BENCH}`: supply, rectifier, EPOS2 driver, motor, lossy "
+             f"gears, frictional MACCEPA) with preset `{chain}`, its defaults and:")
     lines = ["# Virtual bench recordings (simulated, not measured)", "",
              f"Written by `acausal bench` with seed {seed}: {len(conditions)} recordings in the format of "
              "`acausal.models.bench.recording_format` (closed loop, paper protocol).", "",
-             "## Truth model (the answer key)", "", "Eq. (4) structure with:", ""]
+             "## Truth model (the answer key)", "", model, ""]
     lines += [f"- `{k}` = {v:g}" for k, v in sorted(truth.items())]
     lines += ["", "Hidden effects: " + (", ".join(f"`{k}` = {v:g} {EFFECTS[k].unit}" for k, v in effects.items())
                                         or "none"), "", "## Sensors", ""]
