@@ -38,6 +38,20 @@ def test_an_unknown_the_numbers_cannot_separate_is_not_identified():
     assert on_bound == {"body_mass": False, "link.r_f": True, "planetary.tau_c": False}
 
 
+def test_an_unknown_held_on_its_bound_does_not_blur_the_others():
+    """The fit's active constraint: an unknown on its bound is held there, so an unknown the targets pin is
+    identified even when the held one acts almost alike (it could not be told apart only were the held one free)."""
+    problem = inference.Problem(inference.UNKNOWNS[:3], inference.TARGETS[:5])
+    pinned = np.array([1.0, 2.0, 0.5, 0.0, 1.0]) * 20
+    jac = np.column_stack([pinned, pinned * 1.0001, [0.0, 0.0, 0.0, 30.0, 10.0]])
+    sd_free, identified_free, _ = inference._uncertainty(problem, jac, np.array([0.5, 0.5, 0.5]))
+    assert not identified_free["body_mass"]  # both free: the first two trade against each other
+    sd, identified, _ = inference._uncertainty(problem, jac, np.array([0.5, 0.0, 0.5]))
+    assert identified["body_mass"] and not identified["link.r_f"] and identified["planetary.tau_c"]
+    assert sd["body_mass"] < 0.01 * sd_free["body_mass"]
+    assert sd["link.r_f"] == sd_free["link.r_f"]  # the held one's: as if it were free
+
+
 def test_shipped_record_lies_in_the_ranges_and_names_what_it_fitted():
     record = presets.paper_fit_record()
     for u in record["unknowns"]:

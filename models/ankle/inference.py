@@ -69,6 +69,10 @@ UNKNOWNS = (
     Unknown("planetary.eta", 0.55, 0.75, 0.7, "1",
             "mesh efficiency of the planetary gearhead at load: catalogue maximum 70 % (maxon GP 32 HP, 3 "
             "stages), 55 % at partial load"),
+    Unknown("motor.J", 3.33e-6, 1.6e-5 - 0.7e-7, 3.33e-6, "kg.m2",
+            "inertia on the motor shaft besides the gearhead's 0.7e-7 at its input: the datasheet rotor (3.33e-6) up "
+            "to the paper's estimate of the whole actuator's (Table 2 'estimated total', 1.6e-5); at the upper end the "
+            "bench's driver output dips to about -60 W at 8 mm, 2 s/stride (C10)"),
     Unknown("driver.P_q", 10.0, 15.0, 12.5, "W", "the driver's constant consumption, measured 10-15 W (paper 4.2.1)"),
     Unknown("driver.R_on", 0.02, 0.15, 0.05, "Ohm",
             "conduction resistance of the driver's H-bridge: two MOSFETs in series, 10-75 mOhm each for a 70 V, "
@@ -254,14 +258,23 @@ class Fit:
 def _uncertainty(problem: Problem, jac: np.ndarray, x: np.ndarray):
     """Standard deviations (in parameter units) and identifiability from the scaled Jacobian: the diagonal of
     ``(J^T J)^-1`` from its singular values, a direction with a (numerically) zero singular value giving an
-    infinite deviation to every unknown that moves along it."""
+    infinite deviation to every unknown that moves along it. An unknown on a bound is held there (the optimum's
+    active constraint): the free unknowns' deviations are those with it fixed, and its own is that of the whole
+    Jacobian (the deviation it would have were it free). The singular values are the whole Jacobian's."""
     span = problem.hi - problem.lo
-    _, s, vt = np.linalg.svd(jac, full_matrices=False)
-    flat = s <= 1e-10 * s.max()
-    v = vt.T  # columns: directions in the scaled unknowns
-    finite = np.sum((v[:, ~flat] / s[~flat]) ** 2, axis=1)
-    sd_scaled = np.where(np.any(np.abs(v[:, flat]) > 1e-6, axis=1), np.inf, np.sqrt(finite))
     at_bound = (x <= 1e-3) | (x >= 1 - 1e-3)
+
+    def deviations(columns):
+        _, s, vt = np.linalg.svd(jac[:, columns], full_matrices=False)
+        flat = s <= 1e-10 * s.max() if s.size and s.max() > 0 else np.ones_like(s, dtype=bool)
+        v = vt.T  # columns: directions in the scaled unknowns
+        finite = np.sum((v[:, ~flat] / s[~flat]) ** 2, axis=1)
+        return np.where(np.any(np.abs(v[:, flat]) > 1e-6, axis=1), np.inf, np.sqrt(finite)), s
+
+    sd_scaled, s = deviations(np.arange(x.size))
+    free = np.flatnonzero(~at_bound)
+    if free.size and free.size < x.size:
+        sd_scaled[free] = deviations(free)[0]
     sd = {u.name: float(v * w) for u, v, w in zip(problem.unknowns, sd_scaled, span)}
     identified = {u.name: bool(v < 0.25 and not b) for u, v, b in zip(problem.unknowns, sd_scaled, at_bound)}
     return sd, identified, [float(v) for v in s]
