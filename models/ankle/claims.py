@@ -297,9 +297,10 @@ OPPOSES = {
     "C9": "the paper's direct drive was the bench's output motor (unpublished drive train, about 10 % under the "
           "target torque); the model's is the actuator's own motor and gears delivering the full gait torque",
     "C10": "at 8 mm and 2 s/stride the arm returns little power: the driver output dips no deeper than the moment "
-           "arm's own negative peak; dips of -30 to -70 W appear only at the shortest strides. The paper's estimate of the "
-           "actuator's inertia (Table 2) would deepen it to about -60 W, but the inference holds the inertia at the "
-           "rotor's: the regenerated energy the driver burns would raise the source energy against Table 1 and Fig. 9",
+           "arm's own negative peak; dips of -30 to -70 W appear only at the shortest strides. The paper's estimate "
+           "of the actuator's inertia (Table 2) would deepen it to about -60 W, but the inference holds the inertia "
+           "at the rotor's: the regenerated energy the driver burns would raise the source energy against Table 1 "
+           "and Fig. 9",
     "C11": "the motor follows at 48 V only on a diagonal band of the 1.2 s map (soft springs and low or high "
            "precompressions need more than 0.9 duty), and there the efficiency varies by about a point",
     "C13": "Eq. 4's driver is ideal, so the calibration explains the chain's driver losses in the supply current (its "

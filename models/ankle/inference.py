@@ -5,7 +5,8 @@ plausible range with its source (``../shared/data/parameters.md`` and the notes 
 (:data:`TARGETS`) are the paper's own numbers of claims C1 (Table 1: the five energies at 8 mm, 2 s/stride) and C2
 (Fig. 9: the smallest and largest driver loss over the 6 x 6 grid), both measured on the bench and so computed on
 the bench model (:data:`~acausal.models.ankle.protocol.BENCH`), and C9's energy ratio (Fig. 7: direct drive
-against actuator at 8 mm, 3 s/stride, both replayed; its peak ratio is not a target, see :data:`TARGETS`), each with a standard deviation of a third of the tolerance its claim is read with
+against actuator at 8 mm, 3 s/stride, both replayed; its peak ratio is not a target, see :data:`TARGETS`), each
+with a standard deviation of a third of the tolerance its claim is read with
 (:mod:`acausal.models.ankle.claims`), so a target met to 3 sigma is a claim that holds. Every other claim is a
 prediction of the fitted model. C8 (where the motor can follow) is met by the planner's torque tolerance, chosen
 after the fit as the smallest one that satisfies it (:func:`choose_tolerance`), the fit repeated with it

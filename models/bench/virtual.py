@@ -7,8 +7,8 @@ model is the paper's Eq. (4) structure with ``truth`` parameter values, plus hid
 (:mod:`acausal.models.ankle.effects`) at chosen sizes; or, with ``chain`` (a preset name such as ``"paper_fit"``),
 the whole component chain of the paper's bench (:data:`~acausal.models.ankle.protocol.BENCH`: supply, rectifier,
 EPOS2 driver, motor, lossy gears, frictional MACCEPA) with that preset's parameters (``truth`` on top): the bench as
-the paper recorded it, to calibrate a simpler model on (C13). Each condition is simulated for ``settle`` strides (discarded:
-the controller settles) and then ``strides`` recorded strides.
+the paper recorded it, to calibrate a simpler model on (C13). Each condition is simulated for ``settle`` strides
+(discarded: the controller settles) and then ``strides`` recorded strides.
 
 Sensors (:class:`Sensors`), sampled at 1 kHz: 14-bit absolute encoders (AS5048A: 2 pi / 16384 steps) on the ankle
 and moment-arm angles, motor current as the driver reports it (Gaussian noise, optional offset and first-order
@@ -221,8 +221,9 @@ def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict
     effects = dict(effects or {})
     for name in effects:
         effect(name)
-    _truth_model(tuple(sorted(effects)), chain)  # a chain with effects, or an unknown preset, fails here, before
-    truth_values(truth, chain)  # any recording
+    # a chain with hidden effects, or an unknown preset, fails here, before any recording
+    _truth_model(tuple(sorted(effects)), chain)
+    truth_values(truth, chain)
     jobs = [(c, effects, truth, sensors, seed, i, None, chain) for i, c in enumerate(conditions)]
     names = [f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s" for c in conditions]
     about = {"written_by": "acausal bench", "seed": seed, "effects": effects, "chain": chain}
