@@ -360,7 +360,11 @@ def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monke
     monkeypatch.setattr(CompiledPath, "_integrator", spy_integrator)
     monkeypatch.setattr(CompiledPath, "integrate", spy_integrate)
     monkeypatch.setattr(cm, "simulate", spy_simulate)
-    cond = Condition(P=0.008, stride_time=2.0, model="closed_loop", preset="paper_fit")
+    # an inferred parameter set under which the start's initialisation fails (its values pinned here, so a refit of
+    # the shipped paper_fit preset cannot take the case away)
+    values = {"body_mass": 66.055, "link.r_f": 2.1446e-3, "planetary.tau_c": 0.013425, "planetary.eta": 0.62705,
+              "driver.P_q": 10.1104, "driver.R_on": 0.15, "driver.k_sw": 0.01, "torque_tolerance": 3.0}
+    cond = Condition(P=0.008, stride_time=2.0, model="closed_loop", preset="library", overrides=values)
     fast = run_condition(cond)
     assert solvers[-1].startswith("IDAS (compiled path"), solvers[-1]
     assert sum(x is not None for x in made) >= 1 and not failed  # without the retry: 37 runs failed
