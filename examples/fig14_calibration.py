@@ -7,8 +7,10 @@ calibrates R, J, b on it; the report labels the data as simulated. The bench's t
 with the ``paper_fit`` preset (``chain``: supply, rectifier, EPOS2 driver, motor, lossy gears, frictional MACCEPA),
 the model's best stand-in for the paper's actuator, so that the calibration does what the paper's did: fit Eq. (4)'s
 ideal gear and driver to an actuator that has their losses (claim C13, Table 2's R 0.7 -> 2 ohm); ``chain=None``
-records the Eq. (4) truth itself instead (the calibration then recovers it). With ``data=FOLDER`` it calibrates on
-recordings in that folder instead (the format of ``acausal.models.bench.recording_format``).
+records the Eq. (4) truth itself instead (the calibration then recovers it). The same is done on recordings of the
+chain with each preset of ``beside`` (default the a-priori ``library``), whose rows follow in the tables (C13 of
+each preset). With ``data=FOLDER`` it calibrates on recordings in that folder instead (the format of
+``acausal.models.bench.recording_format``).
 
 Writes ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv``, ``fig14_calibration.png`` (+ CSV),
 each row with the preset of the recordings' truth (``preset``) when they come from a virtual bench of the chain.
@@ -25,8 +27,9 @@ from acausal.models.bench.fit_report import fit_outputs
 
 #: the on-the-fly bench set: 2 precompressions x 4 stride times, 3 recorded strides each
 PRECOMPRESSIONS, STRIDE_TIMES = (0.005, 0.015), (1.2, 1.5, 2.0, 3.0)
-#: the truth of the on-the-fly recordings: the component chain with this preset (None: Eq. 4)
-CHAIN = "paper_fit"
+#: the truth of the on-the-fly recordings: the component chain with this preset (None: Eq. 4), and the presets whose
+#: chains are calibrated beside it
+CHAIN, BESIDE = "paper_fit", ("library",)
 
 
 def conditions(chain: str | None = CHAIN) -> list:
@@ -35,9 +38,15 @@ def conditions(chain: str | None = CHAIN) -> list:
     return [BenchCondition(P, T, strides=3, body_mass=mass) for P in PRECOMPRESSIONS for T in STRIDE_TIMES]
 
 
-def main(out_dir: Path, results=None, data=None, seed: int = 2014, executor=None, chain: str | None = CHAIN) -> dict:
+def main(out_dir: Path, results=None, data=None, seed: int = 2014, executor=None, chain: str | None = CHAIN,
+         beside=BESIDE) -> dict:
     out_dir = Path(out_dir)
+    others = {}
     if data is None:
+        for name in beside if chain else ():
+            folder = out_dir / f"bench_data_{name}"
+            run_bench(folder, conditions(name), seed=seed, executor=executor, chain=name)
+            others[name] = calibration.fit(folder, "R,J,b")[0]
         data = out_dir / "bench_data"
         run_bench(data, conditions(chain), seed=seed, executor=executor, chain=chain)
         truth = (f"the component chain with preset `{chain}` (driver, gear and linkage losses included)" if chain else
@@ -47,7 +56,7 @@ def main(out_dir: Path, results=None, data=None, seed: int = 2014, executor=None
     else:
         label, chain = f"recordings in `{data}`", None
     cal, exps = calibration.fit(data, "R,J,b")
-    out = fit_outputs(out_dir, cal, exps, label, preset=chain)
+    out = fit_outputs(out_dir, cal, exps, label, preset=chain, others=others)
     out["calibrated"] = dict(cal.values)
     return out
 

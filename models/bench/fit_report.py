@@ -16,25 +16,36 @@ from ..reporting.tables import md_table, write_csv  # noqa: E402
 from ..reporting.figures import save_figure  # noqa: E402
 
 
+def _rows(cal, tag: dict) -> tuple:
+    """The rows of ``calibration.csv``, ``calibration_rmse.csv`` and ``table2_calibrated.csv`` of one calibration,
+    each led by ``tag``."""
+    values = [dict(tag, parameter=n, start=cal.start[n], value=cal.values[n], std_error=cal.std[n],
+                   relative_std=cal.std[n] / abs(cal.values[n]) if cal.values[n] else np.inf) for n in cal.names]
+    rmse = [dict(tag, recording=e, signal=s, rmse_train=cal.rmse_train[(e, s)],
+                 rmse_heldout=cal.rmse_test.get((e, s), np.nan)) for (e, s) in cal.rmse_train]
+    t2 = [dict(tag, parameter=a, unit=b, motor_datasheet=c, estimated_total=d, calibrated=e, std_error=f)
+          for a, b, c, d, e, f in table2(cal)]
+    return values, rmse, t2
+
+
 def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None,
-                preset: str | None = None) -> dict:
+                preset: str | None = None, others: dict | None = None) -> dict:
     """Write ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv`` and ``fig14_calibration.png``
     (+ its CSV) into ``out_dir``; returns the example-output dictionary (title, figures, csv, markdown).
     ``preset``: the preset of the recordings' truth (a virtual bench of the component chain), written as a first
-    column of every row."""
+    column of every row. ``others``: further calibrations by the preset of their recordings' truth, whose rows
+    follow in the three tables (the figure and the report's tables show the first)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     tag = {} if preset is None else {"preset": preset}
-    rows = [dict(tag, parameter=n, start=cal.start[n], value=cal.values[n], std_error=cal.std[n],
-                 relative_std=cal.std[n] / abs(cal.values[n]) if cal.values[n] else np.inf) for n in cal.names]
+    rows, rm, t2_rows = _rows(cal, tag)
+    for name, other in (others or {}).items():
+        for table, more in zip((rows, rm, t2_rows), _rows(other, {"preset": name})):
+            table.extend(more)
     values_csv = write_csv(out / "calibration.csv", rows)
-    rm = [dict(tag, recording=e, signal=s, rmse_train=cal.rmse_train[(e, s)],
-               rmse_heldout=cal.rmse_test.get((e, s), np.nan)) for (e, s) in cal.rmse_train]
     rmse_csv = write_csv(out / "calibration_rmse.csv", rm)
     t2 = table2(cal)
-    t2_csv = write_csv(out / "table2_calibrated.csv", [dict(tag, parameter=a, unit=b, motor_datasheet=c,
-                                                           estimated_total=d, calibrated=e, std_error=f)
-                                                      for a, b, c, d, e, f in t2])
+    t2_csv = write_csv(out / "table2_calibrated.csv", t2_rows)
     ba = rmse_before_after(exps, cal, cal.signals)
     fig_png, fig_csv = _fig14(out, cal, exps, figure_recording, tag)
 
@@ -43,7 +54,7 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
           f"{'converged' if cal.success else 'NOT converged: ' + cal.message}.", "",
           md_table(["parameter", "start (datasheet)", "calibrated", "std. error", "rel."],
                    [[f"`{r['parameter']}`", f"{r['start']:.4g}", f"{r['value']:.4g}", f"{r['std_error']:.2g}",
-                     f"{100 * r['relative_std']:.2g} %"] for r in rows]),
+                     f"{100 * r['relative_std']:.2g} %"] for r in rows[:len(cal.names)]]),
           "", "Table 2 of the paper with the calibrated column (Eq. 4, motor-side coefficients):", "",
           md_table(["parameter", "unit", "motor datasheet", "estimated total", "calibrated", "std. error"],
                    [[a, b, f"{c:.3g}", f"{d:.3g}", "-" if not np.isfinite(e) else f"{e:.3g}",
@@ -53,6 +64,9 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
                    [[s, f"{ba['datasheet'][s]:.4g}", f"{ba['calibrated'][s]:.4g}"] for s in cal.signals]),
           "", f"Standard errors: {cal.std_method} ({cal.clusters} clusters). They say how well the data pins "
           "each parameter within this model, not what the model misses (see `acausal diagnose`)."]
+    for name, other in (others or {}).items():
+        md += ["", f"The same calibration on recordings of the `{name}` chain (rows `preset` = {name} in the "
+               "tables): " + ", ".join(f"`{n}` = {other.values[n]:.4g}" for n in other.names) + "."]
     return dict(title="Calibration (paper section 4.3, Table 2, Fig. 14)", figures=[fig_png],
                 csv=[values_csv, rmse_csv, t2_csv, fig_csv], markdown="\n".join(md), comparisons=[],
                 before_after=ba)
