@@ -158,8 +158,8 @@ def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = Non
     inner = (t >= t[0] + m) & (t <= t[-1] - m)
     held = (stride % split.holdout_every) == split.holdout_every - 1
     if not (inner & held).any() or not (inner & ~held).any():
-        raise DataError(f"{rec.path or rec.name}: {stride.max() + 1} stride(s) of {T} s are too few to hold out every "
-                        f"{split.holdout_every}th stride and fit on the rest")
+        raise DataError(f"{rec.path or rec.name}: {stride.max() + 1} stride(s) of {T} s are too few to hold out one "
+                        f"stride in every {split.holdout_every} and fit on the rest")
     measured = {s: rec[s] for s in SIGNALS}
     wanted = dict(SIGNALS)
 

@@ -88,7 +88,7 @@ class AnkleProblem(Problem):
 
     def heldout(self) -> dict:
         return {"signal": self.signals[0], "unit": "A" if self.signals[0].endswith("_A") else "",
-                "split": f"every {self.split.holdout_every}th stride of each recording"}
+                "split": f"one stride in every {self.split.holdout_every} of each recording held out"}
 
     def regressors(self, exp, values: dict) -> dict:
         cm = replay_model(exp.info["effects"])
