@@ -303,11 +303,11 @@ OPPOSES = {
            "and Fig. 9",
     "C11": "the motor follows at 48 V only on a diagonal band of the 1.2 s map (soft springs and low or high "
            "precompressions need more than 0.9 duty), and there the efficiency varies by about a point",
+    "C12": "the driver's constant draw costs more per stride at 2 s; the paper's maps come from its Eq. 4 model, "
+           "which has no such draw (without it, most designs are more efficient at 2 s)",
     "C13": "Eq. 4's driver is ideal, so the calibration explains the chain's driver losses in the supply current (its "
            "constant draw, conduction, switching) by R as well, on top of the gear and linkage losses the paper's "
            "inflation stands for",
-    "C12": "the driver's constant draw costs more per stride at 2 s; the paper's maps come from its Eq. 4 model, "
-           "which has no such draw (without it, most designs are more efficient at 2 s)",
 }
 CLAIMS = [Claim(*row, opposes=OPPOSES.get(row[0], "")) for row in _TABLE]
 

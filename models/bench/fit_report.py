@@ -35,6 +35,9 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
     ``preset``: the preset of the recordings' truth (a virtual bench of the component chain), written as a first
     column of every row. ``others``: further calibrations by the preset of their recordings' truth, whose rows
     follow in the three tables (the figure and the report's tables show the first)."""
+    if others and preset is None:
+        raise ValueError("fit_outputs: calibrations beside the first (others) need the first's preset, so that every "
+                         "row says which recordings it comes from")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     tag = {} if preset is None else {"preset": preset}
