@@ -25,6 +25,7 @@ import numpy as np
 from scipy import integrate
 
 from .errors import ModelError, SimulationError
+from .failures import non_finite_error, step_failure
 from .modes import (algebraic_modes, apply_hits, crossings_in_step, handle_event, restarts, settle_modes,
                     zeros)
 
@@ -127,7 +128,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
         try:
             solver = solver_cls(fun, t, x, t_end, **opts)  # evaluates the model to choose its first step
         except _NonFinite as exc:
-            raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
+            raise non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
         z_old = zeros(cm, t, x, p, d, u, off=off) if has_events else None
         restarted = False
         while solver.status == "running":
@@ -135,11 +136,11 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
             try:
                 msg = solver.step()
             except _NonFinite as exc:  # see _make_functions
-                raise _non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
+                raise non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
             y_sum = float(solver.y.sum())
             if solver.status == "failed" or y_sum - y_sum != 0.0:  # failed, or NaN/inf in the states
                 bad = _find_non_finite(cm, solver, t_prev, p, d, u)
-                raise bad if bad is not None else _failure(cm, solver, msg, p, d, u, rtol, atol)
+                raise bad if bad is not None else step_failure(cm, solver, msg, p, d, u, rtol, atol)
             t_new = solver.t
             steps_left -= 1
             if steps_left < 0:
@@ -338,7 +339,7 @@ def _find_non_finite(cm, solver, t_prev, p, d, u):
                 continue
             if not (np.all(np.isfinite(x)) and np.all(np.isfinite(dx))
                     and all(np.all(np.isfinite(v)) for v in vals)):
-                return _non_finite_error(cm, t, x, p, d, u)
+                return non_finite_error(cm, t, x, p, d, u)
     return None
 
 
@@ -439,63 +440,3 @@ def _value_lookup(cm, t, x, p, d, u):
         raise cm.unknown_name_error(name, "variable", cm.names())
 
     return get
-
-
-# ---------------------------------------------------------------------------------------------- failures
-def _zero_parameters_hint(cm, p, names) -> str:
-    """A hint naming the parameters equal to zero of the components that own ``names`` (a zero resistance,
-    capacitance or inertia makes a system singular although it lies inside the declared bounds)."""
-    owners = {cm.flat.owner_of(n) for n in names} - {None}
-    zero = [k for k, v in zip(cm.param_names, np.atleast_1d(p)) if np.ndim(v) == 0 and v == 0
-            and k.rsplit(".", 1)[0] in owners]
-    return (f"; {', '.join(f'{k} = 0' for k in zero)} makes the system singular: give a positive value"
-            if zero else "")
-
-
-def _non_finite_error(cm, t, x, p, d, u, where="rhs"):
-    # Evaluate at a numpy time so that a division by zero gives inf instead of raising, and name the
-    # non-finite unknown computed *first* (the cause, e.g. y = sqrt(x)) rather than the first in name order
-    # (often a derivative that merely depends on it, 'der(z)' for z' = y); the others follow as consequences.
-    t_np = np.float64(t)
-    try:
-        with np.errstate(all="ignore"):
-            vals = cm.funcs["all_values"](t_np, x, p, d, u)
-    except Exception:  # pragma: no cover - evaluation itself failed
-        vals = []
-    bad_state = [n for n, v in zip(cm.state_names, x) if not np.isfinite(v)]
-    order = {v: k for k, st in enumerate(cm.steps) for v in ([st.var] if hasattr(st, "var") else st.vars)}
-    value = dict(zip(cm.unknown_names, vals))
-    bad = sorted((n for n, v in value.items() if not np.all(np.isfinite(v))),
-                 key=lambda n: (order.get(n, len(order)), n))
-    if bad:
-        n = bad[0]
-        owner = cm.flat.owner_of(n)
-        return SimulationError(f"non-finite value at t = {t:.9g} s: {n!r} (of {owner or 'the model'}) = {value[n]}"
-                               + (f"; then also {bad[1:]}" if len(bad) > 1 else "")
-                               + (f"; non-finite states {bad_state}" if bad_state else "")
-                               + _zero_parameters_hint(cm, p, [n] + bad[1:]))
-    if where == "jac":
-        try:
-            with np.errstate(all="ignore"):
-                J = np.asarray(cm.funcs["jac"](t_np, x, p, d, u), dtype=float)
-            i, j = np.argwhere(~np.isfinite(J))[0]
-            return SimulationError(f"non-finite Jacobian at t = {t:.9g} s: d der({cm.state_names[i]}) / "
-                                   f"d {cm.state_names[j]} = {J[i, j]} at {dict(zip(cm.state_names, x))}")
-        except Exception:  # pragma: no cover
-            pass
-    return SimulationError(f"non-finite value at t = {t:.9g} s" + (f" in states {bad_state}" if bad_state else ""))
-
-
-def _failure(cm, solver, msg, p, d, u, rtol, atol):
-    t, x = solver.t, solver.y
-    culprit = ""
-    try:
-        dx = cm.funcs["rhs"](t, x, p, d, u)
-        scale = atol + rtol * np.abs(x)
-        i = int(np.argmax(np.abs(dx) / scale))
-        culprit = f"; fastest-changing state {cm.state_names[i]!r} = {x[i]:.6g} (d/dt = {dx[i]:.6g})"
-    except Exception:  # pragma: no cover
-        pass
-    h = getattr(solver, "h_abs", None) or solver.step_size or 0.0
-    return SimulationError(f"integration failed at t = {t:.9g} s with step size {h:.3g} s "
-                           f"({solver.__class__.__name__}: {msg}){culprit}")
