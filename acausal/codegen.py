@@ -83,7 +83,7 @@ class CodeGenerator(OnDemand):
         self.signal_orders: dict = {}  # token -> highest order used
         self.defined_by: dict = {}
         self._namespace: dict = {}  # globals of the generated functions (set by generate)
-        self._sens_cache: dict = {}  # sensitivity and value functions generated on demand
+        self._on_demand: dict = {}  # value and sensitivity functions generated when first asked for (ondemand)
         for k, st in enumerate(self.steps):
             for v in step_vars(st):
                 self.defined_by[var_symbol(v)] = k

@@ -24,16 +24,14 @@ class OnDemand:
         the backward slice of the steps they need (what the trust checks evaluate at many points)."""
         names = tuple(names)
         key = ("values", names)
-        if key not in self._sens_cache:
+        if key not in self._on_demand:
             syms = [var_symbol(v) for v in names]
             items, _ = self._body(self._slice(syms))
-            fname = f"values{len(self._sens_cache)}"
+            fname = f"values{len(self._on_demand)}"
             outs = ", ".join(self.names[s] for s in syms)
             src = self._render(fname, items, [f"    return [{outs}{',' if len(syms) == 1 else ''}]"])
-            ns = dict(self._namespace)
-            exec(compile("\n\n".join(self._blocks + [src]) + "\n", f"<acausal generated {fname}>", "exec"), ns)
-            self._sens_cache[key] = ns[fname]
-        return self._sens_cache[key]
+            self._on_demand[key] = self._define(fname, src)
+        return self._on_demand[key]
 
     def sensitivity_function(self, wrt, bindings=None, outputs=None):
         """Generate (once per argument set, then cached) ``sens(t, x, p, d, u) -> (values, dx, dp)``.
@@ -56,7 +54,7 @@ class OnDemand:
         bindings = {k: sp.sympify(v) for k, v in (bindings or {}).items() if k not in wrt}
         outs = [var_symbol(v) for v in self.unknowns] if outputs is None else [sp.sympify(o) for o in outputs]
         key = (wrt, frozenset(bindings.items()), None if outputs is None else tuple(outs))
-        cache = self._sens_cache
+        cache = self._on_demand
         if key in cache:
             return cache[key]
         for w in wrt:
@@ -105,11 +103,16 @@ class OnDemand:
         src = self._render(fname, items, body)
         for o in [s for s in self.names if isinstance(s, sp.Dummy)]:
             del self.names[o]  # output placeholders are local to this function
-        ns = dict(self._namespace, _stack=_stack)
+        cache[key] = self._define(fname, src, _stack=_stack)
+        return cache[key]
+
+    def _define(self, fname: str, src: str, **helpers):
+        """The function ``fname`` of the generated source ``src``, defined beside the model's helper blocks in a
+        copy of the generated functions' namespace (with ``helpers`` added); its source as ``.source``."""
+        ns = dict(self._namespace, **helpers)
         exec(compile("\n\n".join(self._blocks + [src]) + "\n", f"<acausal generated {fname}>", "exec"), ns)
         fn = ns[fname]
         fn.source = src
-        cache[key] = fn
         return fn
 
 
