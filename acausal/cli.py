@@ -162,9 +162,7 @@ def cmd_bench(args) -> int:
         from acausal import ModelError
         raise ModelError("--session records the Eq. (4) truth (its winding warms between recordings); it does not "
                          "take --chain")
-    mass = args.body_mass
-    if mass is None:
-        mass = bench.truth_values(chain=args.chain).get("body_mass", bench.BODY_MASS) if args.chain else bench.BODY_MASS
+    mass = bench.truth_body_mass(args.chain) if args.body_mass is None else args.body_mass
     conds = bench.default_conditions(strides=args.strides, body_mass=mass)
     if args.quick:
         conds = [bench.BenchCondition(P, T, args.strides, body_mass=mass)

@@ -20,9 +20,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from acausal.models.ankle.presets import preset
 from acausal.models.bench import calibration
-from acausal.models.bench.virtual import BODY_MASS, BenchCondition, run_bench
+from acausal.models.bench.virtual import BenchCondition, run_bench, truth_body_mass
 from acausal.models.bench.fit_report import fit_outputs
 
 #: the on-the-fly bench set: 2 precompressions x 4 stride times, 3 recorded strides each
@@ -34,7 +33,7 @@ CHAIN, BESIDE = "paper_fit", ("library",)
 
 def conditions(chain: str | None = CHAIN) -> list:
     """The on-the-fly bench set, for the body mass of the truth (the chain's preset's, else the default)."""
-    mass = preset(chain).get("body_mass", BODY_MASS) if chain else BODY_MASS
+    mass = truth_body_mass(chain)
     return [BenchCondition(P, T, strides=3, body_mass=mass) for P in PRECOMPRESSIONS for T in STRIDE_TIMES]
 
 

@@ -119,6 +119,11 @@ def truth_values(truth: dict | None = None, chain: str | None = None) -> dict:
     return {**(TRUTH if chain is None else preset(chain)), **(truth or {})}
 
 
+def truth_body_mass(chain: str | None = None) -> float:
+    """The body mass of the user the truth emulates: the preset ``chain``'s, else the default."""
+    return float(truth_values(chain=chain).get("body_mass", BODY_MASS))
+
+
 def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None = None,
            sensors: Sensors = Sensors(), seed: int = 0, index: int = 0, final: dict | None = None,
            chain: str | None = None) -> tuple:
