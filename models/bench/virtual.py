@@ -102,11 +102,16 @@ class BenchCondition:
 _COMPILED: dict = {}
 
 
+def _check_truth(effects: tuple, truth: dict | None, chain: str | None) -> None:
+    """A chain with hidden effects, or an unknown preset: the error, before anything is simulated."""
+    if chain is not None and effects:
+        raise DataError(f"virtual bench: hidden effects ({', '.join(effects)}) are parts of the Eq. (4) truth; "
+                        f"the component chain (chain={chain!r}) has its losses as components already")
+    truth_values(truth, chain)
+
+
 def _truth_model(effects: tuple, chain: str | None = None):
     if chain is not None:
-        if effects:
-            raise DataError(f"virtual bench: hidden effects ({', '.join(effects)}) are parts of the Eq. (4) truth; "
-                            f"the component chain (chain={chain!r}) has its losses as components already")
         return compiled(BENCH).sim
     if effects not in _COMPILED:
         _COMPILED[effects] = compile_model(AnkleActuator.eq4(mode="closed_loop", effects=effects))
@@ -132,6 +137,7 @@ def record(cond: BenchCondition, effects: dict | None = None, truth: dict | None
     (``"winding_K"``: what a session carries to its next recording; only with the ``winding_temperature``
     effect)."""
     effects = dict(effects or {})
+    _check_truth(tuple(effects), truth, chain)
     sim = _truth_model(tuple(sorted(effects)), chain)
     params = {**truth_values(truth, chain), "stride_time": cond.stride_time, "P_nominal": cond.P,
               "link.k": K_SPRING, "body_mass": cond.body_mass}
@@ -226,9 +232,7 @@ def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict
     effects = dict(effects or {})
     for name in effects:
         effect(name)
-    # a chain with hidden effects, or an unknown preset, fails here, before any recording
-    _truth_model(tuple(sorted(effects)), chain)
-    truth_values(truth, chain)
+    _check_truth(tuple(effects), truth, chain)
     jobs = [(c, effects, truth, sensors, seed, i, None, chain) for i, c in enumerate(conditions)]
     names = [f"P{c.P * 1e3:04.1f}mm_T{c.stride_time:.1f}s" for c in conditions]
     about = {"written_by": "acausal bench", "seed": seed, "effects": effects, "chain": chain}
