@@ -227,6 +227,10 @@ def cmd_diagnose(args) -> int:
     progress = None if args.no_progress else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
     if args.model == "servo_pendulum":
         d = _diagnose_servo(args, out, candidates, progress)
+    elif args.candidate or args.candidates_file:
+        from acausal import DataError
+        raise DataError("--candidate and --candidates-file are for --model servo_pendulum; the ankle's candidates "
+                        "are its effects (acausal.models.ankle.effects)")
     else:
         from acausal.models.bench import diagnosis
         from acausal.models.bench.diagnosis_report import write_json, write_report
@@ -237,6 +241,10 @@ def cmd_diagnose(args) -> int:
         if args.json:
             write_json(args.json, d)
     print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else ""))
+    for sig, sc in d.heldout_signals().items():
+        b, e = sc["rmse"]
+        print(f"  held-out RMSE of {sig}: baseline {b:.4g}, extended {e:.4g}"
+              + (f" ({100 * (1 - e / b):+.1f} %)" if b else ""))
     for w in d.warnings:
         print(f"warning: {w}")
     dr = getattr(d, "drift", {}) or {}
@@ -261,14 +269,20 @@ def _diagnose_servo(args, out: Path, candidates, progress):
     from acausal.models.servo import bam, problem as servo  # the CLI wires verbs to models (design rule exception)
     from acausal.models.servo.report import write_json, write_report
 
+    from acausal.models.servo.effects import load_candidates_file, parse_candidate
+
+    extra = [parse_candidate(c) for c in args.candidate]
+    if args.candidates_file:
+        extra += load_candidates_file(args.candidates_file)
     by, _, value = (args.split or "auto").partition("=")
     split = servo.Split(by=by.strip(), value=value.strip() or None)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) as pool:
         d, problem = servo.run(args.data, split=split, max_effects=args.max_effects, candidates=candidates,
-                               progress=progress, executor=pool)
+                               progress=progress, executor=pool, extra=extra)
         bam_rows = bam.replay_all(problem.recordings, pool) if args.bam else None
-    write_report(out, d, problem, f"recordings in `{args.data}`", bam_rows, elapsed=time.perf_counter() - t0)
+        elapsed = time.perf_counter() - t0
+        write_report(out, d, problem, f"recordings in `{args.data}`", bam_rows, elapsed=elapsed)  # replays too
     if args.json:
         write_json(args.json, d)
     ho = d.heldout()
@@ -281,30 +295,12 @@ def load_model_class(ref: str):
     """``MODULE:CLASS`` (an importable module) or ``FILE.py:CLASS`` -> the model class; a ModelError naming the
     reference when it cannot be found or is no Model."""
     from acausal import Model, ModelError
+    from acausal.references import load_class
 
-    where, sep, name = ref.rpartition(":")
-    if not sep or not where or not name:
+    if ":" not in ref:
         raise ModelError(f"model {ref!r}: expected a registered name (acausal compare --list), MODULE:CLASS or "
                          "FILE.py:CLASS")
-    try:
-        if where.endswith(".py"):
-            path = Path(where)
-            if not path.is_file():
-                raise ModelError(f"model {ref!r}: no file {where}")
-            spec = importlib.util.spec_from_file_location(f"acausal_user_{path.stem}", path)
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[spec.name] = module
-            spec.loader.exec_module(module)
-        else:
-            if os.getcwd() not in sys.path:  # the console script does not put the working directory on it
-                sys.path.insert(0, os.getcwd())
-            module = importlib.import_module(where)
-    except ImportError as exc:
-        raise ModelError(f"model {ref!r}: cannot import {where!r}: {exc}") from None
-    cls = getattr(module, name, None)
-    if not (isinstance(cls, type) and issubclass(cls, Model)):
-        raise ModelError(f"model {ref!r}: {where} has no Model class {name!r}")
-    return cls
+    return load_class(ref, Model, "model")
 
 
 def cmd_export(args) -> int:
@@ -343,6 +339,19 @@ def cmd_export(args) -> int:
           f"{len(cm.names())} outputs, {len(cm.event_zeros)} event indicators"
           + ("" if args.no_binary else ", binary for this platform"))
     return 0
+
+
+def _positive_int(option: str):
+    """An argparse type: a whole number >= 1, refused with a message naming ``option``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = 0
+        if value < 1 or str(value) != text.strip():
+            raise argparse.ArgumentTypeError(f"{option} takes a whole number >= 1, got {text!r}")
+        return value
+    return parse
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -417,7 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     dg.add_argument("--json", help="also write the machine-readable verdict to this file")
     dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all)")
-    dg.add_argument("--max-effects", type=int, default=2, help="effects to add at most (default 2)")
+    dg.add_argument("--max-effects", type=_positive_int("--max-effects"), default=None,
+                    help="effects to name at most (default: as many as the evidence supports; a significant "
+                    "candidate the limit leaves out is said)")
     dg.add_argument("--holdout-every", type=int, default=3, help="ankle: hold out every n-th stride (default 3)")
     dg.add_argument("--model", choices=DIAGNOSE_MODELS, default="ankle",
                     help="which model the recordings are of (default: ankle, the paper's actuator; servo_pendulum: "
@@ -427,6 +438,12 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--jobs", type=int, default=None, help="servo_pendulum: worker processes (default: all cores)")
     dg.add_argument("--bam", action="store_true", help="servo_pendulum: also replay BAM's published XL330 "
                     "parameter sets on the recordings (for XL330 data)")
+    dg.add_argument("--candidate", action="append", default=[], metavar="SPEC",
+                    help="servo_pendulum: a candidate of your own, id=NAME,slot=SLOT,component=MODULE:CLASS (or "
+                    "FILE.py:CLASS),parameter=P,bounds=LO:HI[,zero=Z][,probe=X][,unit=U][,fixed=NAME:VALUE] "
+                    "(repeatable; slots: goal, position, error, duty, bus, output)")
+    dg.add_argument("--candidates-file", metavar="FILE.json",
+                    help="servo_pendulum: a JSON list of your own candidates (the keys of --candidate)")
     dg.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
     dg.set_defaults(run=cmd_diagnose)
     return p

@@ -49,6 +49,11 @@ class _Printer(NumPyPrinter):
         except KeyError:
             raise ModelError(f"code generation: no value for symbol {expr.name!r}") from None
 
+    def _print_DiracDelta(self, expr):
+        # the derivative of a step (sign, Heaviside) in a Jacobian: zero everywhere but at the switch, which the
+        # integrator's step control crosses (the same as a Min/Max kink's one-sided slope)
+        return "0.0"
+
     def _print_Piecewise(self, expr):
         # a runtime helper instead of numpy.select: the same for arrays, a plain branch for the integrator's
         # scalar calls (numpy.select on scalars costs tens of microseconds per call)

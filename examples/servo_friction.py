@@ -33,7 +33,7 @@ def data_folder() -> Path:
     return Path(str(resources.files("acausal.models.servo").joinpath("data/xl330/recordings")))
 
 
-def main(out_dir: Path, results=None, executor=None, recordings=None, candidates=None, max_effects: int = 2,
+def main(out_dir: Path, results=None, executor=None, recordings=None, candidates=None, max_effects=None,
          jobs: int | None = None) -> dict:
     """``recordings``: a list of recordings (default: the shipped XL330 set); ``candidates``: the friction laws to
     try (default: all); ``executor``: a process pool for the replays (default: one of ``jobs`` processes, all
@@ -49,12 +49,12 @@ def main(out_dir: Path, results=None, executor=None, recordings=None, candidates
     try:
         d, problem = servo.run(recs, candidates=candidates, max_effects=max_effects, executor=executor)
         bam_rows = bam.replay_all(recs, executor)
+        sub = write_report(out_dir, d, problem, "Dynamixel XL330 on a 0.49 kg, 0.1 m pendulum (Rhoban/bam, "
+                           "Apache-2.0)" if recordings is None else f"{len(recs)} servo recordings", bam_rows,
+                           elapsed=time.perf_counter() - t0)
     finally:
         if own is not None:
             own.shutdown()
-    sub = write_report(out_dir, d, problem, "Dynamixel XL330 on a 0.49 kg, 0.1 m pendulum (Rhoban/bam, Apache-2.0)"
-                       if recordings is None else f"{len(recs)} servo recordings", bam_rows,
-                       elapsed=time.perf_counter() - t0)
     write_json(out_dir / "diagnosis.json", d)
     return {**sub, "diagnosis": d, "problem": problem, "bam": bam_rows}
 

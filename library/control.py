@@ -29,7 +29,7 @@ from acausal import Component, Eq, Model, ModelError, Parameter, RealInput, Real
 from acausal.partials import check_option
 
 __all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "DutyPositionController",
-           "CascadeServo", "cascade_gains", "clamp"]
+           "DutyOutput", "CascadeServo", "cascade_gains", "clamp"]
 
 
 def clamp(u, lo, hi):
@@ -259,6 +259,20 @@ class DutyPositionController(Component):
     def equations(self):
         raw = self.kp * self.error_gain * (self.position_ref.value - self.position.value)
         return [Eq(self.y.value, self.enable.value * clamp(raw, -self.d_max, self.d_max))]
+
+
+class DutyOutput(Component):
+    """The last stage of a servo firmware's duty law: the duty command limited and gated by the torque enable,
+    ``y = enable * clamp(u, -d_max, d_max)`` (:class:`DutyPositionController` is this stage after
+    ``u = kp * error_gain * (position_ref - position)``)."""
+
+    d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty magnitude (XL330: PWM limit 885/885)")
+    u = RealInput(doc="duty command before the limit [1]")
+    enable = RealInput(doc="torque enable (1 on, 0 off)")
+    y = RealOutput(doc="duty command [1]")
+
+    def equations(self):
+        return [Eq(self.y.value, self.enable.value * clamp(self.u.value, -self.d_max, self.d_max))]
 
 
 # --------------------------------------------------------------------------------------------- cascade

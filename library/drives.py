@@ -34,7 +34,9 @@ class PWMDriver(Component, _OptionalHeatPort):
         v_bus i_bus = d v_bus i_m + P_q + k_sw |i_m| v_bus            (power balance)
         loss_power  = P_q + R_on i_m^2 + k_sw |i_m| v_bus  >= 0
 
-    so ``v_bus i_bus = v_m i_m + loss_power`` holds exactly. The motor terminals are referenced to the bus as in
+    so ``v_bus i_bus = v_m i_m + loss_power`` holds exactly. ``ideal=True`` is the lossless bridge written
+    linearly (``v_m = d v_bus``, ``i_bus = d i_m``): the same for the defaults, but a resistance in series with
+    its bus is then solved in closed form instead of by Newton iterations. The motor terminals are referenced to the bus as in
     a bridge with symmetric PWM (``mot_n.v = bus_n.v + (v_bus - v_m)/2``) and the four terminal currents sum to
     zero, so the motor circuit needs no ground of its own (do not ground it separately). The defaults are
     neutral: no quiescent draw, no conduction or switching loss, the full duty range (``d_max`` = 1). Set them
@@ -60,10 +62,14 @@ class PWMDriver(Component, _OptionalHeatPort):
     bus_power = Variable(unit="W", doc="power drawn from the bus v_bus*i_bus")
     motor_power = Variable(unit="W", doc="power delivered to the motor v_m*i_m")
 
-    def __init__(self, command: str = "duty", saturate: bool = True, use_heat_port: bool = False, **kw):
+    def __init__(self, command: str = "duty", saturate: bool = True, use_heat_port: bool = False,
+                 ideal: bool = False, **kw):
         super().__init__(**kw)
         self.command = check_option(self, "command", command, ("duty", "voltage"))
         self.saturate = check_option(self, "saturate", saturate, (True, False))
+        self.ideal = check_option(self, "ideal", ideal, (True, False))
+        if ideal and any(kw.get(k, 0.0) != 0.0 for k in ("P_q", "R_on", "k_sw")):
+            raise ModelError(f"{type(self).__name__}(ideal=True) has no losses; P_q, R_on and k_sw are not used")
         self._init_heat_port(use_heat_port)
 
     def equations(self):
@@ -74,11 +80,15 @@ class PWMDriver(Component, _OptionalHeatPort):
                Eq(self.v_m, self.mot_p.v - self.mot_n.v), Eq(self.i_m, -self.mot_p.i),
                Eq(self.mot_n.v, self.bus_n.v + (self.v_bus - self.v_m) / 2),
                d_eq,
-               Eq(self.v_m, self.d * self.v_bus - self.R_on * self.i_m),
-               Eq(self.loss_power, self.P_q + self.R_on * self.i_m**2 + self.k_sw * sp.Abs(self.i_m) * self.v_bus),
-               Eq(self.v_bus * self.i_bus, self.d * self.v_bus * self.i_m + self.P_q
-                  + self.k_sw * sp.Abs(self.i_m) * self.v_bus),
                Eq(self.bus_power, self.v_bus * self.i_bus), Eq(self.motor_power, self.v_m * self.i_m)]
+        if self.ideal:  # linear in the currents and voltages: a bus resistance is solved in closed form
+            eqs += [Eq(self.v_m, self.d * self.v_bus), Eq(self.loss_power, 0), Eq(self.i_bus, self.d * self.i_m)]
+        else:
+            eqs += [Eq(self.v_m, self.d * self.v_bus - self.R_on * self.i_m),
+                    Eq(self.loss_power, self.P_q + self.R_on * self.i_m**2
+                       + self.k_sw * sp.Abs(self.i_m) * self.v_bus),
+                    Eq(self.v_bus * self.i_bus, self.d * self.v_bus * self.i_m + self.P_q
+                       + self.k_sw * sp.Abs(self.i_m) * self.v_bus)]
         if self.use_heat_port:
             eqs.append(Eq(self.heat_port.Q_flow, -self.loss_power))
         return eqs

@@ -21,12 +21,22 @@ term           budget contribution                           physics (BAM, Duclu
 ``backdrive``  ``k_b |flange_a.tau| (1 - tanh(P_a/P_s)) / 2``  extra mesh friction while the load drives the gear
                                                              (power flows b -> a, ``P_a = flange_a.tau w < 0``; the
                                                              direction dependence of M4 and of MSL's eta vs 1/eta)
+``load_stribeck`` ``k_ls G S(w)``                             load friction that is larger at rest (M4)
+``directional``  ``|k_e tau_ext - k_m tau_a|``                 load friction weighted by side (M5; needs the
+                 ``+ |k_es tau_ext - k_ms tau_a| S(w)``        external measure)
+``quadratic``  ``S(w) (k_eq tau_ext^2 [|tau_ext| < |tau_a|]``  quadratic load friction while motor and load torque
+               ``+ k_mq tau_a^2 [|tau_ext| > |tau_a|])``       oppose (M6; BAM's pairing of names and conditions)
 =============  ============================================  ======================================================
 
-The load measure is the torque at ``flange_a``: connect the driving side there through massless parts (an EMF and
-an ideal gear: it is then the motor's air-gap torque through the gear, BAM's "motor torque") and put the rotor's
-inertia on the ``flange_b`` side, so the budget does not depend on accelerations (otherwise the law is an
-algebraic loop, which the compiler solves by Newton iterations, slower).
+``S(w) = exp(-(|w|_c / w_s)^alpha)`` is the Stribeck curve. **The load measure** ``G`` is, with
+``load_measure="transmitted"`` (default), the torque at ``flange_a``, ``G = |tau_a|``: connect the driving side
+there through massless parts (an EMF and an ideal gear: it is then the motor's air-gap torque through the gear,
+BAM's "motor torque") and put the rotor's inertia on the ``flange_b`` side, so the budget does not depend on
+accelerations (otherwise the law is an algebraic loop, which the compiler solves by Newton iterations, slower).
+With ``load_measure="external"`` the law has an input ``tau_ext``, the external torque on the load (a pendulum's
+gravity torque, BAM's "bias torque"), and ``G = |tau_ext - tau_a|``, BAM's definition (Rhoban/bam
+``bam/model.py``, ``compute_frictions``): published M3-M6 parameter sets then mean here what they mean in BAM's
+simulator. (Holding a load still, ``tau_a = -tau_ext``, so BAM's ``G`` is twice the transmitted torque.)
 
 Smooth Coulomb law: ``tanh(w / w_c)`` replaces the sign of w (stiction becomes creep below about ``w_c``; default
 0.01 rad/s, against the 0.024 rad/s resolution of a Dynamixel speed reading), which keeps the model free of events
@@ -45,7 +55,9 @@ __all__ = ["GearFriction", "CoulombViscousFriction", "StribeckFriction", "LoadDe
            "DirectionalFriction", "TERMS", "Clutch", "Brake"]
 
 #: the budget terms a law may have, in the order they are documented
-TERMS = ("coulomb", "stribeck", "load", "backdrive")
+TERMS = ("coulomb", "stribeck", "load", "backdrive", "load_stribeck", "directional", "quadratic")
+#: the terms that need the external load torque (``load_measure="external"``)
+EXTERNAL_TERMS = ("directional", "quadratic")
 
 
 class GearFriction(PartialElementaryTwoFlangesAndSupport2):
@@ -64,6 +76,13 @@ class GearFriction(PartialElementaryTwoFlangesAndSupport2):
     k_l = Parameter(0.0, unit="1", min=0.0, doc="friction torque per unit of transmitted torque |flange_a.tau|")
     k_b = Parameter(0.0, unit="1", min=0.0, doc="extra friction per unit of transmitted torque when back-driven")
     P_s = Parameter(0.01, unit="W", min=1e-12, doc="power scale of the smooth back-drive switch")
+    k_ls = Parameter(0.0, unit="1", min=0.0, doc="load friction per unit of G added at rest (Stribeck curve)")
+    k_m = Parameter(0.0, unit="1", min=0.0, doc="directional load friction: weight of the motor torque")
+    k_e = Parameter(0.0, unit="1", min=0.0, doc="directional load friction: weight of the external torque")
+    k_ms = Parameter(0.0, unit="1", min=0.0, doc="the same at rest (Stribeck curve): motor torque")
+    k_es = Parameter(0.0, unit="1", min=0.0, doc="the same at rest (Stribeck curve): external torque")
+    k_mq = Parameter(0.0, unit="1/(N.m)", min=0.0, doc="quadratic load friction per motor torque squared")
+    k_eq = Parameter(0.0, unit="1/(N.m)", min=0.0, doc="quadratic load friction per external torque squared")
     w_c = Parameter(0.01, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
 
     phi = Variable(unit="rad", doc="shaft angle relative to the support")
@@ -74,24 +93,44 @@ class GearFriction(PartialElementaryTwoFlangesAndSupport2):
 
     default_terms = ("coulomb",)
 
-    def __init__(self, terms=None, use_support: bool = False, **kw):
+    def __init__(self, terms=None, use_support: bool = False, load_measure: str = "transmitted", **kw):
         terms = tuple(self.default_terms if terms is None else terms)
+        if isinstance(terms, str) or not all(isinstance(t, str) for t in terms):
+            raise ModelError(f"{type(self).__name__}: terms must be a tuple of names from {TERMS}, got {terms!r}")
         unknown = [t for t in terms if t not in TERMS]
         if unknown or len(set(terms)) != len(terms):
             raise ModelError(f"{type(self).__name__}: terms must be distinct names from {TERMS}, got {terms}")
-        self.terms = terms
+        if load_measure not in ("transmitted", "external"):
+            raise ModelError(f"{type(self).__name__}: load_measure must be 'transmitted' or 'external', got "
+                             f"{load_measure!r}")
+        needs = [t for t in terms if t in EXTERNAL_TERMS]
+        if needs and load_measure != "external":
+            raise ModelError(f"{type(self).__name__}: terms {needs} need load_measure='external' (the load's torque)")
+        self.terms, self.load_measure = terms, load_measure
         super().__init__(use_support=use_support, **kw)
+        if load_measure == "external":
+            self.tau_ext = RealInput(doc="external torque on the load [N m] (e.g. a pendulum's gravity torque)")
 
     def budget_terms(self) -> dict:
         """term name -> its contribution to the budget (sympy), for the chosen terms."""
         w, tau_a = self.w, self.flange_a.tau
+        ext = self.tau_ext.value if self.load_measure == "external" else None
+        G = sp.Abs(ext - tau_a) if ext is not None else sp.Abs(tau_a)
+        S = sp.exp(-(sp.sqrt(w**2 + self.w_c**2) / self.w_s) ** self.alpha)
         all_terms = {
-            "coulomb": self.tau_c,
-            "stribeck": self.tau_s * sp.exp(-(sp.sqrt(w**2 + self.w_c**2) / self.w_s) ** self.alpha),
-            "load": self.k_l * sp.Abs(tau_a),
-            "backdrive": self.k_b * sp.Abs(tau_a) * (1 - sp.tanh(tau_a * w / self.P_s)) / 2,
+            "coulomb": lambda: self.tau_c,
+            "stribeck": lambda: self.tau_s * S,
+            "load": lambda: self.k_l * G,
+            "backdrive": lambda: self.k_b * sp.Abs(tau_a) * (1 - sp.tanh(tau_a * w / self.P_s)) / 2,
+            "load_stribeck": lambda: self.k_ls * G * S,
+            "directional": lambda: (sp.Abs(self.k_e * ext - self.k_m * tau_a)
+                                    + sp.Abs(self.k_es * ext - self.k_ms * tau_a) * S),
+            # BAM M6: on while the two torques have opposite signs; the external term where the motor's is larger
+            "quadratic": lambda: S * (1 - sp.sign(ext) * sp.sign(tau_a)) / 2 * (
+                (1 + sp.sign(sp.Abs(tau_a) - sp.Abs(ext))) / 2 * self.k_eq * ext**2
+                + (1 + sp.sign(sp.Abs(ext) - sp.Abs(tau_a))) / 2 * self.k_mq * tau_a**2),
         }
-        return {t: all_terms[t] for t in self.terms}
+        return {t: all_terms[t]() for t in self.terms}
 
     def equations(self):
         return [*super().equations(), Eq(self.phi, self.flange_a.phi - self.phi_support),

@@ -50,6 +50,8 @@ class Pendulum(Component):
 
     ``energy`` = kinetic ``J w^2/2`` + potential ``(m + m_arm/2) g l (1 - cos(phi + phi0))`` (zero hanging down),
     so ``d energy/dt = flange.tau w``: gravity is conservative and stores, it does not dissipate.
+    ``bias_output=True`` adds the output ``tau_bias`` = ``tau_g`` (for a friction law whose budget depends on the
+    load's torque, :class:`~acausal.library.friction.GearFriction` with ``load_measure="external"``).
     ``g`` = 9.80665 m/s2 (standard gravity); the rig is that of BAM's test bench (Rhoban/bam ``testbench.Pendulum``).
     """
 
@@ -65,9 +67,16 @@ class Pendulum(Component):
     tau_g = Variable(unit="N.m", doc="gravity torque on the arm")
     energy = Variable(unit="J", doc="kinetic + potential energy")
 
+    def __init__(self, bias_output: bool = False, **kw):
+        super().__init__(**kw)
+        self.bias_output = check_option(self, "bias_output", bias_output, (True, False))
+        if bias_output:
+            self.tau_bias = RealOutput(doc="gravity torque on the arm tau_g [N m] (BAM's bias torque)")
+
     def equations(self):
         lever = (self.m + self.m_arm / 2) * self.g * self.l
-        return [Eq(self.phi, self.flange.phi), Eq(self.w, der(self.phi)),
+        out = [Eq(self.tau_bias.value, self.tau_g)] if self.bias_output else []
+        return [*out, Eq(self.phi, self.flange.phi), Eq(self.w, der(self.phi)),
                 Eq(self.J, self.m * self.l**2 + self.m_arm * self.l**2 / 3),
                 Eq(self.tau_g, -lever * sp.sin(self.phi + self.phi0)),
                 Eq(self.J * der(self.w), self.flange.tau + self.tau_g),
@@ -137,6 +146,35 @@ class Backlash(PartialCompliant):
         ln_cosh = sp.Abs(x) + sp.log(1 + sp.exp(-2 * sp.Abs(x))) - sp.log(2)  # ln cosh x without overflow
         return [*super().equations(), Eq(self.phi_rel, self.b / 2 * sp.tanh(x)),
                 Eq(self.energy, self.b / 2 * (self.tau * sp.tanh(x) - self.tau_s * ln_cosh))]
+
+
+class ElastoBacklash(PartialCompliantWithRelativeStates):
+    """Play ``b`` between two stiff, damped flanks (MSL ``ElastoBacklash``, symmetric play, ``phi_rel0 = 0``)::
+
+        dz = phi_rel - clamp(phi_rel, -b/2, b/2)        (deflection of the flank in contact; 0 in the gap)
+        tau = c dz + d w_rel min(1, |dz| / phi_d)
+
+    In the gap nothing is transmitted; in contact the flanks are a spring ``c`` with a damper ``d`` (the damping
+    comes in over the first ``phi_d`` of deflection, so the torque stays continuous where MSL's switches). No event:
+    the law is continuous, so exact parameter sensitivities exist; ``b = 0`` is a stiff damped shaft, whose
+    sensitivity to ``b`` is ``-c sign(phi_rel) / 2``. ``energy = c dz^2 / 2``, ``loss_power = tau w_rel -
+    der(energy) >= 0`` (the damper's), so ``der(energy) = tau w_rel - loss_power`` holds exactly.
+    """
+
+    b = Parameter(0.0, unit="rad", min=0.0, doc="total play (flank to flank)")
+    c = Parameter(None, unit="N.m/rad", min=0.0, doc="stiffness of the flanks in contact")
+    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="damping of the flanks in contact")
+    phi_d = Parameter(1e-5, unit="rad", min=1e-15, doc="deflection over which the damping comes in")
+    dz = Variable(unit="rad", doc="deflection of the flank in contact (0 in the gap)")
+    energy = Variable(unit="J", doc="stored energy c dz^2 / 2")
+    loss_power = Variable(unit="W", doc="dissipated power (damping in contact) >= 0")
+
+    def equations(self):
+        half = self.b / 2
+        damping = self.d * sp.Min(1, sp.Abs(self.dz) / self.phi_d)
+        return [*super().equations(), Eq(self.dz, self.phi_rel - sp.Min(sp.Max(self.phi_rel, -half), half)),
+                Eq(self.tau, self.c * self.dz + damping * self.w_rel),
+                Eq(self.energy, self.c * self.dz**2 / 2), Eq(self.loss_power, damping * self.w_rel**2)]
 
 
 class IdealGear(PartialGear):

@@ -2,10 +2,13 @@
 
 ::
 
-    position_ref --> [DutyPositionController] --duty--> [PWMDriver] --> [SwitchedResistor R] --> [EMF kt/ratio]
-    enable ---------------^        ^                      bus_p/bus_n      (torque enable)            |
-                                   |                                                          [IdealGear ratio]
-    position <-- [AngleSensor] ----+------ flange <-- [Inertia armature] <-- [GearFriction] <--------+
+    position_ref -[goal]-> (+) -[error]-> [Gain kp*error_gain] -[duty]-> [DutyOutput] --duty--> [PWMDriver]
+                            ^-                                      enable --^         bus_p -[bus]-^   |
+                            |                                                               [SwitchedResistor R]
+                            |                                                                [EMF kt/ratio]
+    position <-[position]- [AngleSensor] <-- [Inertia armature] <-- [GearFriction] <-- [IdealGear ratio]
+                                                   |
+                                                   +-[output]-> flange
 
 The firmware's proportional law commands the PWM duty; the bridge puts ``duty * v_bus`` on the winding (lossless,
 no quiescent draw: what a hobby servo's electronics dissipate is not measured and does not move the arm); the
@@ -15,22 +18,36 @@ law between the gear and the rotor inertia (:mod:`acausal.library.friction`). Th
 the output as ``armature`` (the reflected inertia, BAM's term) *after* the friction, so the friction's load
 measure is the air-gap torque through the gear, as in BAM's models.
 
+**Insertion slots** (the ``-[name]->`` above): ``inserts`` puts elements into the servo without changing its
+class, each ``(slot, name, factory)`` with ``factory()`` returning a component that becomes ``servo.<name>``:
+``goal`` (the goal the firmware tracks), ``position`` (the reading it regulates), ``error``, ``duty`` (before
+the limit) take a causal block with input ``u`` and output ``y`` (:mod:`acausal.library.firmware`,
+:class:`~acausal.library.blocks.Bias`); ``bus`` a two-pin element in series with the supply (a
+:class:`~acausal.library.electrical.Resistor`: supply sag); ``output`` a two-flange element between the shaft
+the encoder reads and the output flange (:class:`~acausal.library.rotational.ElastoBacklash`). Elements of one
+slot are chained in the order given.
+
 Parameters are those seen at the output shaft, as BAM identifies them: ``kt`` [N m/A] (motor constant times the
 gear ratio; also the back-EMF constant in V s/rad), ``R`` [ohm], ``armature`` [kg m2]. Defaults are BAM's published
 XL330 model m1 (Rhoban/bam ``params/xl330/m1.json``, Apache-2.0: kt 0.3867, R 4.017, armature 0.001814,
 Kc 0.01283, Kv 0.003662), ``ratio`` = 288.35 (XL330-M288's nominal ratio; the output behaviour does not depend on
 it, only the split of kt between motor and gear does).
 """
-from acausal import Model, Parameter, RealInput, connect
+from acausal import Model, ModelError, Parameter, RealInput, connect
 from acausal.connectors import Flange, Pin
 
-from .control import DutyPositionController
+from .blocks import Gain
+from .control import DutyOutput, Feedback
 from .drives import PWMDriver
 from .electrical import EMF, SwitchedResistor
 from .friction import GearFriction
 from .rotational import AngleSensor, IdealGear, Inertia
 
-__all__ = ["PositionServo"]
+__all__ = ["PositionServo", "SLOTS"]
+
+#: the insertion slots of :class:`PositionServo` and the ports an element in each must have
+SLOTS = {"goal": ("u", "y"), "position": ("u", "y"), "error": ("u", "y"), "duty": ("u", "y"), "bus": ("p", "n"),
+         "output": ("flange_a", "flange_b")}
 
 
 class PositionServo(Model):
@@ -38,9 +55,11 @@ class PositionServo(Model):
 
     Connectors: ``flange`` (output shaft), ``bus_p``/``bus_n`` (supply), inputs ``position_ref`` [rad] and
     ``enable`` (torque enable, 0/1). ``friction_terms``: the terms of the friction law (see
-    :class:`~acausal.library.friction.GearFriction`; default Coulomb + viscous). The sub-components are readable:
-    ``ctrl.y`` (duty), ``winding.i`` (motor current), ``friction.tau_f``/``friction.loss_power``,
-    ``winding.loss_power``, ``armature.energy``.
+    :class:`~acausal.library.friction.GearFriction`; default Coulomb + viscous) and its ``load_measure``
+    (``"external"`` adds the input ``load_torque``: BAM's measure); ``inserts``: elements put into its slots
+    (module docstring). The sub-components are readable: ``ctrl.y`` (duty), ``winding.i`` (motor
+    current), ``sensor.phi`` (the encoder's reading), ``friction.tau_f``/``friction.loss_power``,
+    ``winding.loss_power``, ``rotor.energy``.
     """
 
     kt = Parameter(0.3867, unit="N.m/A", min=1e-9, doc="torque constant at the output (BAM xl330 m1)",
@@ -63,20 +82,51 @@ class PositionServo(Model):
     position_ref = RealInput(doc="commanded position [rad]")
     enable = RealInput(doc="torque enable (1 on, 0 off)")
 
-    def __init__(self, friction_terms=("coulomb",), **kw):
+    def __init__(self, friction_terms=("coulomb",), inserts=(), load_measure: str = "transmitted", **kw):
         self.friction_terms = tuple(friction_terms)  # checked by GearFriction
+        self.load_measure = load_measure
+        self.inserts = tuple(tuple(i) for i in inserts)
+        for item in self.inserts:
+            if len(item) != 3 or item[0] not in SLOTS or not callable(item[2]) or not str(item[1]).isidentifier():
+                raise ModelError(f"PositionServo: an insert is (slot, name, factory) with slot one of "
+                                 f"{', '.join(SLOTS)}, got {item!r}")
+        names = [i[1] for i in self.inserts]
+        if len(set(names)) != len(names):
+            raise ModelError(f"PositionServo: insert names must be distinct, got {names}")
         super().__init__(**kw)
+        if load_measure == "external":
+            self.load_torque = RealInput(doc="external torque on the load [N m], for the friction's load measure")
+
+    def _chain(self, slot: str, start, end) -> None:
+        """Connect ``start`` to ``end`` through the elements inserted in ``slot`` (in order)."""
+        a, b = SLOTS[slot]
+        for _, name, factory in (i for i in self.inserts if i[0] == slot):
+            element = factory()
+            if not all(hasattr(element, port) for port in (a, b)):
+                raise ModelError(f"PositionServo: insert {name!r} in slot {slot!r} must have ports {a!r} and "
+                                 f"{b!r}; {type(element).__name__} has not")
+            if hasattr(self, name):
+                raise ModelError(f"PositionServo: insert name {name!r} is taken by a part of the servo")
+            setattr(self, name, element)
+            connect(start, getattr(element, a))
+            start = getattr(element, b)
+        connect(start, *end)
 
     def build(self):
-        self.ctrl = DutyPositionController(kp=self.kp, error_gain=self.error_gain, d_max=self.d_max)
-        self.driver = PWMDriver()  # lossless: the XL330's bridge losses are in the winding's fitted R
+        self.error = Feedback()
+        self.gain = Gain(k=self.kp * self.error_gain)
+        self.ctrl = DutyOutput(d_max=self.d_max)
+        self.driver = PWMDriver(ideal=True)  # lossless: the XL330's bridge losses are in the winding's fitted R
         self.winding = SwitchedResistor(R=self.R)
         self.emf = EMF(k=self.kt / self.ratio)
         self.gear = IdealGear(ratio=self.ratio)
-        self.friction = GearFriction(terms=self.friction_terms, tau_c=self.tau_c, d=self.d)
+        self.friction = GearFriction(terms=self.friction_terms, load_measure=self.load_measure, tau_c=self.tau_c,
+                                     d=self.d)
+        if self.load_measure == "external":
+            connect(self.load_torque, self.friction.tau_ext)
         self.rotor = Inertia(J=self.armature)
         self.sensor = AngleSensor()
-        connect(self.bus_p, self.driver.bus_p)
+        self._chain("bus", self.bus_p, (self.driver.bus_p,))
         connect(self.bus_n, self.driver.bus_n)
         connect(self.driver.mot_p, self.winding.p)
         connect(self.winding.n, self.emf.p)
@@ -85,7 +135,10 @@ class PositionServo(Model):
         connect(self.emf.flange, self.gear.flange_a)
         connect(self.gear.flange_b, self.friction.flange_a)
         connect(self.friction.flange_b, self.rotor.flange_a)
-        connect(self.rotor.flange_b, self.flange, self.sensor.flange)
-        connect(self.position_ref, self.ctrl.position_ref)
-        connect(self.sensor.phi, self.ctrl.position)
+        connect(self.rotor.flange_b, self.sensor.flange)
+        self._chain("output", self.rotor.flange_b, (self.flange,))
+        self._chain("goal", self.position_ref, (self.error.u1,))
+        self._chain("position", self.sensor.phi, (self.error.u2,))
+        self._chain("error", self.error.y, (self.gain.u,))
+        self._chain("duty", self.gain.y, (self.ctrl.u,))
         connect(self.ctrl.y, self.driver.u)

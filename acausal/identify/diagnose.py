@@ -5,7 +5,8 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 
 1. **Baseline**: calibrate the baseline parameters on the training strides (:func:`~.calibrate.calibrate`).
 2. **Fingerprints**: for every candidate, the exact sensitivity of the predicted signals to its parameter at the
-   value where the effect vanishes (``Candidate.zero``), at the calibrated baseline, stacked over signals and
+   value where the effect vanishes (``Candidate.zero``; for a hard limit, which has no first-order effect there,
+   the secant to ``Candidate.probe``), at the calibrated baseline, stacked over signals and
    samples in units of sensor noise. The part the baseline parameters can absorb is projected out (they are
    refitted anyway), and what is left is compared with the baseline residual (cosine: ``match``). Two candidates
    whose projected fingerprints are nearly collinear (``|cos| >= Thresholds.confusable``), or that both count in
@@ -31,8 +32,9 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    anything, so the practical thresholds decide. The defaults were tuned on clean and noise-only virtual-bench
    recordings (seeds 0-2), where every candidate stays below 1 % gain, and tested on others.
 4. **Verdict**: the significant candidate with the largest held-out gain; greedy forward selection then repeats
-   step 3 with that effect in the model, for a second effect (``max_effects``). ``none`` when nothing is
-   significant. A slow effect (a winding warming over a session) changes every sample only a little, so its
+   step 3 with that effect in the model, until no candidate is significant (the evidence stops the search; a
+   ``max_effects`` count may stop it earlier, and the candidates it then leaves out are said). ``none`` when
+   nothing is significant. A slow effect (a winding warming over a session) changes every sample only a little, so its
    held-out gain can stay small while the per-recording fit drifts plainly: a candidate that makes a drift of the
    final model go away, with a BIC fall and consistent per-stride improvements, is named too (``named_by:
    "drift"``).
@@ -69,6 +71,9 @@ class Candidate:
     scale: float  # typical magnitude (optimiser scaling)
     signal: str = ""  # the signal it shows in first
     unit: str = ""
+    #: a size at which the effect shows for certain, for an effect with no first-order change at ``zero`` (a hard
+    #: limit not reached there): its fingerprint is the secant from zero to the probe, and its refit starts there
+    probe: float | None = None
 
 
 @dataclass(frozen=True)
@@ -202,6 +207,8 @@ class Diagnosis:
     detection_limits: dict = field(default_factory=dict)
     #: the final model refitted per recording and its trend over the session (:func:`~.evidence.drift`)
     drift: dict = field(default_factory=dict)
+    #: candidates significant in the last step but not named because ``max_effects`` was reached
+    left_out: list = field(default_factory=list)
 
     def heldout(self) -> dict:
         """The verdict's held-out score: mean absolute error of the judging signal on the held-out samples, for
@@ -209,7 +216,15 @@ class Diagnosis:
         info = dict(self.heldout_info)
         s = info.get("signal")
         return {"signal": s, "metric": "mae", "unit": info.get("unit", ""), "split": info.get("split", ""),
-                "baseline": self.baseline.test_mae.get(s), "extended": self.final.test_mae.get(s)}
+                "baseline": self.baseline.test_mae.get(s), "extended": self.final.test_mae.get(s),
+                "signals": self.heldout_signals()}
+
+    def heldout_signals(self) -> dict:
+        """Held-out scores of every measured signal: ``{signal: {"mae": (baseline, extended), "rmse": (...)}}``,
+        so an effect that shows in another signal than the judging one (a sensor's offset) shows its gain."""
+        return {s: {"mae": [self.baseline.test_mae.get(s), self.final.test_mae.get(s)],
+                    "rmse": [self.baseline.test_rmse.get(s), self.final.test_rmse.get(s)]}
+                for s in self.baseline.test_rmse}
 
     @property
     def cause(self) -> str:
@@ -229,7 +244,7 @@ class Diagnosis:
                 "extended": {"effects": list(self.final.effects), "params": dict(self.final.values),
                              "std": {k: _num(v) for k, v in self.final.cal.std.items()},
                              "heldout_rmse": dict(self.final.test_rmse)},
-                "heldout": self.heldout(), "warnings": list(self.warnings),
+                "heldout": self.heldout(), "warnings": list(self.warnings), "left_out": list(self.left_out),
                 "confusable": [dict(c) for c in self.confusable],
                 "detection_limits": {k: dict(v) for k, v in self.detection_limits.items()},
                 "drift": self.drift,
@@ -244,7 +259,8 @@ def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict) -> Fi
     free = list(problem.base_free(start))
     for eid in effects:
         c = problem.candidates[eid]
-        free.append(Free(c.parameter, float(np.clip(start.get(c.parameter, c.zero), *c.bounds)), c.bounds[0],
+        first = c.zero if c.probe is None else c.probe
+        free.append(Free(c.parameter, float(np.clip(start.get(c.parameter, first), *c.bounds)), c.bounds[0],
                          c.bounds[1], c.scale))
     cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss, **problem.fit_options)
     return _assess(problem, tuple(effects), cal, exps, scales)
@@ -331,8 +347,14 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict) -> dict:
         c = problem.candidates[cid]
         exps = problem.experiments(tuple(base.effects) + (cid,))
         values = {**base.values, c.parameter: c.zero}
-        J = _jacobian(exps, values, base_names + [c.parameter], signals, scales)
-        B, f = J[:, :-1], J[:, -1]
+        if c.probe is None:
+            J = _jacobian(exps, values, base_names + [c.parameter], signals, scales)
+            B, f = J[:, :-1], J[:, -1]
+        else:  # a hard limit: the secant from zero to the probe
+            B = _jacobian(exps, values, base_names, signals, scales)
+            r0 = residual_vector(exps, values, signals, ones, scales, "train")
+            r1 = residual_vector(exps, {**values, c.parameter: c.probe}, signals, ones, scales, "train")
+            f = (r1 - r0) / (c.probe - c.zero)
         coef, *_ = np.linalg.lstsq(B, f, rcond=None)
         out[cid] = f - B @ coef
     return out
@@ -356,8 +378,13 @@ def _screened(base: Fit, c: Candidate, r, f, cos) -> CandidateScore:
 
 # ---------------------------------------------------------------------------------------------- driver
 def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds = Thresholds(),
-             max_effects: int = 2, candidates=None, progress=None) -> Diagnosis:
-    """Run the diagnosis (see the module docstring); ``candidates``: ids to try (default: all)."""
+             max_effects: int | None = None, candidates=None, progress=None) -> Diagnosis:
+    """Run the diagnosis (see the module docstring); ``candidates``: ids to try (default: all); ``max_effects``:
+    effects to name at most (default None: as many as the evidence supports, each step adding the best
+    significant candidate until none is). Candidates still significant when the count stops the search are
+    named in ``Diagnosis.left_out`` and in a warning."""
+    if max_effects is not None and (not isinstance(max_effects, int) or max_effects < 1):
+        raise DataError(f"max_effects must be a whole number >= 1 (or None: by evidence), got {max_effects!r}")
     ids = list(candidates or problem.candidates)
     for cid in ids:
         if cid not in problem.candidates:
@@ -371,8 +398,9 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     say("fingerprints")
     fp = fingerprints(problem, base, ids, scales)
     match = {cid: _cos(fp[None], fp[cid]) for cid in ids}
+    limit = len(ids) if max_effects is None else max_effects
     steps, causes = [], []
-    while len(causes) < max_effects:
+    while len(causes) < limit:
         rest = [cid for cid in ids if cid not in causes]
         fp_step = fp if not causes else fingerprints(problem, base, rest, scales)
         scores = []
@@ -404,7 +432,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     if len(baseline.exps) >= 3:
         say("per-recording fit (drift)")
         drifted = _drift(problem, base, causes, scales)
-        if drifted["drifting"] and len(causes) < max_effects:  # a slow effect the per-sample gain cannot see
+        if drifted["drifting"] and len(causes) < limit:  # a slow effect the per-sample gain cannot see
             base, drifted = _named_by_drift(problem, base, causes, steps, drifted, ids, scales, thresholds, say)
     else:
         drifted = {"axis": None, "recordings": [], "trends": {}, "drifting": [], "explained_by": {},
@@ -418,7 +446,12 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     at_final = {k: v for k, v in fp_step.items() if k is None or k in rest} if causes else fp
     d.detection_limits = detection_limits(problem, at_final, base.n_train, thresholds)
     d.drift = drifted
+    if len(causes) >= limit and steps and steps[-1].kind == "gain":
+        d.left_out = [sc.id for sc in steps[-1].scores if sc.significant and sc.id not in causes]
     d.warnings = screen(problem, d.final, scales, thresholds)
+    if d.left_out:
+        d.warnings.append(f"max_effects = {limit} reached: {', '.join(d.left_out)} scored significant in the last "
+                          "step but was not named; raise the limit (or leave it out: the evidence decides)")
     for w in d.warnings:
         say(f"warning: {w}")
     return d

@@ -148,8 +148,8 @@ def _sensitivity(cm, exp):
     return sens
 
 
-def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(), max_effects: int = 2,
-        candidates=None, progress=None) -> tuple:
+def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(),
+        max_effects: int | None = None, candidates=None, progress=None) -> tuple:
     """Diagnose ``recordings`` (list or folder); returns ``(Diagnosis, AnkleProblem)``."""
     problem = AnkleProblem(recordings, split)
     d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)

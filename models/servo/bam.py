@@ -3,29 +3,27 @@
 ``data/xl330/published.json`` holds BAM's parameter files for the XL330 (models m1-m6 on BAM's main branch, and m1
 of the commit that recorded these logs) and the scores the data set's README quotes (BAM's own simulator on these
 16 logs, and BAM's branch scores on its full data). :func:`replay` maps a set onto
-:class:`~.model.ServoPendulum` and scores it the way the diagnosis does (closed loop from the logged goal, mean
-absolute position error):
+:class:`~.model.ServoPendulum` with BAM's own load measure (the friction sees ``G = |tau_ext - tau_motor|``, the
+arm's gravity torque minus the motor's: ``load_measure="external"`` of
+:class:`~acausal.library.friction.GearFriction`) and scores it the way the diagnosis does (closed loop from the
+logged goal, mean absolute position error):
 
-=====================  ==========================  ===========================================================
-BAM                    here                        note
-=====================  ==========================  ===========================================================
-kt, R, armature        servo.kt, servo.R,          output-side motor constant, winding resistance, reflected
-                       servo.armature              rotor inertia: the same quantities
-q_offset               pendulum.phi0               gravity acts at q + q_offset in both
-friction_base, _viscous  servo.tau_c, servo.d      Coulomb budget and viscous coefficient (BAM M1)
-friction_stribeck,     servo.friction.tau_s, w_s,  Stribeck budget ``exp(-(|w|/w_s)^alpha)`` (BAM M2)
-dtheta_stribeck, alpha alpha
-load_friction_base     servo.friction.k_l          BAM M3 multiplies ``|tau_external - tau_motor|``; here the
-                                                   budget grows with the transmitted motor torque
-                                                   ``|tau_motor|``, which is half of BAM's measure while the
-                                                   motor holds the arm still, so ``k_l = 2 Kl`` (an
-                                                   approximation: the two differ while the arm accelerates)
-=====================  ==========================  ===========================================================
+==========================================  ======================================  ==================================
+BAM                                         here                                    model
+==========================================  ======================================  ==================================
+kt, R, armature                             servo.kt, servo.R, servo.armature       all
+q_offset                                    pendulum.phi0                           all
+friction_base, friction_viscous             servo.tau_c, servo.d                    M1 and up
+friction_stribeck, dtheta_stribeck, alpha   servo.friction.tau_s, w_s, alpha        M2, M4-M6
+load_friction_base                          servo.friction.k_l                      M3, M4
+load_friction_stribeck                      servo.friction.k_ls                     M4
+load_friction_motor, _external (_stribeck)  servo.friction.k_m, k_e (k_ms, k_es)    M5, M6
+load_friction_motor_quad, _external_quad    servo.friction.k_mq, k_eq               M6
+==========================================  ======================================  ==================================
 
-M4-M6 (directional, quadratic) have no exact counterpart and are not replayed. BAM integrates with explicit Euler
-at the log's time step and clips the friction so it cannot reverse the motion within a step; this model
-integrates continuously with a smooth Coulomb law (see :mod:`acausal.library.friction`), so the same parameters
-score slightly differently here (a few mrad).
+BAM integrates with explicit Euler at the log's time step and clips the friction so it cannot reverse the motion
+within a step; this model integrates continuously with a smooth Coulomb law (see :mod:`acausal.library.friction`),
+so the same parameters score slightly differently here (a few mrad).
 """
 from __future__ import annotations
 
@@ -37,15 +35,21 @@ import numpy as np
 from .problem import replay, replay_job
 from .recording_format import POSITION
 
-#: BAM parameter name -> (our parameter, factor)
-MAPPING = {"kt": ("servo.kt", 1.0), "R": ("servo.R", 1.0), "armature": ("servo.armature", 1.0),
-           "q_offset": ("pendulum.phi0", 1.0), "friction_base": ("servo.tau_c", 1.0),
-           "friction_viscous": ("servo.d", 1.0), "friction_stribeck": ("servo.friction.tau_s", 1.0),
-           "dtheta_stribeck": ("servo.friction.w_s", 1.0), "alpha": ("servo.friction.alpha", 1.0),
-           "load_friction_base": ("servo.friction.k_l", 2.0)}
+#: BAM parameter name -> our parameter
+MAPPING = {"kt": "servo.kt", "R": "servo.R", "armature": "servo.armature", "q_offset": "pendulum.phi0",
+           "friction_base": "servo.tau_c", "friction_viscous": "servo.d", "friction_stribeck": "servo.friction.tau_s",
+           "dtheta_stribeck": "servo.friction.w_s", "alpha": "servo.friction.alpha",
+           "load_friction_base": "servo.friction.k_l", "load_friction_stribeck": "servo.friction.k_ls",
+           "load_friction_motor": "servo.friction.k_m", "load_friction_external": "servo.friction.k_e",
+           "load_friction_motor_stribeck": "servo.friction.k_ms",
+           "load_friction_external_stribeck": "servo.friction.k_es",
+           "load_friction_motor_quad": "servo.friction.k_mq", "load_friction_external_quad": "servo.friction.k_eq"}
 
-#: the friction terms each replayable BAM model needs
-TERMS = {"m1": ("coulomb",), "m2": ("coulomb", "stribeck"), "m3": ("coulomb", "load")}
+#: the friction terms of each BAM model (BAM ``bam/model.py``: M2 Stribeck, M3 load-dependent, M4 with its Stribeck
+#: part, M5 directional, M6 quadratic)
+TERMS = {"m1": ("coulomb",), "m2": ("coulomb", "stribeck"), "m3": ("coulomb", "load"),
+         "m4": ("coulomb", "stribeck", "load", "load_stribeck"), "m5": ("coulomb", "stribeck", "directional"),
+         "m6": ("coulomb", "stribeck", "directional", "quadratic")}
 
 
 def published() -> dict:
@@ -55,15 +59,15 @@ def published() -> dict:
 
 def mapped(params: dict) -> dict:
     """A BAM parameter set as parameter values of :class:`~.model.ServoPendulum`."""
-    return {MAPPING[k][0]: float(v) * MAPPING[k][1] for k, v in params.items() if k in MAPPING}
+    return {MAPPING[k]: float(v) for k, v in params.items() if k in MAPPING}
 
 
 def replay_set(recordings, label: str, params: dict, executor=None) -> dict:
     """Mean absolute position error of BAM set ``label`` on each recording: ``{recording name: mae}``."""
     model = label.split()[-1]
-    terms = TERMS[model]
+    key = (TERMS[model], (), "external")
     values = mapped(params)
-    jobs = [replay_job(terms, r, values) for r in recordings]
+    jobs = [replay_job(key, r, values) for r in recordings]
     runner = executor.map if executor is not None else map
     out = {}
     for r, (pos, _) in zip(recordings, runner(replay, jobs)):

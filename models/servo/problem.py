@@ -8,10 +8,8 @@ change in the data, so another servo's resolution is found, not typed).
 
 * **Baseline**: Coulomb + viscous friction at the output (BAM's M1): ``servo.kt``, ``servo.R``,
   ``servo.armature``, ``pendulum.phi0`` (mounting offset), ``servo.tau_c``, ``servo.d``.
-* **Candidates** (one parameter each, zero = absent): the friction terms of
-  :class:`~acausal.library.friction.GearFriction`: ``stribeck`` (breakaway friction at low speed, BAM M2),
-  ``load`` (friction proportional to the transmitted torque, M3), ``backdrive`` (more of it while the load drives
-  the gear, the direction dependence of M4).
+* **Candidates** (one parameter each, zero = absent): the library of :mod:`~.effects` across the chain (friction
+  laws, firmware, electrics, sensing), plus a user's own (``extra``: :func:`~.effects.user_effect` records).
 * **Held out**: by default every recording at one gain ``kp`` (the middle of the distinct values; BAM's
   ``--validation_kp``), else one trajectory, else every fourth recording; ``Split`` chooses another. Training
   recordings are cut into ``segment`` second pieces: the groups of the leave-one-group-out score.
@@ -27,9 +25,9 @@ from acausal import DataError
 from acausal.identify import load_recordings
 from acausal.identify.calibrate import Experiment, Free
 from acausal.identify.diagnose import Candidate, Problem, Thresholds, diagnose
-from acausal.library.friction import TERMS
 
-from .model import BASELINE, compiled
+from . import effects as fx
+from .model import BASELINE, READING, compiled
 from .recording_format import POSITION, SERVO_FORMAT, inputs, inputs_from, replay_columns, rig_params, start
 
 SIGNALS = (POSITION,)
@@ -39,11 +37,12 @@ SIGNALS = (POSITION,)
 BOUNDS = {"servo.kt": (0.01, 10.0, 0.3), "servo.R": (0.1, 100.0, 3.0), "servo.armature": (1e-6, 0.1, 1e-3),
           "pendulum.phi0": (-0.3, 0.3, 0.02), "servo.tau_c": (0.0, 2.0, 0.01), "servo.d": (0.0, 1.0, 0.003)}
 
-CANDIDATES = {
-    "stribeck": Candidate("stribeck", "servo.friction.tau_s", 0.0, (0.0, 2.0), 0.01, POSITION, "N.m"),
-    "load": Candidate("load", "servo.friction.k_l", 0.0, (0.0, 2.0), 0.1, POSITION, "1"),
-    "backdrive": Candidate("backdrive", "servo.friction.k_b", 0.0, (0.0, 2.0), 0.1, POSITION, "1"),
-}
+def candidate(e) -> Candidate:
+    """The diagnosis candidate of effect record ``e``."""
+    return Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, POSITION, e.unit, e.probe)
+
+
+CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 
 #: integration tolerances of the replays (positions in rad; errors that matter are ~1e-3 rad)
 RTOL, ATOL = 1e-6, 1e-8
@@ -88,32 +87,46 @@ class Split:
         return mask, f"every recording at {what} held out ({int(mask.sum())} of {len(recordings)})"
 
 
-def terms_of(effects) -> tuple:
-    """The friction terms of the baseline extended with ``effects``, in the library's order."""
-    return tuple(t for t in TERMS if t == "coulomb" or t in effects)
+def model_key(effects) -> tuple:
+    """``(friction terms, inserted effects)`` of the baseline extended with ``effects`` (Effect records): what
+    :func:`~.model.compiled` builds, and what a worker process needs to build the same model."""
+    effects = tuple(effects)
+    return fx.terms(effects), tuple(e for e in effects if e.slot not in ("friction", "parameter"))
 
 
-def replay_job(terms, rec, values: dict, names=()) -> tuple:
-    """The job of :func:`replay` for recording ``rec`` with parameter ``values`` (over its rig's) and the
-    sensitivities to ``names`` (none: the position only)."""
-    return (tuple(terms), rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names))
+def replay_job(key, rec, values: dict, names=()) -> tuple:
+    """The job of :func:`replay` for recording ``rec`` of model ``key`` (:func:`model_key`) with parameter
+    ``values`` (over its rig's) and the sensitivities to ``names`` (none: the position only)."""
+    return (key, rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names))
 
 
 def replay(job: tuple) -> tuple:
     """One closed-loop replay (a module-level function, so a process pool can run it): ``job`` =
-    ``(terms, t, input columns, params, starts, names)`` (:func:`replay_job`); returns ``(position, sens)`` with
-    ``sens`` the sensitivities of the position to ``names`` (shape ``(len(names), N)``), or ``None`` when ``names``
-    is empty."""
-    terms, t, columns, params, x0, names = job
-    cm = compiled(terms)
+    ``(model key, t, input columns, params, starts, names)`` (:func:`replay_job`); returns ``(position, sens)``
+    with ``sens`` the sensitivities of the encoder's reading to ``names`` (shape ``(len(names), N)``), or
+    ``None`` when ``names`` is empty."""
+    key, t, columns, params, x0, names = job
+    cm = compiled(*key)
     u = inputs_from(t, columns)
+    x0 = {k: v for k, v in _starts(cm, x0).items()}
     if not names:
         res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=params, inputs=u, starts=x0,
                           rtol=RTOL, atol=ATOL, dense_output=False)
-        return np.asarray(res["pendulum.phi"]), None
-    vals, S = cm.sensitivities(t, list(names), names=["pendulum.phi"], params=params, inputs=u, t_start=t[0],
+        return np.asarray(res[READING]), None
+    vals, S = cm.sensitivities(t, list(names), names=[READING], params=params, inputs=u, t_start=t[0],
                                starts=x0, rtol=RTOL, atol=ATOL)
-    return np.asarray(vals["pendulum.phi"]), np.asarray(S["pendulum.phi"])
+    return np.asarray(vals[READING]), np.asarray(S[READING])
+
+
+def _starts(cm, x0: dict) -> dict:
+    """The recording's start (arm at rest at the first reading) for every state of ``cm`` that carries it: the
+    rotor's too when play separates it from the arm."""
+    out = dict(x0)
+    if "servo.rotor.phi" in cm.state_names:
+        out.update({"servo.rotor.phi": x0["pendulum.phi"], "servo.rotor.w": 0.0})
+    if "servo.backlash.phi_rel" in cm.state_names and "pendulum.phi" not in cm.state_names:
+        out.pop("pendulum.phi", None)
+    return out
 
 
 class _Batch:
@@ -122,8 +135,8 @@ class _Batch:
     Experiments are batched with those of the same role (fitted or held out), since a calibration asks only for
     the fitted ones."""
 
-    def __init__(self, terms, recordings, held, executor):
-        self.terms, self.recordings, self.held, self.executor = terms, recordings, held, executor
+    def __init__(self, key, recordings, held, executor):
+        self.key, self.recordings, self.held, self.executor = key, recordings, held, executor
         self._cache: dict = {}
 
     def get(self, k: int, values: dict, names=()) -> tuple:
@@ -134,7 +147,7 @@ class _Batch:
                 return near[k][0], None
         if key not in self._cache:
             group = [j for j in range(len(self.recordings)) if self.held[j] == self.held[k]]
-            jobs = [replay_job(self.terms, self.recordings[j], values, names) for j in group]
+            jobs = [replay_job(self.key, self.recordings[j], values, names) for j in group]
             runner = self.executor.map if self.executor is not None else map
             results = list(runner(replay, jobs))
             self._cache = {k2: v for k2, v in self._cache.items() if k2[1] != tuple(names) or k2[2] != key[2]}
@@ -180,13 +193,17 @@ class ServoProblem(Problem):
     """The servo recordings (a folder or a list of :class:`~acausal.identify.recordings.Recording`) as a
     diagnosis problem; see the module docstring."""
 
-    candidates = CANDIDATES
-
     #: each evaluation replays every fitted recording with exact sensitivities; a relative change of 1e-5 in cost
     #: or step is far below what the held-out scores resolve
     fit_options = {"max_nfev": 20, "tol": 1e-5}
 
-    def __init__(self, recordings, split: Split = Split(), executor=None):
+    def __init__(self, recordings, split: Split = Split(), executor=None, extra=()):
+        self.effects = dict(fx.EFFECTS)
+        for e in extra:
+            if e.id in self.effects:
+                raise DataError(f"candidate {e.id!r} is given twice (built-in or user)")
+            self.effects[e.id] = e
+        self.candidates = {k: candidate(e) for k, e in self.effects.items()}
         if not isinstance(recordings, (list, tuple)):
             recordings = load_recordings(recordings, SERVO_FORMAT)
         self.recordings = list(recordings)
@@ -198,7 +215,7 @@ class ServoProblem(Problem):
         self._cache: dict = {}
 
     def experiments(self, effects: tuple) -> list:
-        key = terms_of(effects)
+        key = model_key(self.effects[e] for e in effects)
         if key not in self._cache:
             batch = _Batch(key, self.recordings, self.mask, self.executor)
             self._cache[key] = [experiment(r, k, batch, effects, bool(h), self.split.segment)
@@ -238,9 +255,9 @@ class ServoProblem(Problem):
         return {"signal": POSITION, "unit": "rad", "split": self.split_text}
 
     def regressors(self, exp, values: dict) -> dict:
-        cm = compiled(terms_of(exp.info["effects"]))
+        cm = compiled(*model_key(self.effects[e] for e in exp.info["effects"]))
         v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params={**exp.info["params"], **values},
-                        inputs=exp.info["inputs"], starts=exp.info["start"], rtol=RTOL, atol=ATOL,
+                        inputs=exp.info["inputs"], starts=_starts(cm, exp.info["start"]), rtol=RTOL, atol=ATOL,
                         dense_output=False)
         w = np.asarray(v["pendulum.w"])
         return {"speed": w, "sign(speed)": np.tanh(w / 0.05), "abs(motor torque)": np.abs(np.asarray(v["servo.friction.flange_a.tau"])),
@@ -248,10 +265,11 @@ class ServoProblem(Problem):
                 "elapsed time": exp.t - exp.t[0]}
 
 
-def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(), max_effects: int = 2,
-        candidates=None, progress=None, executor=None) -> tuple:
+def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(),
+        max_effects: int | None = None, candidates=None, progress=None, executor=None, extra=()) -> tuple:
     """Diagnose servo ``recordings`` (list or folder); returns ``(Diagnosis, ServoProblem)``. ``executor``: a
-    process pool to run the replays of one parameter set in parallel (default: in this process)."""
-    problem = ServoProblem(recordings, split, executor)
+    process pool to run the replays of one parameter set in parallel (default: in this process); ``extra``: the
+    user's own candidates (:func:`~.effects.user_effect` records), tried beside the library's."""
+    problem = ServoProblem(recordings, split, executor, extra)
     d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)
     return d, problem

@@ -115,7 +115,10 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
     md += [f"![residual over time]({fig_time.name})", "", f"![held-out recordings]({fig_traj.name})", ""]
     # ---------------------------------------------------------------- candidates
     th = d.thresholds
-    md += ["## 2. Candidates: friction laws added to the calibrated baseline, everything refitted", "",
+    md += ["## 2. Candidates across the chain (friction, firmware, electrics, sensing) added to the calibrated "
+           "baseline, everything refitted", "",
+           "The library: " + "; ".join(f"`{e.id}` ({e.slot}: {e.doc.split(' (')[0]})"
+                                       for e in problem.effects.values()) + ".", "",
            f"A candidate counts when its held-out RMSE gain and its leave-one-segment-out RMSE gain (segments of "
            f"{problem.split.segment:g} s of the fitted recordings) are at least {100 * th.min_gain:.0f} %, its "
            f"per-segment improvements are consistent (paired t at least {th.min_t:g}, or a sign test with p at most "
@@ -132,6 +135,9 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
                           "" if s.screened or not np.isfinite(s.sign_p) else f"{s.sign_p:.2g}",
                           f"{s.delta_bic:.4g}", "**yes**" if s.significant else "no"] for s in st.scores]), "",
                f"Chosen: `{st.chosen}`." if st.chosen else "Nothing significant: the selection stops here.", ""]
+    if d.left_out:
+        md += [f"The limit on the number of effects stopped the search: {', '.join(f'`{c}`' for c in d.left_out)} "
+               "scored significant in the last step and was not named.", ""]
     md += confusable_lines(d)
     md += detection_lines(d)
     md += drift_lines(d)
@@ -177,7 +183,8 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
            *[f"- {line}" for line in _correlated(fin)],
            *[f"- {line}" for line in _loader_notes(problem)],
            "- There is no current or torque measurement: kt and R are seen only through the motion, and the "
-           "friction law only through the position error it causes.",
+           "friction law only through the position error it causes. A firmware gain off its declared value "
+           "(`gain_error`) is the same motion as other kt and R until the duty saturates.",
            "- One mass at one arm length: load-dependent friction and inertia or gravity scale together, so a "
            "load law cannot be told from a wrong inertia by varying the load.",
            "- The winding warms during the session (the logged temperature rises from "

@@ -1,0 +1,213 @@
+"""What a servo on a pendulum may do that the baseline leaves out: the candidate library of the servo diagnosis.
+
+The candidates span the chain, firmware to sensor. Each is one library component put into a slot of
+:class:`~acausal.library.servo.PositionServo` (or a friction term, or a baseline parameter freed from its neutral
+value), with one parameter that sets its size:
+
+* friction (:class:`~acausal.library.friction.GearFriction` terms): ``stribeck``, ``load``, ``backdrive``;
+* firmware (:mod:`acausal.library.firmware`): ``goal_rate_limit``, ``error_deadband``, ``error_dependent_gain``,
+  ``gain_error``, ``duty_limit``, ``punch``, ``loop_delay``;
+* electrics: ``supply_sag`` (a resistance between the logged supply voltage and the bridge),
+  ``duty_quantisation``;
+* sensing: ``encoder_offset``, ``backlash`` (play between the shaft the encoder reads and the output).
+
+``zero`` is the value at which the extended model is the baseline. ``probe`` (where given) is a size at which
+the effect shows for certain: an effect that is a hard limit (a rate or duty limit) has no first-order effect at
+zero, so the diagnosis takes its fingerprint as the change from zero to the probe, and starts its refit there.
+``typical`` is a realistic size (the hidden-effect tests use it); ``doc`` says where it comes from.
+
+A user's own candidate is an :class:`Effect` too, made from a plain dict (:func:`user_effect`; ``acausal diagnose
+--candidate`` or ``--candidates-file``): its component is named by reference (``MODULE:CLASS`` or
+``FILE.py:CLASS``), so worker processes build the same model.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from acausal import Component, DataError, ModelError
+from acausal.library.friction import TERMS
+from acausal.library.servo import SLOTS
+from acausal.references import load_class
+
+
+@dataclass(frozen=True)
+class Effect:
+    id: str
+    slot: str  # a PositionServo slot, "friction" (a friction term) or "parameter" (a baseline parameter)
+    component: str  # MODULE:CLASS of the inserted element; the term's name for "friction"; "" for "parameter"
+    parameter: str  # the model's parameter that sets its size
+    unit: str
+    zero: float  # the value at which the effect vanishes
+    typical: float  # a realistic size
+    bounds: tuple  # fitting range
+    scale: float  # typical magnitude (optimiser scaling)
+    doc: str = ""
+    probe: float | None = None  # fingerprint and refit start for a hard limit (None: at zero)
+    fixed: tuple = field(default_factory=tuple)  # (name, value) pairs of the component's other parameters
+
+    def factory(self):
+        """A callable building the inserted element (with its size at ``zero``; the replay sets the size)."""
+        return _Factory(self.component, self.fixed, self.parameter.rsplit(".", 1)[-1], self.zero)
+
+
+class _Factory:
+    """A picklable element factory: the class by reference, its fixed parameters and its size at zero."""
+
+    def __init__(self, ref, fixed, size_name, zero):
+        self.ref, self.fixed, self.size_name, self.zero = ref, tuple(fixed), size_name, zero
+
+    def __call__(self):
+        cls = load_class(self.ref, Component, "candidate component")
+        return cls(**{**dict(self.fixed), self.size_name: self.zero})
+
+
+F = "acausal.library.firmware:"
+#: the encoder step of a 4096-count encoder [rad] (XL330, STS3215)
+_STEP = 2 * 3.141592653589793 / 4096
+
+EFFECTS = {e.id: e for e in [
+    Effect("stribeck", "friction", "stribeck", "servo.friction.tau_s", "N.m", 0.0, 0.01, (0.0, 2.0), 0.01,
+           "breakaway friction at low speed (BAM M2; w_s, alpha at the library's defaults)"),
+    Effect("load", "friction", "load", "servo.friction.k_l", "1", 0.0, 0.2, (0.0, 2.0), 0.1,
+           "friction proportional to the transmitted torque (BAM M3 with the servo's own load measure)"),
+    Effect("backdrive", "friction", "backdrive", "servo.friction.k_b", "1", 0.0, 0.2, (0.0, 2.0), 0.1,
+           "more load friction while the load drives the gear (BAM M4's direction dependence)"),
+    Effect("goal_rate_limit", "goal", F + "GoalRateLimit", "servo.goal_rate_limit.t_v", "s/rad", 0.0, 0.19,
+           (0.0, 2.0), 0.1, "the firmware moves its internal goal no faster than 1/t_v (Feetech STS3215: "
+           "3400 steps/s = 5.2 rad/s, t_v 0.19 s/rad, Rhoban/bam feetech/actuator.py; Dynamixel Profile "
+           "Velocity)", probe=0.25),
+    Effect("error_deadband", "error", F + "DeadZone", "servo.error_deadband.uMax", "rad", 0.0, 3 * _STEP,
+           (0.0, 0.1), 0.003, "no drive within a band of position error (Dynamixel compliance margin, Feetech "
+           "insensitive zone; typical 3 encoder steps)"),
+    Effect("error_dependent_gain", "error", F + "ErrorGain", "servo.error_dependent_gain.c", "1/rad", 0.0, 2.0,
+           (0.0, 100.0), 1.0, "the duty falls short of the linear law at large errors, duty = k e / (1 + c |e|) "
+           "(torque-limit protection, an inner current loop; typical: half the gain at 0.5 rad)"),
+    Effect("gain_error", "error", F + "GainScale", "servo.gain_error.s", "1", 0.0, 0.2, (-0.9, 5.0), 0.1,
+           "the firmware's gain differs from the declared error gain by the fraction s (BAM's error_gain_ratio "
+           "of the STS3215, fitted in 0.1-10)"),
+    Effect("duty_limit", "parameter", "", "servo.d_max", "1", 1.0, 0.9, (0.2, 1.0), 0.1,
+           "the largest duty is below 1 (MX-64/106: 0.9625, STS3215: 0.97, Rhoban/bam; a PWM Limit register "
+           "below its maximum)", probe=0.9),
+    Effect("punch", "duty", F + "Punch", "servo.punch.p", "1", 0.0, 0.03, (0.0, 0.3), 0.01,
+           "a minimum duty added once the firmware drives (Dynamixel AX punch, Feetech minimum startup force; "
+           "typical 3 %)", fixed=(("u_c", 0.002),)),
+    Effect("loop_delay", "position", F + "LoopDelay", "servo.loop_delay.T", "s", 0.0, 0.003, (0.0, 0.05), 0.001,
+           "the firmware regulates a reading T old (sampling and PWM update; typical 3 ms)"),
+    Effect("supply_sag", "bus", "acausal.library.electrical:Resistor", "servo.supply_sag.R", "Ohm", 0.0, 1.0,
+           (0.0, 50.0), 0.5, "resistance between the logged supply voltage and the bridge: the bus sags with "
+           "the drawn current (connector, traces, a thin supply cable; typical 1 ohm)"),
+    Effect("duty_quantisation", "duty", F + "DeadZone", "servo.duty_quantisation.uMax", "1", 0.0, 0.01,
+           (0.0, 0.2), 0.005, "the duty truncated to a register step q, in the mean: duty - clamp(duty, -q/2, "
+           "q/2) (uMax = q/2; XL330: q = 1/885, a coarse 7-bit PWM: q = 0.008)"),
+    Effect("encoder_offset", "position", "acausal.library.blocks:Bias", "servo.encoder_offset.bias", "rad", 0.0,
+           0.02, (-0.3, 0.3), 0.01, "the reading the firmware regulates is off the logged one by a constant (a "
+           "homing offset applied on one side only); the arm's own mounting offset is the baseline's phi0"),
+    Effect("backlash", "output", "acausal.library.rotational:ElastoBacklash", "servo.backlash.b", "rad", 0.0, 0.02,
+           (0.0, 0.3), 0.005, "play between the shaft the encoder reads and the output (gear backlash; plastic "
+           "servo gears 0.5-2 deg); flanks stiff (1000 N m/rad) and damped",
+           fixed=(("c", 1000.0), ("d", 1.0))),
+]}
+
+
+def effect(name: str, known: dict | None = None) -> Effect:
+    known = EFFECTS if known is None else known
+    try:
+        return known[name]
+    except KeyError:
+        raise ModelError(f"unknown servo effect {name!r}; known: {', '.join(known)}") from None
+
+
+def terms(effects) -> tuple:
+    """The friction terms of the baseline extended with ``effects`` (Effect records), in the library's order."""
+    named = {e.component for e in effects if e.slot == "friction"}
+    return tuple(t for t in TERMS if t == "coulomb" or t in named)
+
+
+def inserts(effects) -> tuple:
+    """The ``PositionServo`` inserts of ``effects``: ``(slot, name, factory)`` in the given order."""
+    return tuple((e.slot, e.id, e.factory()) for e in effects if e.slot in SLOTS)
+
+
+# ------------------------------------------------------------------------------------------------ user's own
+_USER_KEYS = {"id", "slot", "component", "parameter", "unit", "zero", "typical", "bounds", "scale", "doc", "probe",
+              "fixed"}
+
+
+def user_effect(spec: dict, where: str = "candidate") -> Effect:
+    """A user's candidate from a dict: ``id``, ``slot`` (one of PositionServo's slots), ``component``
+    (``MODULE:CLASS`` or ``FILE.py:CLASS``), ``parameter`` (the component's size parameter), ``bounds``
+    ``[lo, hi]``; optional ``zero`` (default 0), ``unit``, ``typical``, ``scale``, ``probe``, ``doc``, ``fixed``
+    (its other parameters). The component is loaded and built once here, so a wrong reference, slot or
+    parameter is named now, not inside a worker. ``where`` names the source in messages."""
+    unknown = sorted(set(spec) - _USER_KEYS)
+    if unknown:
+        raise DataError(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(_USER_KEYS))}")
+    for key in ("id", "slot", "component", "parameter", "bounds"):
+        if key not in spec:
+            raise DataError(f"{where}: key {key!r} is missing")
+    cid, slot, param = str(spec["id"]), str(spec["slot"]), str(spec["parameter"])
+    if not cid.isidentifier():
+        raise DataError(f"{where}: id {cid!r} must be a name (letters, digits, _)")
+    if cid in EFFECTS:
+        raise DataError(f"{where}: id {cid!r} is a built-in candidate; choose another")
+    if slot not in SLOTS:
+        raise DataError(f"{where}: slot {slot!r} is not one of {', '.join(SLOTS)}")
+    try:
+        lo, hi = (float(v) for v in spec["bounds"])
+        zero = float(spec.get("zero", 0.0))
+        probe = None if spec.get("probe") is None else float(spec["probe"])
+        fixed = tuple((str(k), float(v)) for k, v in dict(spec.get("fixed", {})).items())
+        scale = float(spec.get("scale", max(abs(hi - lo) / 10, 1e-12)))
+        typical = float(spec.get("typical", probe if probe is not None else (zero + hi) / 2))
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"{where}: bounds, zero, probe, scale, typical and fixed must be numbers ({exc})") from None
+    if not lo <= zero <= hi or lo >= hi:
+        raise DataError(f"{where}: bounds [{lo}, {hi}] must be increasing and hold zero = {zero}")
+    e = Effect(cid, slot, str(spec["component"]), f"servo.{cid}.{param}", str(spec.get("unit", "")), zero, typical,
+               (lo, hi), scale, str(spec.get("doc", "a user's candidate")), probe, fixed)
+    cls = load_class(e.component, Component, f"{where}: component")
+    if param not in cls.declarations():
+        raise DataError(f"{where}: {e.component} has no parameter {param!r}")
+    element = e.factory()()  # builds it now, so a wrong fixed parameter is named here, not inside a worker
+    ports = SLOTS[slot]
+    if not all(hasattr(element, p) for p in ports):
+        raise DataError(f"{where}: {e.component} has no ports {ports} for slot {slot!r}")
+    return e
+
+
+def parse_candidate(text: str) -> Effect:
+    """``id=NAME,slot=SLOT,component=REF,parameter=P,bounds=LO:HI[,zero=Z][,probe=X][,unit=U]`` (the command
+    line's ``--candidate``) -> :func:`user_effect`."""
+    spec: dict = {}
+    for part in text.split(","):
+        key, sep, value = part.partition("=")
+        if not sep:
+            raise DataError(f"--candidate {text!r}: {part!r} is not KEY=VALUE")
+        key = key.strip()
+        value = value.strip()
+        if key == "bounds":
+            spec[key] = value.split(":")
+            if len(spec[key]) != 2:
+                raise DataError(f"--candidate {text!r}: bounds must be LO:HI, got {value!r}")
+        elif key == "fixed":
+            name, _, v = value.partition(":")
+            spec.setdefault("fixed", {})[name] = v
+        else:
+            spec[key] = value
+    return user_effect(spec, f"--candidate {text!r}")
+
+
+def load_candidates_file(path) -> list:
+    """A JSON file holding a list of candidate dicts (:func:`user_effect`), each named by file and index."""
+    path = Path(path)
+    try:
+        items = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such candidates file") from None
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{path}: not JSON: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    if not isinstance(items, list):
+        raise DataError(f"{path}: expected a JSON list of candidates")
+    return [user_effect(spec if isinstance(spec, dict) else {}, f"{path} [{k}]") for k, spec in enumerate(items)]
