@@ -9,6 +9,7 @@
 
     acausal diagnose DATA --out DIR [--json FILE]                  name what the Eq. 4 model misses
     acausal diagnose DATA --model servo_pendulum --out DIR         the same for a servo on a pendulum (BAM logs)
+    acausal check DATA --model servo_pendulum                      what a set of servo recordings can show
 
     acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR | --list
 
@@ -263,6 +264,14 @@ def cmd_diagnose(args) -> int:
     return 0
 
 
+def cmd_check(args) -> int:
+    """What a set of recordings can show before anything is fitted (servo_pendulum)."""
+    from acausal.models.servo import support  # the CLI wires verbs to models (design rule exception)
+
+    print(support.report(support.survey(args.data)))
+    return 0
+
+
 def _diagnose_servo(args, out: Path, candidates, progress):
     from concurrent.futures import ProcessPoolExecutor
 
@@ -419,6 +428,12 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--no-binary", action="store_true", help="a source-only FMU (no compiler needed: the "
                     "importing tool compiles sources/)")
     ex.set_defaults(run=cmd_export)
+    ck = sub.add_parser("check", help="say what a set of servo recordings can show (gains, trajectories, torque-off "
+                        "segments, saturation, holds) before fitting")
+    ck.add_argument("data", help="folder of recordings (NAME.csv + NAME.json)")
+    ck.add_argument("--model", choices=("servo_pendulum",), default="servo_pendulum",
+                    help="which model the recordings are of (servo_pendulum)")
+    ck.set_defaults(run=cmd_check)
     dg = sub.add_parser("diagnose", help="calibrate a baseline model on recordings (the ankle's Eq. 4 model, or "
                         "--model servo_pendulum), show its residuals, name the missing effect, extend the model and "
                         "measure the gain on held-out data")

@@ -16,7 +16,7 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 3. **Refit and score**: each candidate is added to the calibrated model and the extended model refitted on the
    training strides. (A candidate whose projected fingerprint explains so little of the residual that even the
    linearised best case gains less than ``Thresholds.screen`` is not refitted: it is scored by one Gauss-Newton
-   step and marked ``screened``.) Scores, all on residuals in units of sensor noise pooled over the signals:
+   step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising ones.) Scores, all on residuals in units of sensor noise pooled over the signals:
 
    * ``heldout_rmse_gain = 1 - RMSE_extended / RMSE_before`` on the held-out strides;
    * leave-one-stride-out RMSE over the training strides (linearised, :func:`~.residuals.leave_one_group_out`)
@@ -97,6 +97,10 @@ class Problem(ABC):
     loss: str = "soft_l1"
     #: further options of every calibration (:func:`~.calibrate.calibrate`: ``max_nfev``, ``tol``)
     fit_options: dict = {}
+    #: candidates refitted per step at most, in the order of their linearised gain (the share of the residual
+    #: their projected fingerprint explains); the others are scored by one Gauss-Newton step and marked
+    #: ``screened``. None: every candidate above ``Thresholds.screen`` is refitted.
+    max_refits: int | None = None
 
     @abstractmethod
     def experiments(self, effects: tuple) -> list:
@@ -404,9 +408,12 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
         rest = [cid for cid in ids if cid not in causes]
         fp_step = fp if not causes else fingerprints(problem, base, rest, scales)
         scores = []
-        for cid in rest:
-            cos = _cos(fp_step[None], fp_step[cid])
-            if 1.0 - np.sqrt(max(1.0 - cos * cos, 0.0)) < thresholds.screen:
+        cosines = {cid: _cos(fp_step[None], fp_step[cid]) for cid in rest}
+        order = sorted(rest, key=lambda cid: -abs(cosines[cid]))
+        refit = set(order if problem.max_refits is None else order[:problem.max_refits])
+        for cid in order:
+            cos = cosines[cid]
+            if cid not in refit or 1.0 - np.sqrt(max(1.0 - cos * cos, 0.0)) < thresholds.screen:
                 scores.append(_screened(base, problem.candidates[cid], fp_step[None], fp_step[cid], cos))
                 continue
             say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))

@@ -22,13 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from acausal import DataError
-from acausal.identify import load_recordings
 from acausal.identify.calibrate import Experiment, Free
 from acausal.identify.diagnose import Candidate, Problem, Thresholds, diagnose
 
-from . import effects as fx
+from . import bam_logs, effects as fx
 from .model import BASELINE, READING, compiled
-from .recording_format import POSITION, SERVO_FORMAT, inputs, inputs_from, replay_columns, rig_params, start
+from .recording_format import POSITION, inputs, inputs_from, replay_columns, rig_params, start
 
 SIGNALS = (POSITION,)
 
@@ -196,6 +195,9 @@ class ServoProblem(Problem):
     #: each evaluation replays every fitted recording with exact sensitivities; a relative change of 1e-5 in cost
     #: or step is far below what the held-out scores resolve
     fit_options = {"max_nfev": 20, "tol": 1e-5}
+    #: the library spans the chain (14 candidates): each step refits the four whose fingerprints explain most of
+    #: the residual, and scores the rest by their linearised step (a second step looks at them again)
+    max_refits = 4
 
     def __init__(self, recordings, split: Split = Split(), executor=None, extra=()):
         self.effects = dict(fx.EFFECTS)
@@ -205,7 +207,7 @@ class ServoProblem(Problem):
             self.effects[e.id] = e
         self.candidates = {k: candidate(e) for k, e in self.effects.items()}
         if not isinstance(recordings, (list, tuple)):
-            recordings = load_recordings(recordings, SERVO_FORMAT)
+            recordings = bam_logs.load(recordings)  # the servo format, or BAM's raw logs converted
         self.recordings = list(recordings)
         self.split = split
         self.executor = executor
