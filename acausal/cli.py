@@ -241,7 +241,8 @@ def cmd_diagnose(args) -> int:
         write_report(out, d, problem, f"recordings in `{args.data}`")
         if args.json:
             write_json(args.json, d)
-    print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else ""))
+    print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else "")
+          + (f"; suspected from a drift: {', '.join(d.suspects)}" if getattr(d, "suspects", None) else ""))
     for sig, sc in d.heldout_signals().items():
         b, e = sc["rmse"]
         print(f"  held-out RMSE of {sig}: baseline {b:.4g}, extended {e:.4g}"

@@ -67,7 +67,7 @@ def test_confusable_pair_comes_with_the_evidence_that_separated_it(tmp_path_fact
         assert (out / png).stat().st_size > 10_000 and png in text
 
 
-def _session(folder, resistances, seed, shuffle_names=False):
+def _session(folder, resistances, seed, shuffle_names=False, times=True):
     """A session of recordings, one per motor resistance (in recording order), each 2 strides of one condition
     after the other; JSON ``session_time_s`` says when each started. ``shuffle_names``: file names that sort in
     another order than the session's."""
@@ -75,7 +75,8 @@ def _session(folder, resistances, seed, shuffle_names=False):
     t0 = 0.0
     for k, R in enumerate(resistances):
         cols, meta = record(cond, truth={"motor.R": R}, seed=seed, index=k)
-        meta["session_time_s"] = t0
+        if times:
+            meta["session_time_s"] = t0
         t0 += cond.strides * cond.stride_time + 60.0
         name = f"rec{(len(resistances) - k) if shuffle_names else k:02d}"
         write_recording(folder, name, cols, meta, ANKLE_FORMAT)
@@ -93,6 +94,23 @@ def test_a_resistance_rising_over_the_session_is_drift_pointing_to_the_winding(t
     assert np.allclose(fitted, R, atol=0.015), fitted  # one recording of 3 strides each: R to about 1 %
     assert dr["trends"]["motor.R"]["change"] == pytest.approx(0.05, abs=0.015)  # the line through six such points
     assert "motor.J" not in dr["drifting"]  # (b, fitted per recording, may follow R: both set the supply current)
+
+
+def test_a_drift_without_session_times_is_a_suspect_with_what_would_confirm_it(tmp_path):
+    """R rising from recording to recording, and the JSONs do not say when each was made: the winding candidate
+    cannot carry a temperature from one to the next, so it cannot be named; the verdict does not stop at `none`
+    but names it as the drift's suspect and says which data would confirm it."""
+    from acausal.models.bench.diagnosis_report import write_report
+    R = np.linspace(0.70, 0.75, 6)
+    d, problem = diagnosis.run(_session(tmp_path / "data", R, seed=35, times=False), max_effects=1)
+    assert d.drift["axis"] == "recording order" and "motor.R" in d.drift["drifting"]
+    assert "winding_temperature" not in d.causes
+    assert d.suspects == {"winding_temperature": ["motor.R"]}
+    assert any("record session_time_s" in w for w in d.warnings)
+    assert d.to_dict()["suspects"] == {"winding_temperature": ["motor.R"]}
+    write_report(tmp_path / "out", d, problem, "virtual bench")
+    assert "suspected from a drift over the session: `winding_temperature`" in (tmp_path / "out" /
+                                                                                "report.md").read_text()
 
 
 def test_a_steady_session_has_no_drift(tmp_path):

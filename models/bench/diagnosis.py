@@ -44,6 +44,12 @@ class AnkleProblem(Problem):
     #: a resistance that rises from recording to recording is a winding warming over the session
     drift_causes = {"motor.R": ("winding_temperature",)}
 
+    def confirm(self, candidate: str, exps) -> str:
+        if candidate == "winding_temperature" and not is_session(self.recordings):
+            return ("the recordings do not say when each was made (JSON session_time_s), so each starts at "
+                    "ambient and a warming over the session cannot be modelled; record session_time_s to confirm")
+        return super().confirm(candidate, exps)
+
     def __init__(self, recordings, split: Split = Split(), signals=DIAGNOSIS_SIGNALS, baseline=BASELINE_PARAMS,
                  exact: bool = True):
         if not isinstance(recordings, (list, tuple)):

@@ -173,9 +173,13 @@ def _warning_lines(d) -> list:
 def _headline(d, problem) -> str:
     """The verdict with every named cause, its fitted size and standard error, what that size means physically and
     the supply energy it costs per stride."""
+    suspects = getattr(d, "suspects", {})
+    suspected = ("; suspected from a drift over the session: " + ", ".join(
+        f"`{c}` ({', '.join(p)} drifts; {problem.confirm(c, d.final.exps)})" for c, p in suspects.items())
+        if suspects else "")
     if not d.causes:
         return "**Verdict: `none`** (no candidate counts; the detection limits below say how large an effect could " \
-               "have gone unseen)"
+               f"have gone unseen){suspected}"
     parts = []
     for cid in d.causes:
         c = problem.candidates[cid]
@@ -183,7 +187,7 @@ def _headline(d, problem) -> str:
         energy = problem.effect_energy(d.final, cid)
         parts.append(f"`{cid}` = {v:.4g} ± {sd:.2g} {c.unit} ({problem.effect_reading(cid, v)}; "
                      f"{energy:+.3g} J of supply energy per stride)")
-    return f"**Verdict: {', '.join(f'`{c}`' for c in d.causes)}**: " + "; ".join(parts) + "."
+    return f"**Verdict: {', '.join(f'`{c}`' for c in d.causes)}**: " + "; ".join(parts) + suspected + "."
 
 
 def _clean_count(a) -> str:

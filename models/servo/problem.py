@@ -107,7 +107,7 @@ def replay(job: tuple) -> tuple:
     key, t, columns, params, x0, names = job
     cm = compiled(*key)
     u = inputs_from(t, columns)
-    x0 = {k: v for k, v in _starts(cm, x0).items()}
+    x0 = _starts(cm, x0)
     if not names:
         res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=params, inputs=u, starts=x0,
                           rtol=RTOL, atol=ATOL, dense_output=False)

@@ -69,7 +69,7 @@ def _best(fn, rounds=3):
 def test_servo_replay_vs_handwritten(benchmark):
     rec = _recording()
     columns, rig, x0 = replay_columns(rec), rig_params(rec.meta), start(rec)
-    job = replay_job(TERMS, rec, PARAMS)
+    job = replay_job((TERMS, ()), rec, PARAMS)
     replay(job)  # compile once (cached per process), as the diagnosis does
     pos, _ = benchmark.pedantic(lambda: replay(job), rounds=3, iterations=1)
     t_ref, ref = _best(lambda: _handwritten(rec, columns, rig, x0))
