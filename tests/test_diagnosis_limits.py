@@ -160,3 +160,25 @@ def test_servo_recordings_are_ordered_by_the_time_stamps_in_their_names():
     label, x = ServoProblem.session_order(None, [SimpleNamespace(name=n) for n in names])
     assert label.startswith("elapsed session time") and x == [0.0, 7.0, 112.0]
     assert ServoProblem.session_order(None, [SimpleNamespace(name="no_stamp")]) is None
+
+
+def test_winding_warming_without_session_times_is_named_with_a_start_temperature_per_recording(tmp_path):
+    """The session of the test above with its JSONs stripped of session_time_s: no temperature can be carried from
+    one recording to the next, so the winding candidate fits each recording's own start temperature. It is
+    named, its size within 3 standard errors of the truth, and the start temperatures rise over the session (by
+    their differences: a common offset of them all is the same as a higher R)."""
+    import json
+    run_session(tmp_path, SESSION, {"winding_temperature": 0.1}, seed=37, pause=5.0)
+    for js in tmp_path.glob("S*.json"):
+        meta = json.loads(js.read_text())
+        del meta["session_time_s"]
+        js.write_text(json.dumps(meta))
+    (tmp_path / "manifest.json").unlink()
+    d, _ = diagnosis.run(tmp_path, max_effects=1)
+    assert d.causes == ["winding_temperature"], d.to_dict()["steps"]
+    h, sd = d.final.values["winding_heating"], d.final.cal.std["winding_heating"]
+    assert abs(h - 0.1) < 3 * sd, (h, sd)
+    starts = [d.final.values[f"winding_excess@{e.name}"] for e in d.final.exps]
+    # only their rise is seen: a common offset of every start is a higher R
+    assert starts[-1] - starts[0] > 10.0 and all(b > a - 1.0 for a, b in zip(starts, starts[1:])), starts
+    assert not d.suspects

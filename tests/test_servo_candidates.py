@@ -113,12 +113,13 @@ def test_candidates_file_errors_name_file_and_entry(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------------ hidden effects
-def _diagnose(tmp_path, hidden, *extra, seed=3):
-    """The unchanged CLI on simulated recordings of the other servo with ``hidden`` effects; the verdict."""
+def _diagnose(tmp_path, hidden, *extra, seed=3, **recording):
+    """The unchanged CLI on simulated recordings of the other servo with ``hidden`` effects (``recording``: options
+    of :func:`~acausal.models.servo.virtual.record`); the verdict."""
     from acausal.cli import main
     from acausal.models.servo import virtual
     data = tmp_path / "data"
-    virtual.record(data, hidden, seed=seed)
+    virtual.record(data, hidden, seed=seed, **recording)
     out = tmp_path / "out"
     assert main(["diagnose", str(data), "--model", "servo_pendulum", "--out", str(out), "--json",
                  str(out / "v.json"), "--no-progress", *extra]) == 0
@@ -169,7 +170,8 @@ def test_hidden_effect_is_named_among_its_neighbours(tmp_path, eid, size):
               "punch": "error_deadband,stribeck", "supply_sag": "duty_limit,load",
               "duty_quantisation": "error_deadband,punch", "encoder_offset": "loop_delay,backlash",
               "backlash": "encoder_offset,stribeck"}[eid]
-    v = _diagnose(tmp_path, {eid: size}, "--candidates", f"{eid},{others}", "--max-effects", "1")
+    v = _diagnose(tmp_path, {eid: size}, "--candidates", f"{eid},{others}", "--max-effects", "1",
+                  gains=(300, 600, 1200), duration=2.5)  # 6 recordings of 2.5 s, those at kp 600 held out
     assert v["cause"] == eid, v["candidates"]
     _recovered(v, eid, size)
 

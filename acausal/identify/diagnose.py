@@ -69,6 +69,7 @@ def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict) -> Fi
         first = c.zero if c.probe is None else c.probe
         free.append(Free(c.parameter, float(np.clip(start.get(c.parameter, first), *c.bounds)), c.bounds[0],
                          c.bounds[1], c.scale))
+    free += problem.effect_free(tuple(effects), start)
     cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss, **problem.fit_options)
     return _assess(problem, tuple(effects), cal, exps, scales)
 

@@ -138,6 +138,11 @@ def _cos(a, b) -> float:
 
 
 # ---------------------------------------------------------------------------------------------- drift
+#: a parameter whose name holds this belongs to one experiment (``winding_excess@rec03``): fitted with the pooled
+#: model, held at its pooled value when a recording is refitted alone, and no part of a trend
+PER_EXPERIMENT = "@"
+
+
 def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) -> dict:
     """The fit refitted per recording and its trend over the session (module docstring). ``fit``: the model to
     refit (a :class:`~.diagnose.Fit`: the diagnosis's final one); ``bounds``: parameter -> (lower, upper) the
@@ -145,11 +150,12 @@ def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) 
     session (default: their order).
     Returns ``{"axis", "recordings": [{"experiment", "x", params...}], "trends": {param: {...}}, "drifting":
     [param...], "explained_by": {param: [candidate ids]}}``."""
-    names = list(fit.cal.names)
+    keep = [i for i, n in enumerate(fit.cal.names) if PER_EXPERIMENT not in n]  # one recording's own: not a trend
+    names = [fit.cal.names[i] for i in keep]
     exps = list(fit.exps)
     label, x = order if order is not None else ("recording order", np.arange(len(exps), dtype=float))
     x = np.asarray(x, dtype=float)
-    prior = _prior(fit.cal.cov, len(exps))
+    prior = _prior(np.asarray(fit.cal.cov)[np.ix_(keep, keep)], len(exps))
     rows = []
     for e, xe in zip(exps, x):
         v = _refit_alone(problem, e, fit.values, names, scales, bounds, steps, prior)

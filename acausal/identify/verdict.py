@@ -59,6 +59,12 @@ class Problem(ABC):
     def base_free(self, start: dict) -> list:
         """The baseline's parameters to fit, as :class:`Free`, starting at ``start`` where given."""
 
+    def effect_free(self, effects: tuple, start: dict) -> list:
+        """Further parameters an extension with ``effects`` brings beside the candidates' own (:class:`Free`),
+        e.g. one start value per recording (named ``NAME@EXPERIMENT``: see
+        :data:`~.evidence.PER_EXPERIMENT`); default none."""
+        return []
+
     @abstractmethod
     def period(self, exp) -> float:
         """The cycle (e.g. stride) over which residuals are folded."""

@@ -20,13 +20,14 @@ from __future__ import annotations
 import numpy as np
 
 from acausal.identify import load_recordings
+from acausal.identify.calibrate import Free
 from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
 from .calibration import Split, experiment, free_parameter, replay_inputs, replay_model
 from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS
-from .session import carry_winding, is_session
+from .session import carry_winding, free_winding_starts, is_session, own_start
 
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
@@ -46,8 +47,9 @@ class AnkleProblem(Problem):
 
     def confirm(self, candidate: str, exps) -> str:
         if candidate == "winding_temperature" and not is_session(self.recordings):
-            return ("the recordings do not say when each was made (JSON session_time_s), so each starts at "
-                    "ambient and a warming over the session cannot be modelled; record session_time_s to confirm")
+            return ("the recordings do not say when each was made (JSON session_time_s): each got its own start "
+                    "temperature, and the warming did not pass the tests that way; record session_time_s to carry "
+                    "the temperature from one recording to the next")
         return super().confirm(candidate, exps)
 
     def __init__(self, recordings, split: Split = Split(), signals=DIAGNOSIS_SIGNALS, baseline=BASELINE_PARAMS,
@@ -76,11 +78,21 @@ class AnkleProblem(Problem):
                     e.sensitivity = _sensitivity(cm, e)
             if "winding_temperature" in key and is_session(self.recordings):  # warm from the recording before
                 carry_winding(exps, replay_model(key))
+            elif "winding_temperature" in key:  # no session times: each recording's own start temperature
+                free_winding_starts(exps)
             self._cache[key] = exps
         return self._cache[key]
 
     def base_free(self, start: dict) -> list:
         return [free_parameter(n, start) for n in self.baseline]
+
+    def effect_free(self, effects: tuple, start: dict) -> list:
+        """With the winding candidate on recordings that do not form a session: each recording's start
+        temperature above ambient [K] (0-100 K, from 0: the session's first recording starts cold)."""
+        if "winding_temperature" not in effects or is_session(self.recordings):
+            return []
+        names = [own_start(r.name) for r in self.recordings]
+        return [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
 
     def period(self, exp) -> float:
         return float(exp.info["meta"]["stride_time_s"])

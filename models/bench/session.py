@@ -17,6 +17,11 @@ conductance to ambient (:data:`~acausal.models.ankle.actuator.WINDING_G`) and ``
 sensitivities to the fitted parameters include their effect through the starts of all recordings before it.
 Whatever happened between recordings other than cooling (settling strides before a recording starts, another
 load) is not seen; the first recording is assumed to start at ambient.
+
+Recordings that do not say when each was made (no ``session_time_s``) cannot carry a temperature from one to the
+next; the winding candidate then gives each recording its own start temperature, a parameter fitted with the rest
+(:func:`free_winding_starts`), so a winding warming over an unrecorded session is still testable (by the
+starts' differences: an offset common to them all is the same as a higher resistance).
 """
 from __future__ import annotations
 
@@ -32,6 +37,45 @@ from .recording_format import SIGNALS
 HEATING = EFFECTS["winding_temperature"].parameter
 EXCESS, START = "winding_excess", "winding_t0"
 WINDING_T = "motor.heat_port.T"  # the winding's temperature in the replay model [K]
+
+
+def own_start(name: str) -> str:
+    """The parameter holding recording ``name``'s winding start (excess over ambient, K) when the recordings do
+    not form a session."""
+    return f"{EXCESS}@{name}"
+
+
+def free_winding_starts(exps) -> None:
+    """Rewrite the ``predict`` and ``sensitivity`` of ``exps`` (replays with the winding effect, recordings that do
+    not say when each was made) so that each starts at its own winding temperature, the parameter
+    :func:`own_start` of its name: a winding warming over an unrecorded session is then one start temperature per
+    recording, fitted with the rest, instead of every recording starting at ambient."""
+    for e in exps:
+        own, t0 = own_start(e.name), float(e.t[0])
+        predict, sensitivity = e.predict, e.sensitivity
+
+        def mapped(values, own=own, t0=t0):
+            kept = {k: v for k, v in values.items() if "@" not in k}
+            return {**kept, EXCESS: float(values.get(own, 0.0)), START: t0}
+
+        e.predict = (lambda values, f=predict, m=mapped: f(m(values)))
+        if sensitivity is not None:
+            e.sensitivity = (lambda values, names, f=sensitivity, m=mapped, own=own:
+                             _own_rows(f, m(values), list(names), own))
+
+
+def _own_rows(sensitivity, values, names, own):
+    """Sensitivities to ``names`` where this recording's start parameter ``own`` is the model's
+    :data:`EXCESS` and the other recordings' starts have none (zero rows)."""
+    asked = [n for n in names if "@" not in n or n == own]
+    pred, sens = sensitivity(values, [EXCESS if n == own else n for n in asked])
+    rows = [k for k, n in enumerate(names) if "@" not in n or n == own]
+    full = {}
+    for c, S in sens.items():
+        out = np.zeros((len(names),) + np.shape(S)[1:])
+        out[rows] = S
+        full[c] = out
+    return pred, full
 
 
 def is_session(recordings) -> bool:
