@@ -171,7 +171,7 @@ def test_hidden_effect_is_named_among_its_neighbours(tmp_path, eid, size):
               "duty_quantisation": "error_deadband,punch", "encoder_offset": "loop_delay,backlash",
               "backlash": "encoder_offset,stribeck"}[eid]
     v = _diagnose(tmp_path, {eid: size}, "--candidates", f"{eid},{others}", "--max-effects", "1",
-                  gains=(300, 600, 1200), duration=2.5)  # 6 recordings of 2.5 s, those at kp 600 held out
+                  gains=(300, 600, 1200), duration=2.0)  # 6 recordings of 2 s, those at kp 600 held out
     assert v["cause"] == eid, v["candidates"]
     _recovered(v, eid, size)
 

@@ -317,6 +317,9 @@ class AnkleActuator(SeriesLinkAnkle):
     winding_excess = Parameter(0.0, unit="K", doc="the winding's temperature above ambient at winding_t0 (effect "
                                                   "winding_temperature: still warm from a session's earlier recording)")
     winding_t0 = Parameter(0.0, unit="s", doc="when the winding is winding_excess above ambient (the run's start)")
+    winding_G = Parameter(WINDING_G, unit="W/K", min=1e-9,
+                          doc="the lumped motor's conductance to ambient (effect winding_temperature; datasheet "
+                              "1 / (0.21 + 7.4 K/W), parameters.md)")
 
     def __init__(self, mode: str = "replay", effects=(), linkage: str = "lossless", **kw):
         self.linkage = check_option(self, "linkage", linkage, OPTIONS["linkage"])
@@ -366,10 +369,10 @@ class AnkleActuator(SeriesLinkAnkle):
             # a winding still warm from an earlier recording starts winding_excess above it (the step decays as the
             # lumped motor cools, exactly as a warmer start would: DecayingTemperatureStep)
             self.winding = HeatCapacitor(C=1 / self.winding_heating, T=DCMotor.T_ref.default)
-            self.cooling = ThermalConductor(G=WINDING_G)
+            self.cooling = ThermalConductor(G=self.winding_G)
             self.ambient = FixedTemperature(T=self.motor.T_ref)
             self.warm_start = DecayingTemperatureStep(dT0=self.winding_excess, t0=self.winding_t0,
-                                                      tau=1 / (self.winding_heating * WINDING_G))
+                                                      tau=1 / (self.winding_heating * self.winding_G))
             connect(self.motor.heat_port, self.warm_start.port_a)
             connect(self.warm_start.port_b, self.winding.port, self.cooling.port_a)
             connect(self.cooling.port_b, self.ambient.port)

@@ -24,6 +24,7 @@ from acausal.identify.calibrate import Free
 from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
 from .calibration import Split, experiment, free_parameter, replay_inputs, replay_model
+from ..ankle.actuator import WINDING_G
 from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS
@@ -87,12 +88,17 @@ class AnkleProblem(Problem):
         return [free_parameter(n, start) for n in self.baseline]
 
     def effect_free(self, effects: tuple, start: dict) -> list:
-        """With the winding candidate on recordings that do not form a session: each recording's start
-        temperature above ambient [K] (0-100 K, from 0: the session's first recording starts cold)."""
-        if "winding_temperature" not in effects or is_session(self.recordings):
+        """With the winding candidate: the motor's conductance to ambient ``winding_G`` (from the datasheet's
+        1/7.61 W/K, within a thermal resistance of 1-40 K/W), and on recordings that do not form a session each
+        recording's start temperature above ambient [K] (0-100 K, from 0)."""
+        if "winding_temperature" not in effects:
             return []
-        names = [own_start(r.name) for r in self.recordings]
-        return [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
+        g = float(np.clip(start.get("winding_G", WINDING_G), 1 / 40, 1.0))
+        out = [Free("winding_G", g, 1 / 40, 1.0, 0.1)]
+        if not is_session(self.recordings):
+            names = [own_start(r.name) for r in self.recordings]
+            out += [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
+        return out
 
     def period(self, exp) -> float:
         return float(exp.info["meta"]["stride_time_s"])

@@ -11,7 +11,8 @@ starts ``theta_k`` above ambient,
 
 with ``theta_end,k-1`` the winding's excess temperature at the end of the previous recording, ``gap_k`` the pause
 between the two (``session_time_s`` of ``k`` minus the previous recording's start and length), ``G`` the motor's
-conductance to ambient (:data:`~acausal.models.ankle.actuator.WINDING_G`) and ``h`` the fitted ``winding_heating``
+conductance to ambient (``winding_G``, fitted with the candidate from the datasheet's
+:data:`~acausal.models.ankle.actuator.WINDING_G`) and ``h`` the fitted ``winding_heating``
 (1 / heat capacity). The start enters the replay as the parameter ``winding_excess`` (a
 :class:`~acausal.library.thermal.DecayingTemperatureStep`), so the chain has exact derivatives: every recording's
 sensitivities to the fitted parameters include their effect through the starts of all recordings before it.
@@ -35,7 +36,7 @@ from .calibration import REPLAY_TOL
 from .recording_format import SIGNALS
 
 HEATING = EFFECTS["winding_temperature"].parameter
-EXCESS, START = "winding_excess", "winding_t0"
+EXCESS, START, CONDUCTANCE = "winding_excess", "winding_t0", "winding_G"
 WINDING_T = "motor.heat_port.T"  # the winding's temperature in the replay model [K]
 
 
@@ -126,11 +127,14 @@ class _Chain:
         if k:
             *_, theta_end, dtheta_end = self.run(k - 1, values, names)
             h = float(values.get(HEATING, e.info["params"].get(HEATING, EFFECTS["winding_temperature"].typical)))
-            decay = np.exp(-self.gaps[k] * WINDING_G * h)
+            G = float(values.get(CONDUCTANCE, e.info["params"].get(CONDUCTANCE, WINDING_G)))
+            decay = np.exp(-self.gaps[k] * G * h)
             theta0 = theta_end * decay
             dtheta0 = decay * dtheta_end
             if HEATING in names:
-                dtheta0[names.index(HEATING)] -= self.gaps[k] * WINDING_G * theta_end * decay
+                dtheta0[names.index(HEATING)] -= self.gaps[k] * G * theta_end * decay
+            if CONDUCTANCE in names:
+                dtheta0[names.index(CONDUCTANCE)] -= self.gaps[k] * h * theta_end * decay
         params = {**e.info["params"], **values, EXCESS: theta0, START: float(e.t[0])}
         ambient = float(params.get("motor.T_ref", DCMotor.T_ref.default))
         cols = {c: v for c, v in SIGNALS.items() if c in e.measured}

@@ -207,7 +207,8 @@ def run_session(out_dir, conditions, effects: dict | None = None, truth: dict | 
         meta["session_time_s"] = clock
         clock += c.strides * c.stride_time + pause
         if "winding_K" in final:
-            excess = (final["winding_K"] - ambient) * np.exp(-pause * WINDING_G * h)
+            G = float((truth or {}).get("winding_G", WINDING_G))
+            excess = (final["winding_K"] - ambient) * np.exp(-pause * G * h)
         paths.append(write_recording(out, name, cols, meta, ANKLE_FORMAT))
     _write_readme(out, conditions, effects, {**TRUTH, **(truth or {})}, sensors, seed)
     write_manifest(out, names, complete=True, about=about)
