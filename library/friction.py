@@ -11,26 +11,27 @@ reaction ``support.tau = -tau_f``)::
 ``F_max >= 0`` is the friction *budget* (the largest torque the contact can hold); the laws differ only in what it
 depends on. Each term vanishes when its parameter is zero, so a law extends a simpler one by one parameter:
 
-=============  ============================================  ======================================================
-term           budget contribution                           physics (BAM, Duclusaud et al., ICRA 2025, models M1-M4)
-=============  ============================================  ======================================================
-``coulomb``    ``tau_c``                                     dry friction of bearings and seals (M1, with ``d``)
-``stribeck``   ``tau_s exp(-(|w|_c / w_s)^alpha)``           extra breakaway friction at low speed (M2)
-``load``       ``k_l |flange_a.tau|``                        mesh friction proportional to the transmitted torque
-                                                             (M3; MSL ``LossyGear``'s torque-proportional loss)
-``backdrive``  ``k_b |flange_a.tau| (1 - tanh(P_a/P_s)) / 2``  extra mesh friction while the load drives the gear
-                                                             (power flows b -> a, ``P_a = flange_a.tau w < 0``; the
-                                                             direction dependence of M4 and of MSL's eta vs 1/eta)
-``load_stribeck`` ``k_ls G S(w)``                             load friction that is larger at rest (M4)
-``directional``  ``|k_e tau_ext - k_m tau_a|``                 load friction weighted by side (M5; needs the
-                 ``+ |k_es tau_ext - k_ms tau_a| S(w)``        external measure)
-``quadratic``  ``S(w) (k_eq tau_ext^2 [|tau_ext| < |tau_a|]``  quadratic load friction while motor and load torque
-               ``+ k_mq tau_a^2 [|tau_ext| > |tau_a|])``       oppose (M6; BAM's pairing of names and conditions)
-=============  ============================================  ======================================================
+==================  ================================================  ==============================================
+term                budget contribution                               physics (BAM, Duclusaud et al., ICRA 2025)
+==================  ================================================  ==============================================
+``coulomb``         ``tau_c``                                         dry friction of bearings and seals (M1, with
+                                                                      ``d``)
+``stribeck``        ``tau_s S(w)``                                    extra breakaway friction at low speed (M2)
+``load``            ``k_l G``                                         mesh friction proportional to the load (M3;
+                                                                      MSL ``LossyGear``'s torque-proportional loss)
+``backdrive``       ``k_b |tau_a| (1 - tanh(P_a/P_s)) / 2``           extra mesh friction while the load drives the
+                                                                      gear (power flows b -> a, ``P_a = tau_a w <
+                                                                      0``; MSL's eta vs 1/eta)
+``load_stribeck``   ``k_ls G S(w)``                                   load friction that is larger at rest (M4)
+``directional``     ``|k_e tau_ext - k_m tau_a|``                     load friction weighted by side (M5; needs the
+                    ``+ |k_es tau_ext - k_ms tau_a| S(w)``            external measure)
+``quadratic``       ``S(w) (k_eq tau_ext^2 [|tau_ext| < |tau_a|]``    quadratic load friction while motor and load
+                    ``+ k_mq tau_a^2 [|tau_ext| > |tau_a|])``         torques oppose (M6; BAM's pairing of names)
+==================  ================================================  ==============================================
 
-``S(w) = exp(-(|w|_c / w_s)^alpha)`` is the Stribeck curve. **The load measure** ``G`` is, with
-``load_measure="transmitted"`` (default), the torque at ``flange_a``, ``G = |tau_a|``: connect the driving side
-there through massless parts (an EMF and an ideal gear: it is then the motor's air-gap torque through the gear,
+``tau_a = flange_a.tau``; ``S(w) = exp(-(|w|_c / w_s)^alpha)`` is the Stribeck curve. **The load measure**
+``G`` is, with ``load_measure="transmitted"`` (default), the torque at ``flange_a``, ``G = |tau_a|``: connect the
+driving side there through massless parts (an EMF and an ideal gear: it is then the motor's air-gap torque through the gear,
 BAM's "motor torque") and put the rotor's inertia on the ``flange_b`` side, so the budget does not depend on
 accelerations (otherwise the law is an algebraic loop, which the compiler solves by Newton iterations, slower).
 With ``load_measure="external"`` the law has an input ``tau_ext``, the external torque on the load (a pendulum's

@@ -16,7 +16,8 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 3. **Refit and score**: each candidate is added to the calibrated model and the extended model refitted on the
    training strides. (A candidate whose projected fingerprint explains so little of the residual that even the
    linearised best case gains less than ``Thresholds.screen`` is not refitted: it is scored by one Gauss-Newton
-   step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising ones.) Scores, all on residuals in units of sensor noise pooled over the signals:
+   step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising
+   ones.) Scores, all on residuals in units of sensor noise pooled over the signals:
 
    * ``heldout_rmse_gain = 1 - RMSE_extended / RMSE_before`` on the held-out strides;
    * leave-one-stride-out RMSE over the training strides (linearised, :func:`~.residuals.leave_one_group_out`)

@@ -209,7 +209,8 @@ def _correlated(fit, limit: float = 0.9) -> list:
     out = []
     for i in range(len(names)):
         for j in range(i + 1, len(names)):
-            r = cov[i, j] / (sd[i] * sd[j])
+            with np.errstate(over="ignore", invalid="ignore"):  # a parameter the data leave undetermined
+                r = cov[i, j] / (sd[i] * sd[j])
             if np.isfinite(r) and abs(r) >= limit:
                 out.append(f"`{names[i]}` and `{names[j]}` are estimated together (correlation {r:+.2f}): the data "
                            "constrain a combination of them better than either.")

@@ -46,7 +46,8 @@ def survey(recordings) -> dict:
     on = enable
     holding = on & (goal_speed < HOLD_SPEED)
     return {
-        "recordings": len(recordings), "samples": int(n), "duration_s": float(sum(r.t[-1] - r.t[0] for r in recordings)),
+        "recordings": len(recordings), "samples": int(n),
+        "duration_s": float(sum(r.t[-1] - r.t[0] for r in recordings)),
         "sample_time_s": float(np.median(dts)), "encoder_step_rad": float(steps.min()) if steps.size else None,
         "gains": sorted({float(r.meta["kp"]) for r in recordings}),
         "trajectories": sorted({str(r.meta.get("trajectory_name", "")) for r in recordings}),
