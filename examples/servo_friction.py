@@ -5,13 +5,14 @@ replayed in closed loop by :class:`~acausal.models.servo.model.ServoPendulum`. T
 
 1. calibrates the baseline (Coulomb + viscous friction, BAM's M1 law: kt, R, armature, offset, Kc, Kv) on the
    recordings at three of the four gains and shows what it gets wrong (over time, per recording, per phase);
-2. adds each friction law of :mod:`acausal.library.friction` in turn, refits, and names the one that improves the
-   held-out recordings (every recording at the fourth gain) significantly;
+2. adds each candidate of :mod:`acausal.models.servo.effects` (friction laws, firmware, electrics, sensing) in turn,
+   refits, and names the one that improves the held-out recordings (every recording at the fourth gain)
+   significantly, then the next on top of it while one does;
 3. reports the extended model's parameters with uncertainty and its held-out MAE next to BAM's published scores
    and BAM's published parameter sets replayed on the same logs.
 
 Writes ``servo_friction/report.md`` (+ figures, CSV, ``diagnosis.json``). Run:
-``python examples/servo_friction.py`` (into ``results/``; about three minutes on two cores).
+``python examples/servo_friction.py`` (into ``results/``; about nine minutes on two cores).
 ``acausal diagnose DATA --model servo_pendulum`` does the same on any folder of recordings in this format.
 """
 from __future__ import annotations
