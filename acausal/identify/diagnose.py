@@ -62,7 +62,9 @@ from .verdict import Candidate, CandidateScore, Diagnosis, Fit, Problem, Step, T
 
 
 # ---------------------------------------------------------------------------------------------- fitting
-def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict) -> Fit:
+def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict, drift: bool = False) -> Fit:
+    """The model extended with ``effects`` calibrated from ``start``; ``drift``: the fit that tests whether an
+    effect explains a drift over the session (with the parameters :meth:`Problem.effect_free` adds for it)."""
     exps = problem.experiments(tuple(effects))
     free = list(problem.base_free(start))
     for eid in effects:
@@ -70,7 +72,7 @@ def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict) -> Fi
         first = c.zero if c.probe is None else c.probe
         free.append(Free(c.parameter, float(np.clip(start.get(c.parameter, first), *c.bounds)), c.bounds[0],
                          c.bounds[1], c.scale))
-    free += problem.effect_free(tuple(effects), start)
+    free += problem.effect_free(tuple(effects), start, drift)
     cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss, **problem.fit_options)
     return _assess(problem, tuple(effects), cal, exps, scales)
 
@@ -298,7 +300,7 @@ def _named_by_drift(problem, base, causes, steps, drifted, ids, scales, threshol
             tried.append(cid)
             say(f"refitting with {cid}: does it explain the drift of {param}?")
             try:
-                ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
+                ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales, drift=True)
             except AcausalError as err:
                 say(f"{cid}: refit failed: {err}")
                 continue

@@ -59,10 +59,11 @@ class Problem(ABC):
     def base_free(self, start: dict) -> list:
         """The baseline's parameters to fit, as :class:`Free`, starting at ``start`` where given."""
 
-    def effect_free(self, effects: tuple, start: dict) -> list:
-        """Further parameters an extension with ``effects`` brings beside the candidates' own (:class:`Free`),
-        e.g. one start value per recording (named ``NAME@EXPERIMENT``: see
-        :data:`~.evidence.PER_EXPERIMENT`); default none."""
+    def effect_free(self, effects: tuple, start: dict, drift: bool = False) -> list:
+        """Further parameters an extension with ``effects`` brings beside the candidates' own (:class:`Free`);
+        ``drift``: for the fit that tests whether an effect explains a drift over the session, which may add one
+        start value per recording (named ``NAME@EXPERIMENT``: see :data:`~.evidence.PER_EXPERIMENT`); default
+        none."""
         return []
 
     @abstractmethod

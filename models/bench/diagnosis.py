@@ -87,15 +87,19 @@ class AnkleProblem(Problem):
     def base_free(self, start: dict) -> list:
         return [free_parameter(n, start) for n in self.baseline]
 
-    def effect_free(self, effects: tuple, start: dict) -> list:
-        """With the winding candidate: the motor's conductance to ambient ``winding_G`` (from the datasheet's
-        1/7.61 W/K, within a thermal resistance of 1-40 K/W), and on recordings that do not form a session each
-        recording's start temperature above ambient [K] (0-100 K, from 0)."""
-        if "winding_temperature" not in effects:
+    def effect_free(self, effects: tuple, start: dict, drift: bool = False) -> list:
+        """When the winding candidate is tried on a drift over the session: the motor's conductance to ambient
+        ``winding_G`` (from the datasheet's 1/7.61 W/K, within a thermal resistance of 1-40 K/W), and on
+        recordings that do not form a session each recording's start temperature above ambient [K] (0-100 K,
+        from 0): the recordings may be one unrecorded session. In the per-sample step the conductance stays at
+        the datasheet's (a warming a single recording shows is set by the heating, the slow cooling hardly
+        moves it; fitting both there costs half the diagnosis's time again) and the recordings start at
+        ambient (a free start per recording would let the candidate absorb any change from one to the next)."""
+        if "winding_temperature" not in effects or not drift:
             return []
         g = float(np.clip(start.get("winding_G", WINDING_G), 1 / 40, 1.0))
         out = [Free("winding_G", g, 1 / 40, 1.0, 0.1)]
-        if not is_session(self.recordings):
+        if drift and not is_session(self.recordings):
             names = [own_start(r.name) for r in self.recordings]
             out += [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
         return out
