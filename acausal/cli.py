@@ -242,7 +242,7 @@ def cmd_diagnose(args) -> int:
         if args.json:
             write_json(args.json, d)
     print(f"cause: {d.cause}" + (f" (causes: {', '.join(d.causes)})" if len(d.causes) > 1 else "")
-          + (f"; suspected from a drift: {', '.join(d.suspects)}" if getattr(d, "suspects", None) else ""))
+          + (f"; suspected from a drift: {', '.join(d.suspects)}" if d.suspects else ""))
     for sig, sc in d.heldout_signals().items():
         b, e = sc["rmse"]
         print(f"  held-out RMSE of {sig}: baseline {b:.4g}, extended {e:.4g}"
@@ -277,9 +277,8 @@ def _diagnose_servo(args, out: Path, candidates, progress):
     from concurrent.futures import ProcessPoolExecutor
 
     from acausal.models.servo import bam, problem as servo  # the CLI wires verbs to models (design rule exception)
-    from acausal.models.servo.report import write_json, write_report
-
     from acausal.models.servo.effects import load_candidates_file, parse_candidate
+    from acausal.models.servo.report import write_json, write_report
 
     extra = [parse_candidate(c) for c in args.candidate]
     if args.candidates_file:

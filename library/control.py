@@ -37,6 +37,11 @@ def clamp(u, lo, hi):
     return Min(Max(u, lo), hi)
 
 
+def duty_output(u, enable, d_max):
+    """A servo firmware's duty: the command ``u`` limited to ``+-d_max`` and gated by the torque ``enable``."""
+    return enable * clamp(u, -d_max, d_max)
+
+
 def _negated_default(kw: dict, name: str, of: str):
     """Default ``kw[name] = -kw[of]`` (a symmetric limit) when only ``of`` is given."""
     if name not in kw and of in kw and kw[of] is not None:
@@ -258,7 +263,7 @@ class DutyPositionController(Component):
 
     def equations(self):
         raw = self.kp * self.error_gain * (self.position_ref.value - self.position.value)
-        return [Eq(self.y.value, self.enable.value * clamp(raw, -self.d_max, self.d_max))]
+        return [Eq(self.y.value, duty_output(raw, self.enable.value, self.d_max))]
 
 
 class DutyOutput(Component):
@@ -272,7 +277,7 @@ class DutyOutput(Component):
     y = RealOutput(doc="duty command [1]")
 
     def equations(self):
-        return [Eq(self.y.value, self.enable.value * clamp(self.u.value, -self.d_max, self.d_max))]
+        return [Eq(self.y.value, duty_output(self.u.value, self.enable.value, self.d_max))]
 
 
 # --------------------------------------------------------------------------------------------- cascade

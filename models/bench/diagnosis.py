@@ -99,7 +99,7 @@ class AnkleProblem(Problem):
             return []
         g = float(np.clip(start.get("winding_G", WINDING_G), 1 / 40, 1.0))
         out = [Free("winding_G", g, 1 / 40, 1.0, 0.1)]
-        if drift and not is_session(self.recordings):
+        if not is_session(self.recordings):
             names = [own_start(r.name) for r in self.recordings]
             out += [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
         return out

@@ -173,7 +173,7 @@ def _warning_lines(d) -> list:
 def _headline(d, problem) -> str:
     """The verdict with every named cause, its fitted size and standard error, what that size means physically and
     the supply energy it costs per stride."""
-    suspects = getattr(d, "suspects", {})
+    suspects = d.suspects
     suspected = ("; suspected from a drift over the session: " + ", ".join(
         f"`{c}` ({', '.join(p)} drifts; {problem.confirm(c, d.final.exps)})" for c, p in suspects.items())
         if suspects else "")

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from acausal.identify.evidence import PER_EXPERIMENT
 from acausal.library.drives import DCMotor
 
 from ..ankle.actuator import WINDING_G
@@ -43,7 +44,7 @@ WINDING_T = "motor.heat_port.T"  # the winding's temperature in the replay model
 def own_start(name: str) -> str:
     """The parameter holding recording ``name``'s winding start (excess over ambient, K) when the recordings do
     not form a session."""
-    return f"{EXCESS}@{name}"
+    return f"{EXCESS}{PER_EXPERIMENT}{name}"
 
 
 def free_winding_starts(exps) -> None:
@@ -56,7 +57,7 @@ def free_winding_starts(exps) -> None:
         predict, sensitivity = e.predict, e.sensitivity
 
         def mapped(values, own=own, t0=t0):
-            kept = {k: v for k, v in values.items() if "@" not in k}
+            kept = {k: v for k, v in values.items() if PER_EXPERIMENT not in k}
             return {**kept, EXCESS: float(values.get(own, 0.0)), START: t0}
 
         e.predict = (lambda values, f=predict, m=mapped: f(m(values)))
@@ -68,9 +69,9 @@ def free_winding_starts(exps) -> None:
 def _own_rows(sensitivity, values, names, own):
     """Sensitivities to ``names`` where this recording's start parameter ``own`` is the model's
     :data:`EXCESS` and the other recordings' starts have none (zero rows)."""
-    asked = [n for n in names if "@" not in n or n == own]
+    asked = [n for n in names if PER_EXPERIMENT not in n or n == own]
     pred, sens = sensitivity(values, [EXCESS if n == own else n for n in asked])
-    rows = [k for k, n in enumerate(names) if "@" not in n or n == own]
+    rows = [k for k, n in enumerate(names) if PER_EXPERIMENT not in n or n == own]
     full = {}
     for c, S in sens.items():
         out = np.zeros((len(names),) + np.shape(S)[1:])

@@ -15,16 +15,14 @@ from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
 from ..reporting.evidence import confusable_lines, detection_lines, drift_lines  # noqa: E402
 from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
-from .bam import published  # noqa: E402
-from .problem import CANDIDATES  # noqa: E402
+from .bam import MAPPING, published  # noqa: E402
 from .recording_format import POSITION  # noqa: E402
 
 #: speed of the goal [rad/s] below which a sample counts as "holding" (the goal still)
 HOLD_SPEED = 0.05
 
-#: the model's parameter -> BAM's name and the factor between them (see :mod:`.bam`)
-BAM_NAMES = {"servo.kt": "kt", "servo.R": "R", "servo.armature": "armature", "pendulum.phi0": "q_offset",
-             "servo.tau_c": "friction_base", "servo.d": "friction_viscous", "servo.friction.k_l": "load_friction_base"}
+#: the model's parameter -> BAM's name (:data:`.bam.MAPPING` turned round)
+BAM_NAMES = {ours: theirs for theirs, ours in MAPPING.items()}
 
 
 def phases(exp) -> dict:
@@ -289,7 +287,7 @@ def _trajectory_figure(path, d):
     return Path(path)
 
 
-__all__ = ["write_report", "write_json", "per_recording", "phases", "CANDIDATES"]
+__all__ = ["write_report", "write_json", "per_recording", "phases"]
 
 
 def _warning_lines(d) -> list:
