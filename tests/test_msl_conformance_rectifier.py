@@ -21,6 +21,7 @@ from .msl_support import METHODS, check_energy, compiled_path_available
 # ==================================================================== 4. Analog.Examples.Rectifier
 RECT = dict(VAC=400.0, f=50.0, LAC=60e-6, Ron=1e-3, Goff=1e-3, Vknee=2.0, CDC=15e-3, IDC=500.0)
 RECT_DIODES = [f"D{k}" for k in range(1, 7)]  # D1-D3 from the lines to DC+, D4-D6 from DC- to the lines
+KNEE_TOL = 1e-9  # V: diodes this close to their knee where the reference's switchings stall conduct together
 
 
 class Rectifier(Model):
@@ -89,8 +90,11 @@ def rectifier_reference(t_end, n_points, t_off=np.inf):
 
     A diode switches where v_d - Vk crosses zero (the sign of the MSL's curve parameter in both modes), found as a
     terminal event of the integration; the other diodes whose sign the switch reverses (the lower diode in series
-    with an upper one whose current dies) switch at the same instant, and the run restarts in the new modes. Returns (t, X, events) with X the states
-    at ``n_points`` output times from 0 to ``t_end`` and events [(t, diode name, turned on)]."""
+    with an upper one whose current dies) switch at the same instant, and the run restarts in the new modes. Where
+    the diodes meet at a common knee (all six at 55.7 ms once the AC is off) the restarts make no progress, two
+    diodes trading the lead on round-off (1e-13 V); after three such restarts every diode within ``KNEE_TOL`` of its
+    knee conducts. The switchings at an instant are each diode's net change of mode there. Returns (t, X, events)
+    with X the states at ``n_points`` output times from 0 to ``t_end`` and events [(t, diode name, turned on)]."""
     P = RECT
     V, C, L, Vk, Goff, I = P["VAC"] * np.sqrt(2 / 3), 2 * P["CDC"], P["LAC"], P["Vknee"], P["Goff"], P["IDC"]
     phase = 2 * np.pi * np.arange(3) / 3
@@ -121,6 +125,7 @@ def rectifier_reference(t_end, n_points, t_off=np.inf):
     for _ in range(6):  # consistent modes at the start
         on = knee(x, on) > 0
     X, events, t = np.empty((4, n_points)), [], 0.0
+    arrived, stalled = on.copy(), 0
     while t < t_end:
         t_stop = t_off if t < t_off < t_end else t_end
         watch = []
@@ -134,19 +139,26 @@ def rectifier_reference(t_end, n_points, t_off=np.inf):
         sel = (t_out >= t) & (t_out <= sol.t[-1])
         if sel.any():
             X[:, sel] = sol.sol(t_out[sel])
+        if sol.t[-1] > t:
+            arrived, stalled = on.copy(), 0  # the modes with which the run reached this instant
+        else:
+            stalled += 1
         t, x = sol.t[-1], sol.y[:, -1]
-        if sol.status == 1:
+        if sol.status == 1 and stalled > 2:  # a common knee: the diodes at it trade the lead without progress
+            on = arrived | (np.abs(knee(x, on)) < KNEE_TOL)
+        elif sol.status == 1:
             k = next(k for k in range(6) if sol.t_events[k].size)
             on = on.copy()
             on[k] = not on[k]
-            events.append((t, RECT_DIODES[k], bool(on[k])))
             for _ in range(6):  # the other diodes whose curve parameter the switch reversed follow at once
                 now = knee(x, on) > 0
                 now[k] = on[k]
                 if np.array_equal(now, on):
                     break
-                events += [(t, RECT_DIODES[j], bool(now[j])) for j in np.flatnonzero(now != on)]
                 on = now
+        if sol.status == 1:  # the switchings at t: the net change of each diode's mode since the run reached t
+            events = [e for e in events if e[0] < t] + [(t, RECT_DIODES[j], bool(on[j]))
+                                                         for j in np.flatnonzero(on != arrived)]
     return t_out, X, events
 
 
