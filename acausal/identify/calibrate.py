@@ -62,6 +62,10 @@ class Experiment:
     #: cluster label of every sample for the standard errors (:mod:`~.uncertainty`): samples whose residuals may be
     #: correlated share one. None: the strides (``stride``). ``info["clusters"]`` names them in words
     clusters: np.ndarray | None = None
+    #: optional: ``solo()`` returns this experiment set up to run on its own, for a fit of this experiment alone
+    #: (a model that runs its experiments together for a pooled fit would otherwise run them all for each of its
+    #: parameter sets). None: it runs alone already
+    solo: Callable | None = None
 
 
 @dataclass(frozen=True)

@@ -194,7 +194,7 @@ def _refit_alone(problem, e, values, names, scales, bounds, steps, prior=None) -
     from .diagnose import _jacobian  # the engine's exact-or-differenced Jacobian
 
     inner = e.train | e.test
-    view = _View(e, inner)
+    view = _View(e.solo() if e.solo is not None else e, inner)
     v = dict(values)
     ones = {s: 1.0 for s in problem.signals}
     r = residual_vector([view], v, problem.signals, ones, scales)

@@ -75,7 +75,9 @@ def test_servo_replay_vs_handwritten(benchmark):
     t_ref, ref = _best(lambda: _handwritten(rec, columns, rig, x0))
     assert np.max(np.abs(pos - ref)) < 1e-4
     t_sens, (pos_s, S) = _best(lambda: replay(job[:-1] + (tuple(PARAMS),)), rounds=1)
-    assert S.shape == (len(PARAMS), rec.t.size) and np.max(np.abs(pos_s - pos)) < 1e-5
+    # the same replay with its sensitivities: the same positions within the replays' integration error (RTOL's
+    # comment: below 5e-5 rad, a tenth of the reading's noise)
+    assert S.shape == (len(PARAMS), rec.t.size) and np.max(np.abs(pos_s - pos)) < 5e-5
     if not benchmark.disabled and benchmark.stats is not None:
         t = benchmark.stats.stats.min
         benchmark.extra_info.update(replay_s=t, handwritten_s=t_ref, ratio=t / t_ref, sensitivities_s=t_sens,
