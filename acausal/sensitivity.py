@@ -150,7 +150,8 @@ def _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method
         except ArithmeticError as exc:  # Python floats: a division by zero raises instead of giving inf
             raise SimulationError(f"sensitivity integration: non-finite value ({exc})") from None
         if sol.status != 0 or not np.all(np.isfinite(sol.y)):
-            raise SimulationError(f"sensitivity integration failed at t = {sol.t[-1] if sol.t.size else t_start:.6g}"
+            reached = np.asarray(sol.t, dtype=float)  # a list when scipy stops before its first step
+            raise SimulationError(f"sensitivity integration failed at t = {reached[-1] if reached.size else t_start:.6g}"
                                   f" s: {sol.message}")
         Y = sol.y
     return Y[:n], Y[n:].reshape(n, q, N)

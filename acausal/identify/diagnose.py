@@ -7,8 +7,10 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 2. **Fingerprints**: for every candidate, the exact sensitivity of the predicted signals to its parameter at the
    value where the effect vanishes (``Candidate.zero``; for a hard limit, which has no first-order effect there,
    the secant to ``Candidate.probe``), at the calibrated baseline, stacked over signals and
-   samples in units of sensor noise. The part the baseline parameters can absorb is projected out (they are
-   refitted anyway), and what is left is compared with the baseline residual (cosine: ``match``). Two candidates
+   samples in units of sensor noise. At ``zero`` the extended model is the baseline, so the baseline parameters'
+   columns are computed once and each candidate adds only its own. The part the baseline parameters can absorb
+   is projected out (they are refitted anyway), and what is left is compared with the baseline residual (cosine:
+   ``match``). Two candidates
    whose projected fingerprints are nearly collinear (``|cos| >= Thresholds.confusable``), or that both count in
    the first step with correlated fingerprints (``|cos| >= Thresholds.related``), are *confusable*; each pair is
    reported with the evidence that separated them, or the statement that the data cannot
@@ -149,23 +151,33 @@ def score(before: Fit, after: Fit, candidate: Candidate, thresholds: Thresholds)
 # ---------------------------------------------------------------------------------------------- fingerprints
 def fingerprints(problem: Problem, base: Fit, ids, scales: dict) -> dict:
     """Projected, noise-scaled fingerprint (training samples stacked) of each candidate at the calibrated
-    ``base``; returns ``id -> vector``, and the base residual under key ``None``."""
+    ``base``; returns ``id -> vector``, and the base residual under key ``None``.
+
+    A candidate vanishes at its ``zero``, where the extended model is the base model: the columns of the base
+    parameters are the base model's, computed once, and each candidate adds its own column (a run with one
+    sensitivity, or the secant to its ``probe``; where the sensitivity at zero cannot be integrated, the secant
+    to its typical magnitude ``scale``)."""
     signals = problem.signals
     ones = {s: 1.0 for s in signals}
     out = {None: residual_vector(base.exps, base.values, signals, ones, scales, "train")}
     base_names = list(base.cal.names)
+    B = _jacobian(base.exps, base.values, base_names, signals, scales)
     for cid in ids:
         c = problem.candidates[cid]
         exps = problem.experiments(tuple(base.effects) + (cid,))
         values = {**base.values, c.parameter: c.zero}
+        f = None
         if c.probe is None:
-            J = _jacobian(exps, values, base_names + [c.parameter], signals, scales)
-            B, f = J[:, :-1], J[:, -1]
-        else:  # a hard limit: the secant from zero to the probe
-            B = _jacobian(exps, values, base_names, signals, scales)
+            try:
+                f = _jacobian(exps, values, [c.parameter], signals, scales)[:, 0]
+            except AcausalError:  # no derivative at zero after all (a hard limit not declared one): its secant
+                pass
+        if f is None:  # a hard limit: the secant from zero to the probe (or to its typical magnitude)
+            lo, hi = c.bounds
+            to = c.probe if c.probe is not None else min(max(c.zero + (c.scale or 1.0), lo), hi)
             r0 = residual_vector(exps, values, signals, ones, scales, "train")
-            r1 = residual_vector(exps, {**values, c.parameter: c.probe}, signals, ones, scales, "train")
-            f = (r1 - r0) / (c.probe - c.zero)
+            r1 = residual_vector(exps, {**values, c.parameter: to}, signals, ones, scales, "train")
+            f = (r1 - r0) / (to - c.zero)
         coef, *_ = np.linalg.lstsq(B, f, rcond=None)
         out[cid] = f - B @ coef
     return out

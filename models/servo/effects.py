@@ -12,8 +12,9 @@ value), with one parameter that sets its size:
 * sensing: ``encoder_offset``, ``backlash`` (play between the shaft the encoder reads and the output).
 
 ``zero`` is the value at which the extended model is the baseline. ``probe`` (where given) is a size at which
-the effect shows for certain: an effect that is a hard limit (a rate or duty limit) has no first-order effect at
-zero, so the diagnosis takes its fingerprint as the change from zero to the probe, and starts its refit there.
+the effect shows for certain: an effect that is a hard limit (a rate or duty limit, a play) has no first-order
+effect at zero, so the diagnosis takes its fingerprint as the change from zero to the probe, and starts its refit
+there.
 ``typical`` is a realistic size (the hidden-effect tests use it); ``doc`` says where it comes from.
 
 A user's own candidate is an :class:`Effect` too, made from a plain dict (:func:`user_effect`; ``acausal diagnose
@@ -106,8 +107,10 @@ EFFECTS = {e.id: e for e in [
            "homing offset applied on one side only); the arm's own mounting offset is the baseline's phi0"),
     Effect("backlash", "output", "acausal.library.rotational:ElastoBacklash", "servo.backlash.b", "rad", 0.0, 0.02,
            (0.0, 0.3), 0.005, "play between the shaft the encoder reads and the output (gear backlash; plastic "
-           "servo gears 0.5-2 deg); flanks stiff (1000 N m/rad) and damped",
-           fixed=(("c", 1000.0), ("d", 1.0))),
+           "servo gears 0.5-2 deg); flanks stiff (1000 N m/rad) and damped. A hard nonlinearity: the play's first "
+           "order effect at zero flips with the sign of the flanks' deflection, so it is fingerprinted by the secant "
+           "to 0.01 rad (0.6 deg, the low end of that range)",
+           fixed=(("c", 1000.0), ("d", 1.0)), probe=0.01),
 ]}
 
 
