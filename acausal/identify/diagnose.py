@@ -173,8 +173,7 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict) -> dict:
             except AcausalError:  # no derivative at zero after all (a hard limit not declared one): its secant
                 pass
         if f is None:  # a hard limit: the secant from zero to the probe (or to its typical magnitude)
-            lo, hi = c.bounds
-            to = c.probe if c.probe is not None else min(max(c.zero + (c.scale or 1.0), lo), hi)
+            to = c.probe if c.probe is not None else c.sized(c.scale or 1.0)
             r0 = residual_vector(exps, values, signals, ones, scales, "train")
             r1 = residual_vector(exps, {**values, c.parameter: to}, signals, ones, scales, "train")
             f = (r1 - r0) / (to - c.zero)

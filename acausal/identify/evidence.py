@@ -71,7 +71,7 @@ def detection_limits(problem, fp: dict, n: int, thresholds) -> dict:
         s_gain, s_bic = np.sqrt(q / (1.0 - q) * rr / ff), np.sqrt(bic * rr / ff)
         size = float(max(s_gain, s_bic))
         lo, hi = c.bounds
-        value = c.zero + size if c.zero + size <= hi else c.zero - size
+        value = c.sized(size)
         entry.update(size=size, value=float(value) if lo <= value <= hi else None,
                      binding="held-out gain" if s_gain >= s_bic else "BIC")
         if entry["value"] is None:

@@ -24,6 +24,11 @@ class Candidate:
     #: limit not reached there): its fingerprint is the secant from zero to the probe, and its refit starts there
     probe: float | None = None
 
+    def sized(self, size: float) -> float:
+        """The parameter at effect size ``size``: ``zero + size``, or ``zero - size`` where the upper bound does
+        not allow that (an effect that grows as its parameter falls, e.g. a limit below 1)."""
+        return self.zero + size if self.zero + size <= self.bounds[1] else self.zero - size
+
 
 @dataclass(frozen=True)
 class Thresholds:
