@@ -4,8 +4,8 @@ on 2 cores, issue 8).
 The command runs in a fresh Python process, as a user would start it (imports, compilation in the workers,
 simulation, CSV, markdown and Sankey PNGs all included): through ``acausal.cli`` once the verb is wired there,
 else through :func:`acausal.models.drivetrains.compare.configure`/``run`` (the functions the CLI wires). One round; the wall
-time is in the benchmark table and in ``extra_info``. The only assertion on time is a loose regression guard (3x
-the goal); the written table is the functional check.
+time is in the benchmark table and in ``extra_info``, beside the goal; it is not asserted (a wall time depends on
+the machine's load, not on the code alone); the written table is the functional check.
 """
 import csv
 import subprocess
@@ -38,4 +38,3 @@ def test_acausal_compare_three_models_two_stride_times(benchmark, tmp_path):
     benchmark.extra_info["goal_s"] = 20.0
     if not benchmark.disabled and benchmark.stats is not None:
         benchmark.extra_info["wall_s"] = benchmark.stats.stats.min
-        assert benchmark.stats.stats.min < 3 * 20.0

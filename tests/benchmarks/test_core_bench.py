@@ -6,8 +6,8 @@
   (``method="LSODA"``) <= 1.5x (issue 3);
 * 100 runs with R swept over 0.5-0.9 ohm, no recompilation, <= 0.5x the hand-written loop (issue 16).
 
-Ratios are stored in ``extra_info`` (see ``--benchmark-json``) and printed. The only assertions are loose
-regression guards on *ratios* (3x the goal), never on absolute times.
+Ratios are stored in ``extra_info`` (see ``--benchmark-json``) and printed. The only assertions on time are loose
+regression guards on *ratios* (3x the goal), never on absolute times (the compile time is recorded, not asserted).
 """
 
 import numpy as np
@@ -32,8 +32,7 @@ def test_compile_time(benchmark):
     cm = benchmark.pedantic(lambda: compile_model(MotorGearLoad()), rounds=5, iterations=1)
     benchmark.extra_info["goal_s"] = 0.5
     assert cm.state_names
-    t = min_time(benchmark)
-    assert t is None or t < 3 * 0.5  # regression guard only: goal is 0.5 s
+    benchmark.extra_info["wall_s"] = min_time(benchmark)  # recorded beside the goal, not asserted (a wall time)
 
 
 def _ratio(benchmark, ours, reference, rounds, goal=1.5):

@@ -3,8 +3,8 @@ strides each) with a gear mesh loss hidden (goal: under 3 minutes on 2 cores, is
 
 The recordings are made first (not timed); the command then runs in a fresh Python process as a user would start
 it (imports, compilation, calibration, fingerprints, refits, report and figures). One round; the wall time is in
-the benchmark table and ``extra_info``; the only assertion on time is a loose regression guard (3x the goal). The
-verdict is the functional check.
+the benchmark table and ``extra_info``, beside the goal; it is not asserted (a wall time depends on the
+machine's load). The verdict is the functional check.
 """
 import json
 import subprocess
@@ -28,4 +28,3 @@ def test_acausal_diagnose_36_recordings(benchmark, tmp_path):
     if not benchmark.disabled and benchmark.stats is not None:
         wall = benchmark.stats.stats.min
         benchmark.extra_info["wall_s"] = wall
-        assert wall < 3 * 180.0

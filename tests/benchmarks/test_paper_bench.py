@@ -1,8 +1,8 @@
 """Benchmark of the main job: `acausal paper --out DIR` on the embedded data (goal: under 60 s on 2 cores).
 
-One round (it is a minute-scale job); the wall time is in the benchmark table and in ``extra_info``. The only
-assertion on time is a loose regression guard (3x the goal); the functional checks are the report's existence and
-every condition's energy balance within 1e-6.
+One round (it is a minute-scale job); the wall time is in the benchmark table and in ``extra_info``, beside the
+goal; it is not asserted (a wall time depends on the machine's load); the functional checks are the report's
+existence and every condition's energy balance within 1e-6.
 """
 import csv
 
@@ -24,4 +24,4 @@ def test_acausal_paper_end_to_end(benchmark, tmp_path):
                                                           worst["stride_time_s"], worst["balance_residual"])
     benchmark.extra_info["goal_s"] = 60.0
     if not benchmark.disabled and benchmark.stats is not None:
-        assert benchmark.stats.stats.min < 3 * 60.0
+        benchmark.extra_info["wall_s"] = benchmark.stats.stats.min
