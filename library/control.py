@@ -335,7 +335,7 @@ class CascadeServo(Model):
     also ``w_ref`` and ``i_ref`` are readable as ``pos.y.value`` and ``vel.y.value``.
 
     Parameter defaults: limits from the EPOS2 70/10 and maxon EC-4pole 30 datasheets
-    (../shared/data/parameters.md); gains are assumptions from loop shaping for the bare motor (48 V winding:
+    (docs/parameters.md); gains are assumptions from loop shaping for the bare motor (48 V winding:
     R = 0.386 ohm, L = 0.0653 mH, k = 0.0274 N m/A, rotor J = 3.33e-6 kg m2): current-loop crossover
     wc = 2 pi 1 kHz with the PI zero on the electrical pole (kp_cur = L wc, ki_cur = R wc); velocity crossover
     wc/10 (kp_vel = J wv / k, PI zero at wv/4); position bandwidth wv/10. With a load, retune vel and pos.

@@ -100,7 +100,7 @@ class EPOS2(PWMDriver):
     ``P_q`` is the constant quiescent consumption the paper measured (10-15 W, section 4.2.1; default 12.5 W).
     ``R_on`` (0.05 ohm) and ``k_sw`` (0.004, switching loss per unit of ``|i_m| v_bus``) are assumptions of the
     order that gives the EPOS2's ~94 % peak efficiency. ``d_max`` = 0.9: the EPOS2's output voltage is at most
-    about 0.9 of its supply (../shared/data/parameters.md).
+    about 0.9 of its supply (docs/parameters.md).
     """
 
     P_q = Parameter(12.5, unit="W", min=0.0, doc="quiescent consumption (paper: 10-15 W measured)",
@@ -199,7 +199,7 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     and the rotor's friction counts in the stage after it.
 
     Defaults: maxon EC-4pole 30, 200 W, 48 V winding (part 305015): R = 0.386 ohm and L = 6.53e-5 H (paper,
-    Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, ../shared/data/parameters.md), J = 3.33e-6
+    Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, docs/parameters.md), J = 3.33e-6
     kg m2 rotor inertia (datasheet; Table 2 lists it swapped with friction), b = 5.66e-6 N m s/rad (no-load
     friction 9.9 mN m / no-load speed 1749 rad/s), tau_c = 0 (all no-load friction is put in b by default),
     alpha_R = 0.00393 1/K (copper), T_ref = 298.15 K (datasheet values at 25 C).

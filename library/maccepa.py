@@ -1,6 +1,6 @@
 """Linkage math of the sliding-bar MACCEPA of the CYBERLEGs alpha ankle (paper, section 2, Eq. 1-3).
 
-Symbols (Fig. 2 of the paper, reading of ``../shared/data/parameters.md``), all SI:
+Symbols (Fig. 2 of the paper, reading of ``docs/parameters.md``), all SI:
 
 * ``alpha`` [rad]: angle between the moment arm (a-c) and the foot (a-b), ``alpha = phi - theta``, positive in the
   plantarflexion direction (phi: moment-arm angle, theta: ankle angle, both plantarflexion-positive);
@@ -314,7 +314,7 @@ class Maccepa(PartialCompliant):
     with the friction of its bar and pivots is :class:`FrictionalMaccepa`.
 
     Defaults: k = 132 N/mm die spring (paper, section 2); A = 0.100 m, B = 0.060 m (not published: a proposal
-    of ../shared/data/parameters.md, low-medium confidence); P = 8 mm (the paper's Table 1 condition).
+    of docs/parameters.md, low-medium confidence); P = 8 mm (the paper's Table 1 condition).
     """
 
     k = Parameter(132e3, unit="N/m", min=0.0, doc="spring stiffness (paper: die spring 132 N/mm)",

@@ -194,7 +194,7 @@ def test_small_blocks():
 
 
 # ------------------------------------------------------------------------------------------- cascade servo
-# maxon EC-4pole 30, 48 V winding (../shared/data/parameters.md) with a small load of 1 g cm2
+# maxon EC-4pole 30, 48 V winding (docs/parameters.md) with a small load of 1 g cm2
 M_R, M_L, M_K, M_J, M_D = 0.386, 6.53e-5, 0.0274, 3.33e-6 + 1e-6, 5.7e-6
 
 

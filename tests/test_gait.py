@@ -1,6 +1,6 @@
 """Tests of acausal.library.gait: the packaged Winter (1991) natural-cadence ankle data and its smooth signals.
 
-Reference numbers are those of shared/data/README.md (reproduced from the data by the project's data check):
+Reference numbers are those of the gait data set's README (reproduced from the packaged data by a data check):
 peak plantarflexor moment 1.628 N m/kg at 48 %; ankle angle +9.62 deg dorsiflexion at 44 % and -19.77 deg
 plantarflexion at 66 % (dorsiflexion positive; in this library's plantarflexion-positive convention: minimum -9.62 deg,
 maximum +19.77 deg); work per stride +0.345 / -0.124 / net +0.221 J/kg from a periodic central difference.

@@ -11,7 +11,7 @@ from acausal.library.thermal import (DecayingTemperatureStep, FixedHeatFlow, Fix
                                      PrescribedHeatFlow, PrescribedTemperature, TemperatureSensor,
                                      ThermalConductor, ThermalResistor)
 
-# maxon EC-4pole 30 (305013/305014 datasheet, ../shared/data/parameters.md)
+# maxon EC-4pole 30 (305013/305014 datasheet, docs/parameters.md)
 R_WH, R_HA = 0.21, 7.4  # K/W, winding-housing and housing-ambient thermal resistances
 TAU_W, TAU_M = 2.11, 1180.0  # s, winding and motor thermal time constants
 C_W, C_H = TAU_W / R_WH, TAU_M / R_HA  # J/K, usual lumped reading of the datasheet (tau = R C per node)

@@ -57,7 +57,7 @@ run's ``P_nominal``, ``link.k``, ``link.A``, ``link.B``, ``body_mass``, ``torque
 setting any of them (e.g. ``simulate(params={"body_mass": 90})``) replans the trajectory. The spring's actual
 precompression is ``link.P = P_nominal + precompression_error``.
 
-Assumptions (not published, ``../shared/data/parameters.md``): lever lengths A = 0.1 m and B = 0.06 m, body mass
+Assumptions (not published, ``docs/parameters.md``): lever lengths A = 0.1 m and B = 0.06 m, body mass
 60 kg, supply 48 V, helical-stage efficiency 0.9.
 """
 from __future__ import annotations

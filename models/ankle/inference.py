@@ -1,7 +1,7 @@
 """Inference of what the paper does not publish, from the numbers it does: the ``paper_fit`` preset.
 
 The unknowns (:data:`UNKNOWNS`) are run-time parameters of the registered actuator, each bounded by a physically
-plausible range with its source (``../shared/data/parameters.md`` and the notes here). The targets
+plausible range with its source (``docs/parameters.md`` and the notes here). The targets
 (:data:`TARGETS`) are the paper's own numbers of claims C1 (Table 1: the five energies at 8 mm, 2 s/stride) and C2
 (Fig. 9: the smallest and largest driver loss over the 6 x 6 grid), both measured on the bench and so computed on
 the bench model (:data:`~acausal.models.ankle.protocol.BENCH`), and C9's energy ratio (Fig. 7: direct drive

@@ -1,14 +1,14 @@
 """Named parameter sets for the CYBERLEGs ankle actuator, each value with its source.
 
 A preset is a dictionary of parameter overrides by hierarchical name (the declarations keep the one source of
-truth for defaults). Sources: the paper (`../shared/paper/cyberlegs-maccepa-energetics.txt`), Table 2 and
-section 4; the maxon datasheet values collected in `../shared/data/parameters.md`.
+truth for defaults). Sources: the paper (`docs/paper.md`), Table 2 and
+section 4; the maxon datasheet values collected in `docs/parameters.md`.
 
 Table 2 of the paper lumps everything into Eq. (4): inertia J, viscous friction b and resistance R of a DC
 motor behind an *ideal* gear of ratio 860. Two of its "motor parameter" entries look swapped (the datasheet rotor
 inertia is 3.33e-6 kg m2; 5.68e-6 is the no-load friction torque over the no-load speed), and the "optimized
-total" inertia and friction read as referred to the moment-arm angle (divided by n = 860 they give 4.07e-6 kg m2
-= rotor + gearhead input inertia, and 7.0e-6 N m s/rad = the no-load friction). Both readings are offered:
+total" inertia and friction read as referred to the moment-arm angle (divided by n = 860 they give 4.07e-6 kg m2,
+20 % above rotor plus gearhead input inertia, and 7.0e-6 N m s/rad = the no-load friction). Both readings are offered:
 ``optimized_total_as_printed`` (motor side, as printed) and ``optimized_total_arm_side`` (divided by n).
 The ``paper_datasheet`` and ``paper_*_total`` presets therefore switch our gear stages to ideal (eta = 1, no
 inertia, no friction), the driver to lossless, the supply to stiff (1 milliohm) and keep the library's lossless
@@ -23,8 +23,9 @@ N_TOTAL = 860.0
 PAPER_FIT_RECORD = Path(__file__).with_name("paper_fit.json")
 
 #: Eq. (4)'s lumped motor values the paper's data implies (the Eq. 4 model's defaults and the virtual bench's
-#: truth): R as Table 2's estimated total; J = rotor 3.33e-6 + gearhead input 0.7e-6 kg m2 (= Table 2's optimized
-#: total / 860); b = the no-load friction 7.0e-6 N m s/rad (= Table 2's optimized total / 860)
+#: truth): R as Table 2's estimated total; J = Table 2's optimized total / 860 (4.07e-6 kg m2: 20 % above the rotor's
+#: 3.33e-6 plus the gearhead's input 0.07e-6); b = the no-load friction 7.0e-6 N m s/rad (= Table 2's optimized
+#: total / 860)
 EQ4_LUMPED = {"motor.R": 0.7, "motor.J": 4.07e-6, "motor.b": 7.0e-6}
 
 # our component model's physical defaults (datasheet motor, catalogue gear efficiency, measured driver draw), and

@@ -1,4 +1,4 @@
-"""The paper's published numbers (*cyberlegs-maccepa-energetics*, ``../shared/paper/``): what the report and the
+"""The paper's published numbers (*cyberlegs-maccepa-energetics*, ``docs/paper.md``): what the report and the
 claims compare the simulation with. Nothing else in the models reads them."""
 
 #: the paper's numbers (section 4, Table 1, Figs. 7-13, 15)

@@ -27,7 +27,7 @@ LINKAGE = {"linkage": "frictional"}
 
 @dataclass(frozen=True)
 class Limits:
-    """Ratings a run is checked against (``../shared/data/parameters.md``)."""
+    """Ratings a run is checked against (``docs/parameters.md``)."""
 
     motor_speed: float = 25000 * RPM  # rad/s: the motor's maximum speed (maxon: 25 000 rpm)
     nominal_torque: float = 0.095  # N m: the motor's nominal (continuous, thermal) torque

@@ -8,7 +8,7 @@ reaches the same speeds at the same duty cycle. A lower voltage shifts loss from
 ``R i^2`` at the same torque to within the winding's fill factor) to the conduction and supply losses, which grow
 with the current, and brings the driver's current limits (10 A continuous, 25 A peak) closer.
 
-Values (datasheet columns, ``../shared/data/parameters.md``)::
+Values (datasheet columns, ``docs/parameters.md``)::
 
     winding  R [ohm]  L [H]     k [N m/A]  nominal torque [N m]
     24 V     0.102    1.6e-5    0.0136     0.0946
