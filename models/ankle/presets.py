@@ -57,6 +57,9 @@ PRESETS = {
     "paper_optimized_total_arm_side": {**_IDEAL_REST, "motor.J": 3.5e-3 / N_TOTAL, "motor.b": 6e-3 / N_TOTAL,
                                        "motor.R": 2.0, "motor.L": 6.53e-5},
 }
+#: the paper's own model as it calibrated it (Eq. 4 with Table 2's optimized total, read on the arm side): what its
+#: design maps (Figs. 16-17, section 4.4: "incorporating the model obtained in this paper") were computed with
+PAPER_EQ4 = "paper_optimized_total_arm_side"
 #: inferred from the paper's published numbers (claims C1, C2, C8, C9): the library preset with the unknowns'
 #: fitted values on top, read from :data:`PAPER_FIT_RECORD` when used
 FITTED = ("paper_fit",)

@@ -23,6 +23,7 @@ The original design criterion (minimum peak mechanical power of the moment arm a
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,7 @@ from ..ankle.presets import preset
 from ..ankle.protocol import D_MAX, POINTS
 
 N_STRIDE = 400  # samples per stride
+COPPER = "motor.loss_power"  # the winding's R i^2 [W]: the map's copper loss per stride, E_copper_J
 _CHAIN: list = []  # per-process cache of the compiled chain
 K_GRID = np.linspace(40e3, 280e3, 25)  # N/m (10 N/mm steps)
 P_GRID = np.linspace(0.001, 0.018, 18)  # m
@@ -128,7 +130,7 @@ def evaluate_designs(ks, Ps, stride_time: float, preset_name: str = "paper_fit",
     d = plan_designs(ks, Ps, stride_time, values, n)
     B = len(d.k)
     out = {key: np.full(B, np.nan) for key in
-           ["efficiency", "peak_link_W", "peak_motor_W", "max_duty"] + [f"E_{p}_J" for p in POINTS]}
+           ["efficiency", "peak_link_W", "peak_motor_W", "max_duty", "E_copper_J"] + [f"E_{p}_J" for p in POINTS]}
     out.update(k=d.k, P=d.P, feasible=d.feasible)
     if not d.feasible.any():
         return out
@@ -139,7 +141,7 @@ def evaluate_designs(ks, Ps, stride_time: float, preset_name: str = "paper_fit",
     base = {**given, "stride_time": T}
     pb = sim.param_batch([{**base, "link.k": k, "P_nominal": P} for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
     points = dict(zip(POINTS, sim.accounts.sensors))  # the model's power sensors, in chain order
-    vals = sim.evaluate(d.t, params=pb, names=list(points.values()) + ["driver.d"],
+    vals = sim.evaluate(d.t, params=pb, names=list(points.values()) + ["driver.d", COPPER],
                         inputs={"ankle.phi_ref": theta, "arm_target.signal": phi})
     E = {p: np.mean(vals[v], axis=-1) * T for p, v in points.items()}  # periodic: the rectangle rule
     f = d.feasible
@@ -149,6 +151,7 @@ def evaluate_designs(ks, Ps, stride_time: float, preset_name: str = "paper_fit",
     out["peak_link_W"][f] = np.max(np.abs(vals[points["link"]]), axis=-1)
     out["peak_motor_W"][f] = np.max(np.abs(vals[points["motor"]]), axis=-1)
     out["max_duty"][f] = np.max(np.abs(vals["driver.d"]), axis=-1)
+    out["E_copper_J"][f] = np.mean(vals[COPPER], axis=-1) * T
     return out
 
 
@@ -164,11 +167,18 @@ class DesignMap:
     P: np.ndarray
     values: dict  # name -> (len(k), len(P)) arrays
     preset: str = "paper_fit"  # the parameters it was evaluated with
+    overrides: dict | None = None  # on top of the preset (e.g. another body mass)
+    duty_limited: bool = True  # optima only among designs within the driver's duty (False: a model without one)
 
-    def optimum(self, key: str = "efficiency", maximise: bool = True) -> tuple:
-        """The best grid design ``(k, P, value)`` among those the motor can follow (required duty <= 0.9)."""
+    def optimum(self, key: str = "efficiency", maximise: bool = True, duty_limited: bool | None = None) -> tuple:
+        """The best grid design ``(k, P, value)``; if ``duty_limited`` (default: the map's) among those the motor
+        can follow (required duty <= 0.9). NaNs where no design qualifies."""
         g = self.values[key]
-        ok = np.isfinite(g) & (self.values["max_duty"] <= D_MAX)
+        ok = np.isfinite(g)
+        if self.duty_limited if duty_limited is None else duty_limited:
+            ok &= self.values["max_duty"] <= D_MAX
+        if not ok.any():
+            return math.nan, math.nan, math.nan
         i = np.nanargmax(np.where(ok, g, -np.inf)) if maximise else np.nanargmin(np.where(ok, g, np.inf))
         a, b = np.unravel_index(i, g.shape)
         return float(self.k[a]), float(self.P[b]), float(g[a, b])
@@ -179,9 +189,11 @@ class DesignMap:
 
 
 def efficiency_map(stride_time: float, preset_name: str = "paper_fit", overrides: dict | None = None, ks=K_GRID,
-                   Ps=P_GRID, executor=None, tasks: int | None = None) -> DesignMap:
+                   Ps=P_GRID, executor=None, tasks: int | None = None, duty_limited: bool = True) -> DesignMap:
     """The (k x P) map at one stride time, in ``tasks`` chunks through ``executor`` (default: a process pool on
-    all cores; ``"serial"`` for this process; any ``concurrent.futures.Executor``, e.g. a dask client's)."""
+    all cores; ``"serial"`` for this process; any ``concurrent.futures.Executor``, e.g. a dask client's).
+    ``duty_limited=False`` for a model without a driver limit (the paper's Eq. 4 drives the motor from an ideal
+    voltage): its optima are taken over every feasible design."""
     import os
     K, P = np.meshgrid(np.asarray(ks, float), np.asarray(Ps, float), indexing="ij")
     pairs = list(zip(K.ravel(), P.ravel()))
@@ -191,13 +203,17 @@ def efficiency_map(stride_time: float, preset_name: str = "paper_fit", overrides
     results = sweep(_map_chunk, jobs, executor=executor)
     merged = {key: np.concatenate([r[key] for r in results]) for key in results[0]}
     values = {key: v.reshape(K.shape) for key, v in merged.items() if key not in ("k", "P")}
-    return DesignMap(stride_time, np.asarray(ks, float), np.asarray(Ps, float), values, preset_name)
+    return DesignMap(stride_time, np.asarray(ks, float), np.asarray(Ps, float), values, preset_name, overrides,
+                     duty_limited)
 
 
 def refine(dmap: DesignMap, overrides: dict | None = None) -> tuple:
     """Continuous optimum of the efficiency among designs the motor can follow, started at the grid optimum
-    (bounded Nelder-Mead in mm and N/mm)."""
+    (bounded Nelder-Mead in mm and N/mm), with the map's preset and overrides unless ``overrides`` are given."""
+    overrides = dmap.overrides if overrides is None else overrides
     k0, P0, _ = dmap.optimum()
+    if not np.isfinite(k0):
+        return math.nan, math.nan, math.nan
     lo = np.array([dmap.k.min() / 1e3, dmap.P.min() * 1e3])
     hi = np.array([dmap.k.max() / 1e3, dmap.P.max() * 1e3])
 
@@ -205,7 +221,7 @@ def refine(dmap: DesignMap, overrides: dict | None = None) -> tuple:
         r = evaluate_designs(np.array([z[0] * 1e3]), np.array([z[1] * 1e-3]), dmap.stride_time, dmap.preset,
                              overrides)
         e = r["efficiency"][0]
-        return -e if np.isfinite(e) and r["max_duty"][0] <= D_MAX else 1.0
+        return -e if np.isfinite(e) and (r["max_duty"][0] <= D_MAX or not dmap.duty_limited) else 1.0
 
     sol = minimize(neg_eff, [k0 / 1e3, P0 * 1e3], method="Nelder-Mead", bounds=list(zip(lo, hi)),
                    options={"xatol": 0.1, "fatol": 1e-5, "maxiter": 200})
