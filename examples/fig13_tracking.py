@@ -1,5 +1,5 @@
-"""Fig. 13 of the paper: moment-arm tracking at 18 mm precompression, 1.2 and 3 s/stride, in closed loop (PID
-through the PWM driver, limited by the 48 V bus): desired and actual moment-arm angle (upper) and the power
+"""Fig. 13 of the paper: moment-arm tracking at 18 mm precompression, 1.2 and 3 s/stride, in closed loop (PID with
+velocity and acceleration feed-forward through the PWM driver, limited by the 48 V bus): desired and actual moment-arm angle (upper) and the power
 delivered to the joint (lower), next to the replay, where the arm follows the plan exactly.
 
 Writes ``fig13_tracking.png`` and ``fig13_tracking.csv``.
@@ -71,11 +71,14 @@ def main(out_dir: Path, results=None) -> dict:
     md = md_table(["stride time [s]", "rms tracking error [deg]", "max tracking error [deg]", "largest duty",
                    "source energy [J/stride]", "joint work, closed loop [J/stride]", "joint work, planned [J/stride]",
                    "rms output-power deviation [W]"], table)
+    k_ff = cl.params.get("controller.k_ff", 0.0)
     md += ("\n\nThe paper shows the motor failing to follow in push-off at 1.2 s/stride and following at 3 s/stride "
-           "(no numbers given). The closed loop uses an assumed PID (kp = 400, ki = 2000, kd = 2) limited to 0.9 of "
-           "the bus voltage; its error at 3 s/stride is the controller's, at 1.2 s/stride the voltage limit adds to "
-           "it. With the steep spring at 18 mm, a small angle error changes the joint torque, and with it the joint "
-           "work, a lot.")
+           "(no numbers given). The closed loop is the EPOS2's position mode as the model has it: a PID (kp = 400, "
+           "ki = 2000, kd = 2, assumed) plus the velocity and acceleration feed-forward of the unloaded motor, "
+           f"weighted by k_ff = {k_ff:.2f} (the drive's tuning, inferred in `paper_fit`), limited to 0.9 of the bus "
+           "voltage; its error at 3 s/stride is the controller's, at 1.2 s/stride the voltage limit adds to it. With "
+           "the steep spring at 18 mm, a small angle error changes the joint torque, and with it the joint work, "
+           "a lot.")
     return dict(title="Fig. 13: tracking at 18 mm, 1.2 and 3 s/stride (closed loop)", figures=[png], csv=[csv_path],
                 markdown=md, comparisons=[])
 

@@ -12,6 +12,7 @@ Jacobian uses their exact piecewise derivatives.
 * :class:`PID` - PID with output limits, derivative on the filtered measurement and back-calculation anti-windup.
 * :class:`PIDVariableLimit` - the same with a time-varying symmetric limit from an input (e.g. the bus voltage).
 * :class:`FirstOrder`, :class:`Limiter`, :class:`Feedback`, :class:`Add` - the usual small blocks.
+* :class:`VelocityAccelerationFeedForward` - a reference's rate and acceleration, weighted (a drive's feed-forward).
 * :class:`DutyPositionController` - a hobby servo's P position law commanding the PWM duty.
 * :class:`CascadeServo` - position -> velocity -> current cascade of a servo drive, built from the blocks above;
   :func:`cascade_gains` tunes it for a motor by loop shaping.
@@ -28,7 +29,8 @@ from sympy import Max, Min
 from acausal import Component, Eq, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
 from acausal.partials import check_option
 
-__all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "DutyPositionController",
+__all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "VelocityAccelerationFeedForward",
+           "DutyPositionController",
            "DutyOutput", "CascadeServo", "cascade_gains", "clamp"]
 
 
@@ -77,6 +79,7 @@ class _PIDBase(Component, abc.ABC):
     kd = Parameter(0.0, unit="s", doc="derivative gain [y] s/[e], acting on the measurement")
     Td = Parameter(1e-3, unit="s", min=0.0, doc="time constant of the derivative filter (> 0)")
     k_aw = Parameter(None, unit="1/s", min=0.0, doc="anti-windup back-calculation gain (default ki/kp)")
+    k_ff = Parameter(1.0, unit="1", doc="gain of the feed-forward input u_ff (with_feed_forward; MSL LimPID kFF)")
 
     e = Variable(unit="1", doc="control error setpoint - measurement")
     I = Variable(start=0.0, fixed=True, unit="1", doc="integral part (state, starts at 0)")
@@ -85,7 +88,8 @@ class _PIDBase(Component, abc.ABC):
                  doc="derivative part; D(0) = 0 is an initial condition met by x_d(0) = measurement(0)")
     y_unsat = Variable(unit="1", doc="output before the limiter")
 
-    def __init__(self, **kw):
+    def __init__(self, with_feed_forward: bool = False, **kw):
+        check_option(self, "with_feed_forward", with_feed_forward, (True, False))
         if "k_aw" not in kw:
             kp, ki = kw.get("kp", 1.0), kw.get("ki", 0.0)
             if _is_number(kp) and _is_number(ki):
@@ -96,6 +100,9 @@ class _PIDBase(Component, abc.ABC):
         if td is not None and _is_number(td) and float(td) <= 0:
             raise ModelError(f"{type(self).__name__}: the derivative filter time constant Td must be > 0, got {td}")
         super().__init__(**kw)
+        self.with_feed_forward = bool(with_feed_forward)
+        if self.with_feed_forward:
+            self.u_ff = RealInput(doc="feed-forward signal, added to the output before the limiter (k_ff u_ff)")
 
     @abc.abstractmethod
     def _limits(self):
@@ -107,7 +114,8 @@ class _PIDBase(Component, abc.ABC):
         return [Eq(self.e, self.setpoint.value - m),
                 Eq(self.Td * der(self.x_d), m - self.x_d),
                 Eq(self.D, -self.kd * der(self.x_d)),
-                Eq(self.y_unsat, self.kp * self.e + self.I + self.D),
+                Eq(self.y_unsat, self.kp * self.e + self.I + self.D
+                   + (self.k_ff * self.u_ff.value if self.with_feed_forward else 0)),
                 Eq(self.y.value, clamp(self.y_unsat, lo, hi)),
                 Eq(der(self.I), self.ki * self.e + self.k_aw * (self.y.value - self.y_unsat))]
 
@@ -241,6 +249,28 @@ class Add(Component):
 
     def equations(self):
         return [Eq(self.y.value, self.k1 * self.u1.value + self.k2 * self.u2.value)]
+
+
+class VelocityAccelerationFeedForward(Component):
+    """Feed-forward of a smooth reference's rate and acceleration (the velocity and acceleration feed-forward of
+    a drive's position mode, e.g. maxon EPOS2)::
+
+        y = k_v der(u) + k_a der(der(u))
+
+    ``u`` must be a signal the compiler can differentiate twice (a profile of time, e.g. a ``GaitProfile``): the
+    derivatives are those of the reference, not of a measurement. For a DC motor behind a gear of ratio ``n``
+    commanding a voltage, ``k_v = n (k + R b / k)`` and ``k_a = n R J / k`` are the voltage the unloaded motor
+    needs to follow the reference (back-EMF and viscous friction; the inertia's current through the winding)."""
+
+    u = RealInput(doc="reference")
+    y = RealOutput(doc="feed-forward [y]")
+    k_v = Parameter(0.0, unit="1", doc="gain on the reference's rate [y] s/[u]")
+    k_a = Parameter(0.0, unit="1", doc="gain on the reference's acceleration [y] s2/[u]")
+    rate = Variable(unit="1", doc="der(u) [u]/s")
+
+    def equations(self):
+        return [Eq(self.rate, der(self.u.value)),
+                Eq(self.y.value, self.k_v * self.rate + self.k_a * der(self.rate))]
 
 
 class DutyPositionController(Component):

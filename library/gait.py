@@ -320,7 +320,9 @@ class AnkleTorqueLoad(_GaitSource):
     """The gait's ankle moment as a load: the ground reaction exerts ``-M(t)`` on the joint, so whatever drives the
     joint must deliver ``M(t) = body_mass * profile(t / stride_time)`` [N m] (plantarflexor positive) to follow it.
 
-    ``flange.tau = M`` (torque acting on this component), reaction on the optional support.
+    ``flange.tau = M`` (torque acting on this component), reaction on the optional support. ``pushes=True`` (a
+    constructor option) turns the moment around: the component then drives the joint with ``M(t)`` (``flange.tau
+    = -M``), as the actuator under test pushes the bench's output motor that holds the joint on the gait angle.
     """
 
     body_mass = Parameter(DEFAULT_BODY_MASS, unit="kg", min=1e-3, doc="body mass (assumption: 60 kg)",
@@ -328,13 +330,18 @@ class AnkleTorqueLoad(_GaitSource):
     profile = Input(unit="N.m/kg", doc="ankle moment per kg over the gait fraction (1-periodic)")
     M = Variable(unit="N.m", doc="biomechanical ankle moment, plantarflexor positive")
 
+    def __init__(self, pushes: bool = False, **kw):
+        from acausal.partials import check_option
+        self.pushes = check_option(self, "pushes", pushes, (True, False))
+        super().__init__(**kw)
+
     @staticmethod
     def _default_profile():
         return unit_cycle().torque_signal()
 
     def equations(self):
         return [*super().equations(), Eq(self.M, self.body_mass * self._at_gait_time(self.profile)),
-                Eq(self.flange.tau, self.M)]
+                Eq(self.flange.tau, -self.M if self.pushes else self.M)]
 
 
 class GaitProfile(Component):

@@ -8,7 +8,7 @@ import sympy as sp
 from acausal import Model, ModelError, Start, compile_model, connect, time
 from acausal.library.blocks import SignalSource
 from acausal.library.control import (PID, Add, CascadeServo, Feedback, FirstOrder, Limiter, PIDVariableLimit,
-                                     cascade_gains)
+                                     VelocityAccelerationFeedForward, cascade_gains)
 from acausal.library.electrical import EMF, CurrentSensor, Ground, Inductor, Resistor, SignalVoltage
 from acausal.library.rotational import AngleSensor, Damper, Fixed, Inertia, SpeedSensor
 from acausal.result import Result
@@ -121,6 +121,42 @@ def test_sine_tracking_matches_closed_loop_analysis():
     G = error_response(w)
     exact = A * np.abs(G) * np.sin(w * res.t + np.angle(G))
     assert np.max(np.abs(e[late] - exact[late])) < 1e-6 * A * np.abs(G)
+
+
+class FeedForwardLoop(PositionLoop):
+    """:class:`PositionLoop` whose PID also gets the reference's rate and acceleration, weighted with the unloaded
+    motor's own inverse (``v = (k + R d / k) w + (R J / k) a``, the inductance's small terms left out) plus the
+    PID's own derivative gain (its derivative acts on the measurement, so it brakes a moving reference by kd w)."""
+
+    def build(self):
+        super().build()
+        self.ff = VelocityAccelerationFeedForward(k_v=K + R * D / K + KD, k_a=R * J / K)
+        connect(self.ref.y, self.ff.u)
+        connect(self.ff.y, self.pid.u_ff)
+
+
+def test_feed_forward_makes_the_loop_follow_a_fast_sine():
+    A, f = 0.5, 4.0  # rad, Hz: fast against the PID's bandwidth; the feed-forward alone nearly makes the motion
+    ref = A * sp.sin(2 * sp.pi * f * time)
+    gains = dict(kp=KP, ki=KI, kd=KD, Td=TD, y_max=50.0)
+    plain = compile_model(PositionLoop(ref, **gains)).simulate(2.0, rtol=1e-9, atol=1e-11, n_points=2001)
+    ff = compile_model(FeedForwardLoop(ref, with_feed_forward=True, **gains)).simulate(2.0, rtol=1e-9, atol=1e-11,
+                                                                                       n_points=2001)
+    late = plain.t >= 1.0
+    e_plain, e_ff = np.max(np.abs(plain["pid.e"][late])), np.max(np.abs(ff["pid.e"][late]))
+    assert e_plain > 0.05 * A  # the PID alone lags
+    assert e_ff < e_plain / 20
+    w = 2 * np.pi * f  # the block's output is the weighted rate and acceleration of the reference
+    expected = (K + R * D / K + KD) * A * w * np.cos(w * ff.t) - (R * J / K) * A * w**2 * np.sin(w * ff.t)
+    assert np.allclose(ff["ff.y.value"], expected, atol=1e-9 * np.max(np.abs(expected)))
+    assert np.allclose(ff["pid.y_unsat"] - ff["pid.kp"] * ff["pid.e"] - ff["pid.I"] - ff["pid.D"],
+                       ff["ff.y.value"], atol=1e-9)  # y_unsat = kp e + I + D + k_ff u_ff with k_ff = 1
+
+
+def test_feed_forward_is_an_option_that_adds_a_port():
+    assert not hasattr(PID(y_max=1.0), "u_ff")
+    with pytest.raises(ModelError, match="with_feed_forward"):
+        PID(y_max=1.0, with_feed_forward="yes")
 
 
 def test_pid_law_by_hand_at_given_states(step_loop):

@@ -93,7 +93,7 @@ def test_protocol_csv_one_row_per_condition(out):
     # datasheet preset; the compiled path, the default, 2e-8)
     worst = max(rows, key=lambda r: abs(float(r["balance_residual"])))
     assert abs(float(worst["balance_residual"])) < 1e-6, (worst["model"], worst["preset"], worst["P_mm"])
-    assert {r["model"] for r in rows} == {"replay", "closed_loop", "direct_drive"}
+    assert {r["model"] for r in rows} == {"replay", "closed_loop", "direct_drive", "bench_output_motor"}
     assert all(r["preset"] for r in rows)
 
 

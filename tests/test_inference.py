@@ -27,6 +27,14 @@ def test_recovers_known_parameters_from_the_models_own_numbers():
     assert {r["target"] for r in fit.target_rows()} == {t.id for t in targets}
 
 
+def test_a_one_sided_target_has_no_residual_once_met():
+    corner = next(t for t in inference.TARGETS if t.id == "C6.corner")  # "over 65 %"
+    assert corner.bound == "lower" and corner.z(0.70) == 0.0 and corner.z(0.65) == 0.0
+    assert corner.z(0.61) == pytest.approx((0.61 - 0.65) / corner.sigma)
+    mean = next(t for t in inference.TARGETS if t.id == "C7.mean")  # "around 20 %": two-sided
+    assert mean.z(0.25) > 0 > mean.z(0.15)
+
+
 def test_an_unknown_the_numbers_cannot_separate_is_not_identified():
     problem = inference.Problem(inference.UNKNOWNS[:3], inference.TARGETS[:5])
     column = np.array([1.0, 2.0, 0.5, 0.0, 1.0])
@@ -58,17 +66,18 @@ def test_shipped_record_lies_in_the_ranges_and_names_what_it_fitted():
         assert u["lo"] <= u["value"] <= u["hi"], u["parameter"]
         assert record["preset"][u["parameter"]] == u["value"]
     assert {u.name for u in inference.UNKNOWNS} <= set(record["preset"])
-    assert inference.fitted_claims(record) == {"C1", "C2", "C8", "C9"}
+    assert inference.fitted_claims(record) == {"C1", "C2", "C6", "C7", "C8", "C10"}
     assert presets.preset("paper_fit")["link.r_f"] == record["preset"]["link.r_f"] > 0
     assert presets.preset("library")["link.r_f"] == 0.0
     assert "paper_fit" in inference.markdown(record) or "body_mass" in inference.markdown(record)
 
 
 def test_every_preset_key_is_a_parameter_of_the_paper_actuator():
-    sim = compiled("replay").sim
+    replay, bench = compiled("replay").sim, compiled("closed_loop").sim  # the controller's only on the bench
     for name in [*presets.PRESETS, *presets.FITTED]:
         for key in presets.preset(name):
-            assert sim.has_parameter(key), (name, key)
+            assert replay.has_parameter(key) or (key.startswith("controller.") and bench.has_parameter(key)), \
+                (name, key)
     assert all(m.options.get("linkage") == "frictional" for m in MODELS.values()
                if m.model.endswith("AnkleActuator") or m.model.endswith("SelfLockingMaccepa"))
 

@@ -19,6 +19,8 @@ completes it with the MACCEPA, the joint and the way the moment arm is moved. Op
   constraint on the driver command, so index reduction derives current, voltages and every power; the driver
   does not saturate, check ``driver.d`` against ``d_max``) or ``"closed_loop"`` (a PID tracks the reference
   within the bus voltage: the motor's limits show up as tracking error, paper Fig. 13).
+* ``feed_forward`` (closed loop only, default True): the PID gets the velocity and acceleration feed-forward of
+  the paper's EPOS2 position mode (:meth:`DriveTrain.add_controller`); False: the PID alone.
 * ``driver_limit`` (replay only, default False): the replay knows the driver's duty limit
   (:meth:`DriveTrain.add_limited_follower`): the driver gets the voltage the motor needs for the prescribed motion
   (``feed_forward``, the inverse of the motor's own equations), smoothly limited to ``d_max`` times the bus
@@ -67,7 +69,7 @@ import abc
 from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable, connect
 from acausal.partials import check_option
 from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource, SmoothLimiter
-from acausal.library.control import PIDVariableLimit
+from acausal.library.control import PIDVariableLimit, VelocityAccelerationFeedForward
 from acausal.library.drives import EPOS2, DCMotor, MotorFeedForward
 from acausal.library.electrical import (ConstantVoltage, Ground, IdealNonRegenerativeRectifier,
                                         NonRegenerativeRectifier, Supply, VoltageSensor)
@@ -212,15 +214,30 @@ class DriveTrain(Model):
         connect(self.bus_voltage.v_out, self.available.u)
         return self.available.y
 
-    def add_controller(self, reference, measured):
+    def add_controller(self, reference, measured, feed_forward: bool = True):
         """Closed loop: ``controller`` (PID with anti-windup, assumed gains) drives the driver so that
         ``measured`` follows ``reference``, within the largest motor voltage the bridge can make from the
-        present bus (:meth:`available_voltage`)."""
-        self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0)
+        present bus (:meth:`available_voltage`). With ``feed_forward`` (the paper's EPOS2 runs its position loop
+        with velocity and acceleration feed-forward, 4.2.1), ``reference_ff`` adds the voltage the unloaded motor
+        needs to follow the reference through the gears: ``n (k + R b / k)`` per rad/s of the reference, plus the
+        PID's ``kd`` (its derivative acts on the measurement and would brake the moving arm by ``kd`` times its
+        speed), and ``n R J / k`` per rad/s2, with J the rotor's and the gearhead input's inertia, bound to the
+        motor's parameters (a drive tuned on its motor; the load torque is left to the PID's integral). The
+        controller's ``k_ff`` scales both (the drive's tuning: ``paper_fit`` infers it)."""
+        self.controller = PIDVariableLimit(kp=400.0, ki=2000.0, kd=2.0, Td=0.002, k_aw=1.0,
+                                           with_feed_forward=feed_forward)
         connect(reference, self.controller.setpoint)
         connect(measured, self.controller.measurement)
         connect(self.controller.y, self.driver.u)
         connect(self.available_voltage(), self.controller.limit)
+        if feed_forward:
+            m = self.motor
+            J = m.J + (self.planetary.J_a if hasattr(self, "planetary") else 0)
+            self.reference_ff = VelocityAccelerationFeedForward(k_v=N_TOTAL * (m.k + m.R * m.b / m.k)
+                                                                + self.controller.kd,
+                                                                k_a=N_TOTAL * m.R * J / m.k)
+            connect(reference, self.reference_ff.u)
+            connect(self.reference_ff.y, self.controller.u_ff)
 
 
 class SeriesLinkAnkle(DriveTrain, abc.ABC):
@@ -232,8 +249,14 @@ class SeriesLinkAnkle(DriveTrain, abc.ABC):
     joint_torque = Variable(unit="N.m", doc="reading of the joint torque sensor (torque on the foot)")
     tracking_error = Variable(unit="rad", doc="moment-arm reference minus actual angle")
 
-    def __init__(self, mode: str = "replay", motion: str = "gait", driver_limit: bool = False, **kw):
+    def __init__(self, mode: str = "replay", motion: str = "gait", driver_limit: bool = False,
+                 feed_forward: bool | None = None, **kw):
         self.mode = check_option(self, "mode", mode, OPTIONS["mode"])
+        self.feed_forward = check_option(self, "feed_forward", mode == "closed_loop" if feed_forward is None
+                                         else feed_forward, (True, False))
+        if self.feed_forward and mode != "closed_loop":
+            raise ModelError(f"{type(self).__name__}: feed_forward is a closed-loop option (a replay imposes the "
+                             "motion)")
         self.motion = check_option(self, "motion", motion, OPTIONS["motion"])
         self.driver_limit = check_option(self, "driver_limit", driver_limit, (True, False))
         if motion == "recorded" and mode != "replay":
@@ -287,7 +310,7 @@ class SeriesLinkAnkle(DriveTrain, abc.ABC):
         elif self.mode == "replay":
             self.add_follower(self.arm_angle.phi, reference)
         else:
-            self.add_controller(reference, self.arm_angle.phi)
+            self.add_controller(reference, self.arm_angle.phi, self.feed_forward)
         self._reference = reference
         self._reading = self.reading(self.torque_sensor.tau)
 

@@ -59,19 +59,18 @@ ASSUMPTIONS = {
               "following (required duty > 0.9) is set by it and by the planner's inferred torque tolerance",
     "motor": "the motor's resistance, inertia and friction are datasheet values at 25 degC (R = 0.386 ohm, "
              "J = 3.33e-6 kg m2, b = 5.66e-6 N m s/rad), with no winding heating and no cable resistance",
-    "direct_drive": "the direct drive is modelled as the actuator's own motor, driver and 860:1 gears moving the "
-                    "joint (the paper used the bench's output motor, whose drive train is not published, and "
-                    "which delivered about 10 % less than the target torque, 4.1)",
+    "direct_drive": "the paper's direct drive, the bench's output motor, is modelled as a drive that imposes the gait "
+                    "angle while the actuator pushes the joint; its drive train is not published and is guessed as "
+                    "the actuator's own motor, driver and 860:1 gears (4.1: it delivered about 10 % less than the "
+                    "target torque)",
     "first_experiment": "the paper's Fig. 7 comes from 'one of the first experiments' before the driver was tuned: "
                         "its 122 J/stride at 3 s is about twice Table 1's 64.5 J at 2 s, more than the constant "
                         "driver draw (12.5 W x 1 s = 12.5 J) explains, so the simulation is compared with it only "
                         "as an order of magnitude",
-    "closed_loop": "the bench's controller is an assumed PID (kp = 400, ki = 2000, kd = 2) limited to 0.9 of the "
-                   "bus voltage; the paper's EPOS2 position loop and its tuning are not published. Its lag sets the "
-                   "bench's losses at high precompression and short strides: with a velocity feed-forward (the "
-                   "back-EMF voltage at the planned speed) the arm follows within 0.02 rad everywhere but at 2 mm, "
-                   "and at 18 mm, 1.2 s/stride the output loss falls to about half (42 % against 77 % with the "
-                   "same parameters)",
+    "closed_loop": "the bench's controller is a PID (kp = 400, ki = 2000, kd = 2, assumed) with the velocity and "
+                   "acceleration feed-forward of the paper's EPOS2 position mode (4.2.1), limited to 0.9 of the bus "
+                   "voltage; its gains are not published, the feed-forward's fraction k_ff is inferred. Its lag "
+                   "sets the bench's losses at high precompression and short strides",
 }
 
 
@@ -81,7 +80,8 @@ def paper_conditions(quick: bool = False) -> list[Condition]:
     pts = 101 if quick else 201
     conds = [Condition(P, T, model, p, points_per_stride=pts) for model in ("replay", BENCH)
              for p in (HEADLINE, BESIDE) for P in Ps for T in Ts]
-    conds += [Condition(0.008, 3.0, "direct_drive", p, points_per_stride=pts) for p in (HEADLINE, BESIDE)]
+    conds += [Condition(0.008, 3.0, m, p, points_per_stride=pts) for m in ("bench_output_motor", "direct_drive")
+              for p in (HEADLINE, BESIDE)]
     conds += [Condition(0.008, 2.0, preset=p, points_per_stride=pts) for p in TABLE2_PRESETS]
     return conds
 

@@ -100,6 +100,9 @@ _SPECS = [
               tol=dict(rtol=1e-7, atol=1e-9), strides=2.0),  # balances within 6.5e-7 on the paper's grids
     ModelSpec("direct_drive", "no spring: the same motor and gears move the joint along the gait (paper Fig. 7)",
               "drivetrains.direct_drive:DirectDrive", uses_precompression=False),
+    ModelSpec("bench_output_motor", "the bench's output motor imposing the gait angle while the actuator pushes the "
+              "joint (the paper's direct drive of Fig. 7; drive train guessed as the actuator's)",
+              "drivetrains.direct_drive:BenchOutputMotor", uses_precompression=False),
     ModelSpec("sea", "linear torsion spring in place of the MACCEPA, stiffness by the paper's peak-power criterion",
               "drivetrains.sea:SeriesElastic", uses_precompression=False),
     ModelSpec("parallel_elastic", "torsion spring in parallel with the joint plus the drive (no series spring)",

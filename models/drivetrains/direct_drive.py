@@ -28,11 +28,13 @@ class DirectDrive(DriveTrain):
     """Motor and gears (n = 860) moving the ankle along the gait angle against the gait moment."""
 
     shared_points = {"link": "output"}
+    #: the gait moment resists the joint's motion (False) or drives it (True: :class:`BenchOutputMotor`)
+    load_pushes = False
 
     def build(self):
         gear_out = self.build_drive()
         self.P_output = MechanicalPowerSensor()
-        self.load = AnkleTorqueLoad(stride_time=self.stride_time, body_mass=self.body_mass)
+        self.load = AnkleTorqueLoad(stride_time=self.stride_time, body_mass=self.body_mass, pushes=self.load_pushes)
         connect(gear_out, self.P_output.flange_a)
         connect(self.P_output.flange_b, self.load.flange)
         # the joint follows the gait angle: the compiler solves for the driver command
@@ -40,3 +42,16 @@ class DirectDrive(DriveTrain):
         self.joint_angle = AngleSensor()
         connect(self.load.flange, self.joint_angle.flange)
         self.add_follower(self.joint_angle.phi, self.joint_ref.y)
+
+
+class BenchOutputMotor(DirectDrive):
+    """The paper's "direct drive" of Fig. 7 as it ran on the bench: the output motor that imposes the gait angle
+    on the joint while the actuator under test pushes it with the gait moment (4.1: "the output motor applies the
+    healthy gait ankle angles"). Its mechanical power is the joint power with the sign turned: it is back-driven
+    where the actuator delivers work (push-off) and drives where the joint absorbs it, and its non-regenerative
+    supply keeps none of what it brakes. Registered as ``bench_output_motor``.
+
+    Guesses (the output drive train is not published): the actuator's own motor class, driver, 860:1 gears and
+    supply, with the preset's values for them; only the sense of the load differs from :class:`DirectDrive`."""
+
+    load_pushes = True

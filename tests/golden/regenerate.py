@@ -22,6 +22,7 @@ CASES = {
     "paper_fit_replay_8mm_2s": Condition(0.008, 2.0, preset="paper_fit"),
     "paper_fit_bench_8mm_2s": Condition(0.008, 2.0, model="closed_loop", preset="paper_fit"),
     "paper_fit_direct_drive_3s": Condition(0.008, 3.0, model="direct_drive", preset="paper_fit"),
+    "paper_fit_bench_output_motor_3s": Condition(0.008, 3.0, model="bench_output_motor", preset="paper_fit"),
 }
 
 
