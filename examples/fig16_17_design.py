@@ -65,9 +65,14 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
             for preset in (HEADLINE, PAPER_EQ4) for T in (1.2, 2.0)}
     mass = {p: plan["body_mass"] for p in (HEADLINE, PAPER_EQ4)}
     other = design.efficiency_map(1.2, HEADLINE, overrides={"body_mass": OTHER_MASS}, executor=executor)
+    # the paper's design criterion: minimum peak moment-arm power at 1.2 s of the exact plan (no torque tolerance:
+    # the mechanics the design was optimised on, 4.4), over every feasible design, at each body mass
+    peak_of = {m: design.efficiency_map(1.2, HEADLINE, overrides={"body_mass": m, "torque_tolerance": 0.0},
+                                        executor=executor).optimum("peak_link_W", maximise=False, duty_limited=False)
+               for m in (plan["body_mass"], OTHER_MASS)}
     rows, opt_rows = [], []
     for preset in (HEADLINE, PAPER_EQ4):
-        peak = runs[(preset, 1.2)].optimum("peak_link_W", maximise=False, duty_limited=False)
+        peak = peak_of[plan["body_mass"]]
         for T in (1.2, 2.0):
             m = runs[(preset, T)]
             opt_rows.append(_optimum_row(m, peak, mass[preset]))
@@ -75,7 +80,7 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
                 for b, P in enumerate(m.P):
                     rows.append(dict(preset=preset, body_mass_kg=mass[preset], stride_time_s=T, k_Npm=k, P_m=P,
                                      **{key: float(v[a, b]) for key, v in m.values.items()}))
-    opt_rows.append(_optimum_row(other, other.optimum("peak_link_W", maximise=False, duty_limited=False), OTHER_MASS,
+    opt_rows.append(_optimum_row(other, peak_of[OTHER_MASS], OTHER_MASS,
                                  f"body mass {OTHER_MASS:g} kg"))
     figures = [_plot(out_dir, [runs[(HEADLINE, T)], runs[(PAPER_EQ4, T)]], opt_rows, T) for T in (1.2, 2.0)]
     maps_csv = write_csv(out_dir / "design_maps.csv", rows)
@@ -92,7 +97,7 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
           f"({m12.values['efficiency'].size} designs per map); infeasible designs (gait torque above the "
           "linkage's reach) are blank; designs that need more than 0.9 duty are hatched in the figures (their "
           "energy is a lower bound: the motor could not follow) and are no candidates for an optimum.", "",
-          md_table(["model", "body mass", "stride time", "paper design 130 N/mm, 7 mm", "peak-power optimum (1.2 s, every feasible design)",
+          md_table(["model", "body mass", "stride time", "paper design 130 N/mm, 7 mm", "peak-power optimum (1.2 s, exact plan)",
                     "efficiency optimum (grid)", "refined optimum", "gain over the paper's design"],
                    [[name[r["preset"]], f"{r['body_mass_kg']:.1f} kg", f"{r['stride_time_s']} s",
                      f"{100 * r['efficiency_at_paper_design']:.1f} %",

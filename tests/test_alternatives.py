@@ -29,8 +29,10 @@ def test_every_model_balances_energy(runs):
     assert set(runs) == set(MODELS)
     for name, r in runs.items():
         assert abs(r.balance_residual) < 1e-6, (name, r.balance_residual)
-        if name != "closed_loop":  # the same joint work (closed loop: within its tracking error)
-            assert r.energy["output"] == pytest.approx(runs["replay"].energy["output"], rel=2e-3), name
+        if name != "closed_loop":  # the same joint work (closed loop: within its tracking error; the bench's output
+            # motor takes it: the actuator pushes it along the gait)
+            sign = -1.0 if name == "bench_output_motor" else 1.0
+            assert sign * r.energy["output"] == pytest.approx(runs["replay"].energy["output"], rel=2e-3), name
 
 
 def test_every_model_has_a_docstring_saying_what_changes():

@@ -356,8 +356,11 @@ class AnkleActuator(SeriesLinkAnkle):
     def eq4(cls, mode: str = "replay", effects=(), **kw) -> "AnkleActuator":
         """The paper's Eq. (4) bench model: stiff 48 V supply, ideal rectifier and driver, ideal gear of ratio
         860, the motor's lumped R, J, b (:data:`~acausal.models.ankle.presets.EQ4_LUMPED`); a replay takes
-        recorded angles."""
+        recorded angles. In closed loop (the virtual bench, :mod:`acausal.models.bench.virtual`) its controller is
+        the PID alone unless ``feed_forward=True``: the virtual bench is the project's own rig, not the paper's."""
         kw.setdefault("motion", "recorded" if mode == "replay" else "gait")
+        if mode == "closed_loop":
+            kw.setdefault("feed_forward", False)
         return cls(mode=mode, effects=effects, supply="ideal", gears="ideal", driver="ideal", **kw)
 
     def has(self, name: str) -> bool:

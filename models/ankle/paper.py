@@ -4,8 +4,8 @@
 CSV through :mod:`acausal.models.reporting.tables`).
 
 The headline runs the ``paper_fit`` preset (:data:`HEADLINE`): the library's components with the parameters the
-paper does not publish inferred from the numbers it does (:mod:`acausal.models.ankle.inference`, claims C1, C2,
-C8, C9); every other number is a prediction. The a-priori ``library`` preset (:data:`BESIDE`: datasheet motor,
+paper does not publish inferred from the numbers it does (:mod:`acausal.models.ankle.inference`; the claims its
+record was fitted to are marked in ``claims.csv``); every other number is a prediction. The a-priori ``library`` preset (:data:`BESIDE`: datasheet motor,
 catalogue gear efficiency, lossless linkage, the paper's measured driver draw and the assumptions listed in
 :data:`ASSUMPTIONS`) runs the same grids beside it. Each grid condition runs twice: on the bench
 (:data:`~acausal.models.ankle.protocol.BENCH`, the closed loop: what the paper measured) and replayed (the duty the
@@ -231,7 +231,8 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           + ("; **quick mode: reduced grid and resolution, for tests**" if quick else "") + f"); "
           f"{len(results)} simulated conditions in all" + (f", {elapsed:.1f} s wall time" if elapsed else "") + ".",
           f"- parameters: the `{HEADLINE}` preset unless a section says otherwise: the library's components with "
-          "the parameters the paper does not publish inferred from the numbers it does (claims C1, C2, C8, C9; "
+          "the parameters the paper does not publish inferred from the numbers it does (claims "
+          f"{', '.join(sorted(fitted_claims(paper_fit_record()), key=lambda c: int(c[1:])))}; "
           "section *Inferred parameters*), each inside its documented range. Every other number is a prediction. "
           f"The a-priori `{BESIDE}` preset (datasheet and catalogue values, lossless linkage, the assumptions "
           "below, nothing fitted) runs the same grids; Table 1, Fig. 7 and the claims show it beside.",

@@ -60,13 +60,14 @@ PRESETS = {
 #: the paper's own model as it calibrated it (Eq. 4 with Table 2's optimized total, read on the arm side): what its
 #: design maps (Figs. 16-17, section 4.4: "incorporating the model obtained in this paper") were computed with
 PAPER_EQ4 = "paper_optimized_total_arm_side"
-#: inferred from the paper's published numbers (claims C1, C2, C8, C9): the library preset with the unknowns'
-#: fitted values on top, read from :data:`PAPER_FIT_RECORD` when used
+#: inferred from the paper's published numbers (the claims its record names as targets): the library preset with the
+#: unknowns' fitted values on top, read from :data:`PAPER_FIT_RECORD` when used
 FITTED = ("paper_fit",)
 
 DESCRIPTIONS = {
     "paper_fit": "component model with the unpublished parameters (body mass, linkage friction, gearhead drag and "
-                 "efficiency, driver draw, planner tolerance) inferred from the paper's Table 1, Fig. 9 and Fig. 7",
+                 "efficiency, inertia, driver losses, controller feed-forward, planner tolerance) inferred from the "
+                 "paper's bench measurements (Table 1, Figs. 8, 9, 11, 12)",
     "library": "component model with datasheet motor, lossy gears (planetary 70 %, helical 90 % assumed), "
                "EPOS2 driver (12.5 W quiescent), non-regenerative rectifier",
     "paper_datasheet": "paper Eq. 4, motor datasheet values (Table 2 'motor parameter', swap corrected)",
