@@ -141,7 +141,8 @@ def _plot(out_dir, maps, opt_rows, T):
                 **marks)
         ax.set_xlabel("spring stiffness k [N/mm]")
         ax.set_ylabel("precompression P [mm]")
-        ax.set_title(f"preset {m.preset} ({r['body_mass_kg']:.1f} kg)", fontsize=9)
+        ax.set_title(f"preset {m.preset} ({r['body_mass_kg']:.1f} kg)"
+                     + ("" if m.duty_limited else "; ideal voltage: optimum over every design"), fontsize=9)
         ax.legend(fontsize=7.5, loc="lower right")
     fig_no = 16 if T < 1.5 else 17
     fig.suptitle(f"Fig. {fig_no}: efficiency at {T} s per stride (hatched: duty > {D_MAX:g}); left: the fitted "
