@@ -30,6 +30,12 @@ DRIVES = (("MACCEPA actuator", "replay", "fig7_energy_actuator"),
           ("forward direct drive", "direct_drive", None))
 
 
+def _paper(row: dict, unit: str = "") -> str:
+    """The paper's energy per stride of a drive, "-" for a drive the paper did not run."""
+    e = row["paper_energy_per_stride_J"]
+    return "-" if np.isnan(e) else f"{e:.0f}{unit}"
+
+
 def main(out_dir: Path, results=None) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -69,7 +75,7 @@ def main(out_dir: Path, results=None) -> dict:
     ax.grid(alpha=0.3)
     axt.axis("off")
     cells = [[r["drive"], f"{r['peak_source_power_W']:.0f} W", f"{r['energy_per_stride_J']:.1f} J",
-              f"{r['paper_energy_per_stride_J']:.0f} J"] for r in rows]
+              _paper(r, " J")] for r in rows]
     tab = axt.table(cellText=cells, colLabels=["", "peak source power", "energy per stride (sim)",
                                                 "energy per stride (paper)"], loc="center", cellLoc="center")
     tab.auto_set_font_size(False)
@@ -81,7 +87,7 @@ def main(out_dir: Path, results=None) -> dict:
     md = md_table(["drive", "peak source power [W]", "energy per stride sim [J]", "energy per stride paper [J]",
                    "joint work [J]"],
                   [[r["drive"], f"{r['peak_source_power_W']:.0f}", f"{r['energy_per_stride_J']:.1f}",
-                    f"{r['paper_energy_per_stride_J']:.0f}", f"{r['output_energy_J']:.1f}"] for r in rows])
+                    _paper(r), f"{r['output_energy_J']:.1f}"] for r in rows])
     md += ("\n\nThe paper's direct drive was the bench's output motor: it holds the joint on the gait angle while "
            "the actuator pushes, so it is back-driven at push-off (its joint work is the actuator's with the sign "
            f"turned) and its non-regenerative supply keeps none of it. With the actuator's own drive train (a "
