@@ -116,7 +116,7 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
           "", "Paper: the original design (minimum peak mechanical power at 1.2 s) is not in the most efficient "
           "region; about 15 % -> 25 % is reachable, mainly at lower stiffness (claim C11). Neither model finds that: "
           "the copper loss is not the same for every spring. A softer spring needs more arm travel and arm "
-          "acceleration, and the rotor's inertia reflected to the arm (J n^2, about 3 kg m2) turns that "
+          "acceleration, and the rotor's inertia reflected to the arm (J n^2, 2.5-12 kg m2) turns that "
           "acceleration into current."]
     return dict(title="Efficiency-optimal design (paper section 4.4, Figs. 16-17)", figures=figures,
                 csv=[maps_csv, opt_csv], markdown="\n".join(md), comparisons=[], optima=opt_rows)

@@ -357,14 +357,14 @@ OPPOSES = {
            "arm's own negative peak; more inertia on the motor shaft deepens the dip but raises the regenerated "
            "energy the driver burns against Table 1 and Fig. 9 (inference record)",
     "C11": "the copper loss is not the same for every spring: a softer one needs more arm travel, faster, and the "
-           "rotor's inertia reflected to the arm (J n^2, about 3 kg m2) turns the arm's acceleration into winding "
+           "rotor's inertia reflected to the arm (J n^2, 2.5-12 kg m2) turns the arm's acceleration into winding "
            "current (design_optima.csv: E_copper_J at 130/7, 60/7 and 60/4 N/mm/mm), on the fitted chain and on the "
            "paper's own Eq. 4 alike; a softer spring also sends more power back that the non-regenerative supply "
            "cannot take",
     "C12": "the driver's constant draw costs more per stride at 2 s; on the paper's own Eq. 4, which has no such "
            "draw, the average is higher at 2 s",
     "C13": "Eq. 4's driver is ideal, so the calibration explains the chain's driver losses in the supply current (its "
-           "constant draw, conduction, switching) by R as well, on top of the gear and linkage losses the paper's "
+           "constant draw, conduction, switching, the regenerated energy its front end burns) by R as well, on top of the gear and linkage losses the paper's "
            "inflation stands for",
 }
 CLAIMS = [Claim(*row, opposes=OPPOSES.get(row[0], "")) for row in _TABLE]
