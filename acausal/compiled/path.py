@@ -319,9 +319,12 @@ class CompiledPath:
         key = ("dae", names)
         if key not in entry["cache"]:
             s, params, scaled = _scaled_time(entry)
+            # CVODES/IDAS take dense outputs only: an integrand that is structurally zero in a mode (an energy
+            # account of a gear at rest until a load steps on) would leave a sparse entry
             dae = {"x": entry["x"], "t": s, "p": params, "z": entry["z"], "u": ca.SX(0, 1), "zero": ca.SX(0, 1),
-                   "alg": ca.cse(scaled(entry["alg"], rate=False)), "ode": ca.cse(scaled(entry["f"])),
-                   "quad": ca.SX(0, 1) if qexpr is None else scaled(qexpr)}
+                   "alg": ca.densify(ca.cse(scaled(entry["alg"], rate=False))),
+                   "ode": ca.densify(ca.cse(scaled(entry["f"]))),
+                   "quad": ca.SX(0, 1) if qexpr is None else ca.densify(scaled(qexpr))}
             entry["cache"][key] = ca.Function("dae", dae, ca.dyn_in(), ca.dyn_out())
         return entry["cache"][key]
 
