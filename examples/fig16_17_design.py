@@ -63,7 +63,6 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
     runs = {(preset, T): design.efficiency_map(T, preset, overrides=None if preset == HEADLINE else plan,
                                                executor=executor, duty_limited=preset == HEADLINE)
             for preset in (HEADLINE, PAPER_EQ4) for T in (1.2, 2.0)}
-    mass = {p: plan["body_mass"] for p in (HEADLINE, PAPER_EQ4)}
     other = design.efficiency_map(1.2, HEADLINE, overrides={"body_mass": OTHER_MASS}, executor=executor)
     # the paper's design criterion: minimum peak moment-arm power at 1.2 s of the exact plan (no torque tolerance:
     # the mechanics the design was optimised on, 4.4), over every feasible design, at each body mass
@@ -72,13 +71,12 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
                for m in (plan["body_mass"], OTHER_MASS)}
     rows, opt_rows = [], []
     for preset in (HEADLINE, PAPER_EQ4):
-        peak = peak_of[plan["body_mass"]]
         for T in (1.2, 2.0):
             m = runs[(preset, T)]
-            opt_rows.append(_optimum_row(m, peak, mass[preset]))
+            opt_rows.append(_optimum_row(m, peak_of[plan["body_mass"]], plan["body_mass"]))
             for a, k in enumerate(m.k):
                 for b, P in enumerate(m.P):
-                    rows.append(dict(preset=preset, body_mass_kg=mass[preset], stride_time_s=T, k_Npm=k, P_m=P,
+                    rows.append(dict(preset=preset, body_mass_kg=plan["body_mass"], stride_time_s=T, k_Npm=k, P_m=P,
                                      **{key: float(v[a, b]) for key, v in m.values.items()}))
     opt_rows.append(_optimum_row(other, peak_of[OTHER_MASS], OTHER_MASS,
                                  f"body mass {OTHER_MASS:g} kg"))

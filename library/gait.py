@@ -31,7 +31,7 @@ from scipy.optimize import brentq
 from acausal import Component, Eq, Input, Parameter, RealOutput, Variable, time
 from acausal.connectors import Flange
 from acausal.errors import DataError, ModelError
-from acausal.partials import PartialElementaryOneFlangeAndSupport2
+from acausal.partials import PartialElementaryOneFlangeAndSupport2, check_option
 from acausal.signals import FourierSeries, PeriodicSpline, Signal
 
 __all__ = ["DEFAULT_PATH", "COLUMNS", "GaitTable", "GaitWork", "GaitCycle", "GaitParameterError", "load_gait_table",
@@ -331,7 +331,6 @@ class AnkleTorqueLoad(_GaitSource):
     M = Variable(unit="N.m", doc="biomechanical ankle moment, plantarflexor positive")
 
     def __init__(self, pushes: bool = False, **kw):
-        from acausal.partials import check_option
         self.pushes = check_option(self, "pushes", pushes, (True, False))
         super().__init__(**kw)
 

@@ -125,7 +125,7 @@ def test_claims_table_is_written_and_in_the_report(out):
     assert held["C2"] == "not checked"  # the quick grid has 9 of the 36 conditions
     assert held["C1"] in ("yes", "no") and held["C10"] in ("yes", "no")
     fitted = {r["id"] for r in rows if r["used_in_fit"] == "yes"}
-    from acausal.models.ankle.inference import fitted_claims
+    from acausal.models.ankle.fit_record import fitted_claims
     from acausal.models.ankle.presets import paper_fit_record
     assert fitted == fitted_claims(paper_fit_record()) == {"C1", "C2", "C6", "C7", "C8", "C10"}
     assert all(r["used_in_fit"] == "no" for r in rows if r["preset"] == "library")

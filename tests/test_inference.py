@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from acausal import ModelError
-from acausal.models.ankle import inference, presets
+from acausal.models.ankle import fit_record, inference, presets
 from acausal.models.ankle.protocol import compiled
 from acausal.models.ankle.registry import MODELS
 
@@ -66,10 +66,10 @@ def test_shipped_record_lies_in_the_ranges_and_names_what_it_fitted():
         assert u["lo"] <= u["value"] <= u["hi"], u["parameter"]
         assert record["preset"][u["parameter"]] == u["value"]
     assert {u.name for u in inference.UNKNOWNS} <= set(record["preset"])
-    assert inference.fitted_claims(record) == {"C1", "C2", "C6", "C7", "C8", "C10"}
+    assert fit_record.fitted_claims(record) == {"C1", "C2", "C6", "C7", "C8", "C10"}
     assert presets.preset("paper_fit")["link.r_f"] == record["preset"]["link.r_f"] > 0
     assert presets.preset("library")["link.r_f"] == 0.0
-    assert "paper_fit" in inference.markdown(record) or "body_mass" in inference.markdown(record)
+    assert "paper_fit" in fit_record.markdown(record) or "body_mass" in fit_record.markdown(record)
 
 
 def test_every_preset_key_is_a_parameter_of_the_paper_actuator():

@@ -232,7 +232,7 @@ class DriveTrain(Model):
         connect(self.available_voltage(), self.controller.limit)
         if feed_forward:
             m = self.motor
-            J = m.J + (self.planetary.J_a if hasattr(self, "planetary") else 0)
+            J = m.J + (self.planetary.J_a if self.options["gears"] != "ideal" else 0)  # the gearhead's input
             self.reference_ff = VelocityAccelerationFeedForward(k_v=N_TOTAL * (m.k + m.R * m.b / m.k)
                                                                 + self.controller.kd,
                                                                 k_a=N_TOTAL * m.R * J / m.k)

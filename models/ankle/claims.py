@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from .protocol import BENCH, D_MAX, POINTS, follows_as_in_the_paper
+from .protocol import BENCH, CORNER, D_MAX, POINTS, follows_as_in_the_paper, in_corner
 from .presets import PAPER_EQ4
 from .published import PAPER
 STAGE_OF = {"driver": ("source", "driver"), "motor": ("driver", "motor"), "gearing": ("motor", "link"),
@@ -167,7 +167,7 @@ def _c6(t: Tables):
     if not g:
         return (*NOT_CHECKED, "no grid")
     vals = {k: loss(r, "gearing") for k, r in g.items()}
-    corner = [v for (P, T), v in vals.items() if P >= 15 and T <= 1.3]
+    corner = [v for (P, T), v in vals.items() if in_corner(P, T)]
     worst = max(corner) if corner else float("nan")
     return (f"{100 * min(vals.values()):.1f}-{100 * max(vals.values()):.1f} %, high P / short strides up to "
             f"{100 * worst:.1f} %", min(vals.values()) >= PAPER["fig11_gearing_loss_min"]
@@ -309,7 +309,8 @@ _TABLE = [
     ("C5", "4.2.2, Fig. 10", "the motor loss grows with stride time and with precompression", "grows",
      "non-decreasing along every row and column of the grid", _c5),
     ("C6", "4.2.3, Fig. 11", "the gearing loss is never below 50 %, above 65 % at high precompression and short "
-     "strides", ">= 50 %, > 65 %", "grid minimum >= 50 %, worst of P >= 15 mm and T <= 1.3 s above 65 %", _c6),
+     "strides", ">= 50 %, > 65 %", f"grid minimum >= 50 %, worst of P >= {CORNER[0]:g} mm and T <= {CORNER[1]:g} s "
+     "above 65 %", _c6),
     ("C7", "4.2.3, Fig. 12", "the output (linkage) loss is around 20 %, above 50 % in the worst case",
      "~20 %, > 50 %", "grid mean within 5 points of 20 %, maximum above 50 %", _c7),
     ("C8", "4.2.3, Fig. 13", "at 18 mm the motor cannot follow at 1.2 s/stride but follows at 3 s",
@@ -364,7 +365,8 @@ OPPOSES = {
     "C12": "the driver's constant draw costs more per stride at 2 s; on the paper's own Eq. 4, which has no such "
            "draw, the average is higher at 2 s",
     "C13": "Eq. 4's driver is ideal, so the calibration explains the chain's driver losses in the supply current (its "
-           "constant draw, conduction, switching, the regenerated energy its front end burns) by R as well, on top of the gear and linkage losses the paper's "
+           "constant draw, conduction, switching, the regenerated energy its front end burns) by R as well, on top "
+           "of the gear and linkage losses the paper's "
            "inflation stands for",
 }
 CLAIMS = [Claim(*row, opposes=OPPOSES.get(row[0], "")) for row in _TABLE]

@@ -2,14 +2,14 @@
 
 The unknowns (:data:`UNKNOWNS`) are run-time parameters of the registered actuator, each bounded by a physically
 plausible range with its source (``docs/parameters.md`` and the notes here). The targets
-(:data:`TARGETS`) are the paper's own numbers of claims C1 (Table 1: the five energies at 8 mm, 2 s/stride) and C2
-(Fig. 9: the smallest and largest driver loss over the 6 x 6 grid), C10 (Fig. 8: the driver output's dip at
-Table 1's point), C6 and C7 (Figs. 11-12: the gearing loss never under 50 % and over 65 % at high precompression
-and short strides, the output loss around 20 % on average and over 50 % at worst), all measured on the bench and
-so computed on the bench model (:data:`~acausal.models.ankle.protocol.BENCH`), each with a standard deviation of a
-third of the tolerance its claim is read with (:mod:`acausal.models.ankle.claims`), so a target met to 3 sigma is
-a claim that holds; "over" and "never under" are one-sided (no residual once met). C9 (Fig. 7) is not a target
-(see :data:`TARGETS`). Every other claim is a
+(:mod:`acausal.models.ankle.targets`) are the paper's own numbers of claims C1 (Table 1: the five energies at
+8 mm, 2 s/stride) and C2 (Fig. 9: the smallest and largest driver loss over the 6 x 6 grid), C10 (Fig. 8: the
+driver output's dip at Table 1's point), C6 and C7 (Figs. 11-12: the gearing loss never under 50 % and over 65 %
+at high precompression and short strides, the output loss around 20 % on average and over 50 % at worst), all
+measured on the bench and so computed on the bench model (:data:`~acausal.models.ankle.protocol.BENCH`), each
+with a standard deviation of a third of the tolerance its claim is read with (:mod:`acausal.models.ankle.claims`),
+so a target met to 3 sigma is a claim that holds; "over" and "never under" are one-sided (no residual once met).
+C9 (Fig. 7) is not a target (see ``targets.TARGETS``). Every other claim is a
 prediction of the fitted model. C8 (where the motor can follow) is met by the planner's torque tolerance, chosen
 after the fit as the smallest one that satisfies it (:func:`choose_tolerance`), the fit repeated with it
 (:func:`infer`).
@@ -22,16 +22,14 @@ the linearised covariance ``(J^T J)^-1`` of the scaled Jacobian at the optimum; 
 deviation exceeds a quarter of its range, or that sits on a bound, is reported as not identified by these numbers
 (its value is then the range's choice, not the data's).
 
-``acausal infer --out DIR`` runs it and writes ``paper_fit.json`` (the preset with ranges, sources, standard
+``acausal infer --out DIR`` runs it and writes (:mod:`acausal.models.ankle.fit_record`) ``paper_fit.json`` (the preset with ranges, sources, standard
 deviations, the targets met, the condition of the fit); ``--install`` also replaces the shipped one
 (:data:`acausal.models.ankle.presets.PAPER_FIT_RECORD`) that the ``paper_fit`` preset reads.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -39,9 +37,9 @@ import numpy as np
 from acausal import SimulationError
 from acausal.sweep import sweep
 
-from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, compiled,
-                       follows_as_in_the_paper, run_condition)
-from .published import PAPER
+from .protocol import D_MAX, Condition, compiled, follows_as_in_the_paper, run_condition
+from .targets import (GRID, PLAN_GRID, TARGETS, WHOLE_GRID, driver_loss, grid_extreme, grid_mean, in_corner,
+                      stage_loss)
 
 
 
@@ -92,99 +90,6 @@ UNKNOWNS = (
 #: the planner's torque tolerance (N m) tried for C8, smallest first (paper 4.1: torque about 10 % of its 100 N m
 #: peak below target)
 TOLERANCES = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0)
-
-
-def _key(model: str, P: float, T: float) -> tuple:
-    return (model, float(P), float(T))
-
-
-# Table 1 and Figs. 8-12 were measured on the bench (the closed loop)
-TABLE1 = _key(BENCH, 0.008, 2.0)
-GRID = tuple(_key(BENCH, P, T) for P in PRECOMPRESSIONS for T in STRIDE_TIMES)
-#: the replay grid: the duty the plan requires (C8)
-PLAN_GRID = tuple(_key("replay", P, T) for P in PRECOMPRESSIONS for T in STRIDE_TIMES)
-
-
-def driver_loss(r) -> float:
-    """Driver loss relative to the source energy (Fig. 9)."""
-    return 1.0 - r.energy["driver"] / r.energy["source"]
-
-
-@dataclass(frozen=True)
-class Target:
-    """A published number the fit matches: ``value(runs)`` computes it from the protocol runs it needs (``keys``:
-    (model, P [m], T [s]) of each). ``sigma``: a third of the claim's tolerance, on ``log(sim/paper)`` when
-    ``relative`` else on ``sim - paper``."""
-
-    id: str
-    claim: str
-    paper: float
-    sigma: float
-    relative: bool
-    keys: tuple
-    value: Callable
-    bound: str = ""  # "lower": the paper's number is a bound the value must exceed ("over 65 %"), zero residual above
-
-    def z(self, sim: float, paper: float | None = None) -> float:
-        """The weighted residual of a simulated value (against ``paper``, default the paper's number)."""
-        paper = self.paper if paper is None else paper
-        if self.bound == "lower" and sim >= paper:
-            return 0.0
-        if self.relative:
-            return math.log(sim / paper) / self.sigma if sim > 0 else 1e3
-        return (sim - paper) / self.sigma
-
-
-def _energy(point):
-    return lambda runs: runs[TABLE1].energy[point]
-
-
-def _grid_extreme(fn, loss=driver_loss, where=lambda P, T: True):
-    return lambda runs: fn(loss(r) for k, r in runs.items() if k in GRID and where(k[1], k[2]))
-
-
-def _stage_loss(stage: str):
-    """A stage's loss relative to the energy entering it (Figs. 9-12: ``claims.loss``)."""
-    a, b = {"gearing": ("motor", "link"), "output": ("link", "output")}[stage]
-    return lambda r: 1.0 - r.energy[b] / r.energy[a]
-
-
-def _grid_mean(loss):
-    def mean(runs):
-        vals = [loss(r) for k, r in runs.items() if k in GRID]
-        return sum(vals) / len(vals)
-    return mean
-
-
-def _corner(P: float, T: float) -> bool:
-    """The high-precompression, short-stride corner of C6 (claims: P >= 15 mm and T <= 1.3 s)."""
-    return P >= 0.015 - 1e-9 and T <= 1.3 + 1e-9
-
-
-TARGETS = (
-    *(Target(f"C1.{p}", "C1", PAPER["table1_energy"][p], 0.05, True, (TABLE1,), _energy(p)) for p in POINTS),
-    Target("C2.min", "C2", PAPER["fig9_driver_loss_range"][0], 0.02, False, GRID, _grid_extreme(min)),
-    Target("C2.max", "C2", PAPER["fig9_driver_loss_range"][1], 0.02, False, GRID, _grid_extreme(max)),
-    # C9 (Fig. 7) is no target: the paper's direct drive was the bench's output motor, whose drive train is not
-    # published (the model's, BenchOutputMotor, guesses the actuator's own); a target on it would let those guesses
-    # set the actuator's parameters
-    # Fig. 8: the driver's output dips to about -50 W at Table 1's point (C10 reads -35 to -65 W: sigma 5 W)
-    Target("C10.dip", "C10", PAPER["fig8_driver_min_power"], 5.0, False, (TABLE1,),
-           lambda runs: float(np.min(runs[TABLE1].power["driver"]))),
-    # Figs. 11-12 (C6, C7): the gearing loss never below 50 % and over 65 % in the corner, the output loss around
-    # 20 % on average (C7 reads within 5 points: sigma 5/3 points) and over 50 % in the worst case; the bounds are
-    # one-sided (zero residual when met), with sigma 2 points
-    Target("C6.min", "C6", PAPER["fig11_gearing_loss_min"], 0.02, False, GRID,
-           _grid_extreme(min, _stage_loss("gearing")), "lower"),
-    Target("C6.corner", "C6", PAPER["fig11_gearing_loss_worst"], 0.02, False, GRID,
-           _grid_extreme(max, _stage_loss("gearing"), _corner), "lower"),
-    Target("C7.mean", "C7", PAPER["fig12_output_loss_typical"], 0.05 / 3, False, GRID,
-           _grid_mean(_stage_loss("output"))),
-    Target("C7.worst", "C7", PAPER["fig12_output_loss_worst"], 0.02, False, GRID,
-           _grid_extreme(max, _stage_loss("output")), "lower"),
-)
-#: targets that read every grid condition (a mean): the fit then runs the whole grid at every evaluation
-WHOLE_GRID = ("C7.mean",)
 
 
 def conditions(keys, preset: str, overrides: dict) -> list[Condition]:
@@ -408,11 +313,11 @@ def feed_forward_trials(values: dict, executor=None, fractions=FEED_FORWARDS) ->
     for k_ff in fractions:
         runs = {k: r for k, r in zip(GRID, sweep(_run, conditions(GRID, "library", {**values, "controller.k_ff": k_ff}),
                                                  executor=executor)) if not isinstance(r, str)}
-        gearing, output = _stage_loss("gearing"), _stage_loss("output")
-        rows.append(dict(k_ff=k_ff, runs=len(runs), output_loss_mean=_grid_mean(output)(runs),
-                         output_loss_worst=_grid_extreme(max, output)(runs),
-                         gearing_loss_min=_grid_extreme(min, gearing)(runs),
-                         gearing_loss_corner=_grid_extreme(max, gearing, _corner)(runs),
+        gearing, output = stage_loss("gearing"), stage_loss("output")
+        rows.append(dict(k_ff=k_ff, runs=len(runs), output_loss_mean=grid_mean(output)(runs),
+                         output_loss_worst=grid_extreme(max, output)(runs),
+                         gearing_loss_min=grid_extreme(min, gearing)(runs),
+                         gearing_loss_corner=grid_extreme(max, gearing, in_corner)(runs),
                          tracking_max_rad=max(r.tracking_max for r in runs.values())))
     return rows
 
@@ -443,64 +348,3 @@ def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15) -
     record["feed_forward_trials"] = feed_forward_trials(final.values, executor)
     record["first_pass"] = first.to_json()
     return record
-
-
-def write(record: dict, path: Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
-    return path
-
-
-def markdown(record: dict) -> str:
-    """The inferred parameters (value, standard deviation, range, identified, source) and the targets met, as
-    markdown tables (the report's and README's "inferred parameters")."""
-    from ..reporting.tables import md_table
-
-    fixed = {k: v for k, v in record["preset"].items() if k not in {u["parameter"] for u in record["unknowns"]}}
-
-    def span(u):
-        return f"{u['lo']:g}-{u['hi']:g}" + (f" {u['unit']}" if u["unit"] != "1" else "")
-
-    rows = [[f"`{u['parameter']}`", f"{u['value']:.4g}", f"{u['sd']:.2g}", span(u),
-             f"{u['start']:g}", "yes" if u["identified"] else "**no**", u["source"]] for u in record["unknowns"]]
-    rows += [[f"`{k}`", f"{v:.4g}", "-", "chosen for C8", "-", "-",
-              "the smallest planner tolerance with which the motor follows where the paper says it does "
-              "(trials below)"] for k, v in fixed.items()]
-    targets = [[t["target"], f"{'> ' if t.get('bound') == 'lower' else ''}{t['paper']:.4g}", f"{t['simulated']:.4g}",
-                f"{t['sigma']:g}{' (log)' if t['relative'] else ''}", f"{t['z']:+.1f}"] for t in record["targets"]]
-    trials = [[f"{t['tolerance']:g}", f"{t['follows']}/36", f"{t['duty_18mm_1p2s']:.2f}", f"{t['duty_18mm_3s']:.2f}",
-               "yes" if t["holds"] else "no"] for t in record.get("tolerance_trials", [])]
-    out = ["Unknowns (standard deviation: linearised, from the weighted Jacobian; identified: sd below a quarter "
-           "of the range and not on a bound):", "",
-           md_table(["parameter", "value", "sd", "range", "a priori", "identified", "range's source"], rows), "",
-           f"Targets (z = weighted residual; cost {record['cost']:.2f} after {record['evaluations']} evaluations):",
-           "", md_table(["target", "paper", "simulated", "sigma", "z"], targets)]
-    if trials:
-        out += ["", "Planner torque tolerance for C8 (required duty at 18 mm):", "",
-                md_table(["tolerance [N m]", "follows", "1.2 s/stride", "3 s/stride", "C8 holds"], trials)]
-    ff = record.get("feed_forward_trials", [])
-    if ff:
-        out += ["", "The bench controller's feed-forward fraction against the losses of Figs. 11-12 (the other values "
-                "as fitted; paper: output loss about 20 % on average and over 50 % at worst, gearing loss never "
-                "under 50 % and over 65 % at high precompression and short strides):", "",
-                md_table(["k_ff", "output loss mean", "output loss worst", "gearing loss min",
-                          "gearing loss corner", "largest arm lag [rad]"],
-                         [[f"{t['k_ff']:g}", f"{100 * t['output_loss_mean']:.1f} %",
-                           f"{100 * t['output_loss_worst']:.1f} %", f"{100 * t['gearing_loss_min']:.1f} %",
-                           f"{100 * t['gearing_loss_corner']:.1f} %", f"{t['tracking_max_rad']:.3f}"] for t in ff])]
-    return "\n".join(out) + "\n"
-
-
-def write_tables(record: dict, out_dir: Path) -> Path:
-    """``inference.md`` in ``out_dir``."""
-    path = Path(out_dir) / "inference.md"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("# Inference of the unpublished parameters (`paper_fit`)\n\n" + markdown(record))
-    return path
-
-
-def fitted_claims(record: dict) -> frozenset:
-    """The ids of the claims an inference record was fitted to (its targets' claims, and C8 when it chose the
-    planner's tolerance for it)."""
-    return frozenset({t["claim"] for t in record["targets"]} | ({"C8"} if record.get("tolerance_trials") else set()))

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..reporting.tables import md_table, pct, write_csv
 from .claims import evaluate as evaluate_claims
-from .inference import fitted_claims, markdown as inference_markdown
+from .fit_record import fitted_claims, markdown as inference_markdown
 from .presets import paper_fit_record
 from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)

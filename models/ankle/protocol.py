@@ -39,6 +39,16 @@ D_MAX = EPOS2.d_max.default
 FOLLOWS_AT_LEAST = 30
 
 
+#: the high-precompression, short-stride corner of Figs. 11-12 (4.2.3: "both high precompression and low walking
+#: duration"): precompression at least 15 mm [mm], stride time at most 1.3 s [s]
+CORNER = (15.0, 1.3)
+
+
+def in_corner(P_mm: float, T: float) -> bool:
+    """Whether a condition lies in the corner of :data:`CORNER`."""
+    return P_mm >= CORNER[0] - 1e-6 and T <= CORNER[1] + 1e-9
+
+
 def follows_as_in_the_paper(duty: dict) -> dict:
     """C8's reading of the required duties of the 36-condition replay grid, ``{(P [mm], T [s]): duty}``: how many
     conditions the motor follows (duty <= :data:`D_MAX`), the duties at 18 mm and 1.2 / 3 s, and whether it holds."""

@@ -1,0 +1,69 @@
+"""The record of an inference (``paper_fit.json``, :mod:`acausal.models.ankle.inference`): writing it, its tables
+(``inference.md``: unknowns, targets, the planner tolerance's and the feed-forward's trials) and the claims it was
+fitted to. Readers of a record need nothing of the fit itself.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+def write(record: dict, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    return path
+
+
+def markdown(record: dict) -> str:
+    """The inferred parameters (value, standard deviation, range, identified, source) and the targets met, as
+    markdown tables (the report's and README's "inferred parameters")."""
+    from ..reporting.tables import md_table
+
+    fixed = {k: v for k, v in record["preset"].items() if k not in {u["parameter"] for u in record["unknowns"]}}
+
+    def span(u):
+        return f"{u['lo']:g}-{u['hi']:g}" + (f" {u['unit']}" if u["unit"] != "1" else "")
+
+    rows = [[f"`{u['parameter']}`", f"{u['value']:.4g}", f"{u['sd']:.2g}", span(u),
+             f"{u['start']:g}", "yes" if u["identified"] else "**no**", u["source"]] for u in record["unknowns"]]
+    rows += [[f"`{k}`", f"{v:.4g}", "-", "chosen for C8", "-", "-",
+              "the smallest planner tolerance with which the motor follows where the paper says it does "
+              "(trials below)"] for k, v in fixed.items()]
+    targets = [[t["target"], f"{'> ' if t.get('bound') == 'lower' else ''}{t['paper']:.4g}", f"{t['simulated']:.4g}",
+                f"{t['sigma']:g}{' (log)' if t['relative'] else ''}", f"{t['z']:+.1f}"] for t in record["targets"]]
+    trials = [[f"{t['tolerance']:g}", f"{t['follows']}/36", f"{t['duty_18mm_1p2s']:.2f}", f"{t['duty_18mm_3s']:.2f}",
+               "yes" if t["holds"] else "no"] for t in record.get("tolerance_trials", [])]
+    out = ["Unknowns (standard deviation: linearised, from the weighted Jacobian; identified: sd below a quarter "
+           "of the range and not on a bound):", "",
+           md_table(["parameter", "value", "sd", "range", "a priori", "identified", "range's source"], rows), "",
+           f"Targets (z = weighted residual; cost {record['cost']:.2f} after {record['evaluations']} evaluations):",
+           "", md_table(["target", "paper", "simulated", "sigma", "z"], targets)]
+    if trials:
+        out += ["", "Planner torque tolerance for C8 (required duty at 18 mm):", "",
+                md_table(["tolerance [N m]", "follows", "1.2 s/stride", "3 s/stride", "C8 holds"], trials)]
+    ff = record.get("feed_forward_trials", [])
+    if ff:
+        out += ["", "The bench controller's feed-forward fraction against the losses of Figs. 11-12 (the other values "
+                "as fitted; paper: output loss about 20 % on average and over 50 % at worst, gearing loss never "
+                "under 50 % and over 65 % at high precompression and short strides):", "",
+                md_table(["k_ff", "output loss mean", "output loss worst", "gearing loss min",
+                          "gearing loss corner", "largest arm lag [rad]"],
+                         [[f"{t['k_ff']:g}", f"{100 * t['output_loss_mean']:.1f} %",
+                           f"{100 * t['output_loss_worst']:.1f} %", f"{100 * t['gearing_loss_min']:.1f} %",
+                           f"{100 * t['gearing_loss_corner']:.1f} %", f"{t['tracking_max_rad']:.3f}"] for t in ff])]
+    return "\n".join(out) + "\n"
+
+
+def write_tables(record: dict, out_dir: Path) -> Path:
+    """``inference.md`` in ``out_dir``."""
+    path = Path(out_dir) / "inference.md"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("# Inference of the unpublished parameters (`paper_fit`)\n\n" + markdown(record))
+    return path
+
+
+def fitted_claims(record: dict) -> frozenset:
+    """The ids of the claims an inference record was fitted to (its targets' claims, and C8 when it chose the
+    planner's tolerance for it)."""
+    return frozenset({t["claim"] for t in record["targets"]} | ({"C8"} if record.get("tolerance_trials") else set()))
