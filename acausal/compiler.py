@@ -433,17 +433,19 @@ class CompiledModel:
         return out
 
     def sensitivities(self, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
-                      *, t_start: float = 0.0, starts: dict | None = None, method: str = "auto"):
+                      *, t_start: float = 0.0, starts: dict | None = None, method: str = "auto",
+                      substeps: int = 4):
         """Values and exact parameter sensitivities ``d name / d wrt[j]`` at times ``t``: ``(values, sens)`` with
         ``values[name]`` of shape ``(len(t),)`` and ``sens[name]`` of shape ``(len(wrt), len(t))``.
 
         ``names`` may include aliases (default: every state and unknown). A model with states is integrated with
         its sensitivities from ``t_start`` (start values independent of the parameters); ``rtol``/``atol`` and
-        ``method`` are the integrator's. See :func:`acausal.sensitivity.sensitivities`.
+        ``method`` are the integrator's (``"RK4"``: fixed steps on ``t``, ``substeps`` per interval). See
+        :func:`acausal.sensitivity.sensitivities`.
         """
         from .sensitivity import sensitivities
         return sensitivities(self, t, wrt, names=names, params=params, inputs=inputs, rtol=rtol, atol=atol,
-                             t_start=t_start, starts=starts, method=method)
+                             t_start=t_start, starts=starts, method=method, substeps=substeps)
 
     # ------------------------------------------------------------------ report
     def report(self) -> str:

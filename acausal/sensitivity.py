@@ -30,7 +30,7 @@ from .symbols import der_name, var_symbol
 
 
 def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
-                  t_start: float = 0.0, starts: dict | None = None, method: str = "auto"):
+                  t_start: float = 0.0, starts: dict | None = None, method: str = "auto", substeps: int = 4):
     """Values and parameter sensitivities of variables of the compiled model ``cm`` at times ``t``.
 
     ``wrt``: parameter names ``p_1..p_q``; ``names``: variables (aliases included; default every state and
@@ -38,8 +38,10 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     integrator's tolerances, applied to states and sensitivities alike (models with states only); states start at
     ``t_start`` (default 0 s, with ``starts`` as in ``simulate``) and ``t`` must be increasing and not before it.
     ``method``: ``"auto"`` (default: the compiled path, CVODES with CasADi's exact derivatives, when the model
-    allows it, else scipy's LSODA), ``"CVODES"`` (the compiled path or a ModelError), or the implicit scipy integrator
-    ``"BDF"``, ``"LSODA"`` or ``"Radau"``.
+    allows it, else scipy's LSODA), ``"CVODES"`` (the compiled path or a ModelError), the implicit scipy integrator
+    ``"BDF"``, ``"LSODA"`` or ``"Radau"``, or ``"RK4"``: fixed steps on the grid ``t`` (``substeps`` per interval,
+    no error control: ``rtol``/``atol`` are not used; the sensitivities are those of the discrete solution; see
+    :mod:`acausal.compiled.fixed_step`), a ModelError where the model has no such form.
 
     Returns ``(values, sens)``: ``values[name]`` of shape ``(N,)``, ``sens[name]`` of shape ``(q, N)`` with
     ``sens[name][j] = d name / d wrt[j]``.
@@ -77,7 +79,9 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
         if N and (t[0] < t_start or np.any(np.diff(t) < 0)):
             raise ModelError(f"sensitivities: t must be increasing and not before t_start = {t_start}")
         X, S = None, None
-        if method in ("auto", "CVODES"):
+        if method == "RK4":
+            X, S = _fixed_step(cm, t, t_start, p, d, u, starts, wrt, bindings, substeps)
+        elif method in ("auto", "CVODES"):
             from .simulate import COMPILED, ROBUST, _choose_path
             method, _ = _choose_path(cm, method, u, rtol, atol)
             if method == COMPILED:
@@ -96,6 +100,22 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
         values[name] = np.broadcast_to(np.asarray(vals[k], dtype=float), (N,)).copy()
         sens[name] = np.broadcast_to(np.asarray(dy[k], dtype=float), (q, N)).copy()
     return values, sens
+
+
+def _fixed_step(cm, t, t_start, p, d, u, starts, wrt, bindings, substeps):
+    """States and sensitivities by :mod:`acausal.compiled.fixed_step` (RK4 on the grid ``t``)."""
+    if not isinstance(substeps, (int, np.integer)) or isinstance(substeps, bool) or substeps < 1:
+        raise ModelError(f"sensitivities: substeps must be a positive integer, got {substeps!r}")
+    try:
+        from .compiled.fixed_step import fixed_step
+        from .compiled.translate import Unsupported
+    except ImportError as exc:  # no CasADi
+        raise ModelError(f"sensitivities: method 'RK4' needs CasADi (the 'fast' extra): {exc}") from None
+    try:
+        stepper = fixed_step(cm, int(substeps), wrt, bindings)
+    except Unsupported as exc:
+        raise ModelError(f"sensitivities: method 'RK4' cannot run this model: {exc}") from None
+    return stepper.run(t_start, initialize(cm, t_start, p, d, u, starts), t, p, d, u)
 
 
 def _output_expr(cm, name):

@@ -359,7 +359,8 @@ class CompiledPath:
                                   f"{_first_line(exc)}") from None
         Y = np.asarray(out["xf"]).reshape(n * (1 + q), -1)[:, back]
         X[:, later] = Y[:n]
-        S[:, :, later] = Y[n:].reshape(q, n, -1).transpose(1, 0, 2)  # CasADi stacks S column by column
+        if q:  # CasADi stacks S column by column
+            S[:, :, later] = Y[n:].reshape(q, n, -1).transpose(1, 0, 2)
         return X, S
 
     def _sens_integrator(self, entry, wrt, bindings, tau, rtol, atol):

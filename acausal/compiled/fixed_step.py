@@ -1,0 +1,181 @@
+"""Fixed-step integration on the compiled path: the classical fourth-order Runge-Kutta method (RK4) on the output
+grid, with its exact parameter sensitivities.
+
+What Modelica tools offer as a fixed-step solver (Dymola's ``Rkfix4``, OpenModelica's ``rungekutta``), for runs
+whose grid is given by the data: a replay of a recording whose inputs are sampled at the output times. Each output
+interval ``[t_i, t_i+1]`` is crossed in ``substeps`` equal RK4 steps; a sampled (piecewise-linear) input is then
+smooth inside every step, so its kinks cost nothing, where an error-controlled integrator must find each of them
+by failed steps. CasADi rolls the step over the grid in one call (``mapaccum``): one function per model, step
+count and set of sensitivity parameters, whatever the recording.
+
+**Inputs** enter as data, not as tables inside the function: every numeric input that the right-hand side reads
+at the current time is a symbol whose values at the RK4 stage times are computed in numpy before the call (the
+stage at a step's end is evaluated at the float just before it, so a sampled input's slope at an output time
+belongs to the step that ends there). So one compiled function serves every recording of a model, and inputs
+without a CasADi form (any :class:`~acausal.signals.Signal`) are supported.
+
+**Sensitivities**: the variational equations ``dS/dt = f_x S + f_p B`` are integrated by the same RK4 stages as
+the states, which for an explicit Runge-Kutta method gives the exact derivatives of the discrete solution (what a
+least-squares fit of the discrete replay needs), not an approximation of the continuous ones.
+
+**Accuracy** is the caller's to check: a fixed step has no error control. :func:`step_error` compares a run with
+one of twice the substeps (the difference estimates the coarser run's error to within a factor 16/15 for a smooth
+solution); callers choose ``substeps`` by it or against a tight CVODES run.
+
+Unsupported here (:class:`~acausal.compiled.translate.Unsupported` with the reason): event zero functions,
+Newton blocks, and an input read at another time than the current one.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .translate import Unsupported
+
+
+class StageInputs:
+    """Stands in for :class:`~acausal.compiled.translate.Signals` while translating: each input read at the current
+    time (``token``, derivative ``order``) becomes a symbol; ``used`` lists them in symbol order."""
+
+    def __init__(self, t):
+        import casadi as ca
+        self.t = t
+        self.used: list = []
+        self.symbols: list = []
+        self._ca = ca
+
+    def __call__(self, token, order, arg):
+        ca = self._ca
+        if not (isinstance(arg, ca.SX) and arg.is_symbolic() and ca.is_equal(arg, self.t)):
+            raise Unsupported(f"input {token!r} is read at {arg}, not at the current time (fixed-step stages "
+                              "evaluate inputs at the time only)")
+        key = (token, int(order))
+        if key not in self.used:
+            self.used.append(key)
+            self.symbols.append(ca.SX.sym(f"u{len(self.used) - 1}"))
+        return self.symbols[self.used.index(key)]
+
+
+class FixedStep:
+    """The RK4 roll-out of one compiled model, ``substeps`` steps per output interval, with the sensitivities to
+    the parameters ``wrt`` (through their ``bindings``; none: the states alone)."""
+
+    def __init__(self, cm, substeps: int, wrt=(), bindings=None):
+        import casadi as ca
+
+        from ..parameter_values import binding_totals
+        from ..symbols import par_symbol
+        from .translate import Converter, state_derivatives, translate
+        if cm.event_zeros:
+            raise Unsupported("the model has event zero functions (a fixed step cannot locate them)")
+        if not cm.state_names:
+            raise Unsupported("the model has no states")
+        self.cm, self.substeps, self.wrt = cm, int(substeps), tuple(wrt)
+        n, q = len(cm.state_names), len(self.wrt)
+        t = ca.SX.sym("t")
+        x = ca.SX.sym("x", n)
+        p = ca.SX.sym("p", len(cm.param_names))
+        d = ca.SX.sym("d", len(cm.discrete_names))
+        stage = StageInputs(t)
+        f = ca.vertcat(*translate(cm, state_derivatives(cm), stage, t, x, p, d))  # a Newton block raises
+        self.inputs = tuple(stage.used)
+        u = ca.vertcat(*stage.symbols) if stage.symbols else ca.SX(0, 1)
+        y, rhs = x, f
+        if q:
+            env = {par_symbol(nm): p[i] for i, nm in enumerate(cm.param_names)}
+            conv = Converter(env, None)
+            B = ca.SX.zeros(len(cm.param_names), q)
+            for name, col in binding_totals(cm.param_names, self.wrt, bindings or {}).items():
+                for j, e in col.items():
+                    B[cm.param_index(name), j] = conv(e)
+            S = ca.SX.sym("S", n * q)
+            dS = ca.mtimes(ca.jacobian(f, x), ca.reshape(S, n, q)) + ca.mtimes(ca.jacobian(f, p), B)
+            y, rhs = ca.vertcat(x, S), ca.vertcat(f, ca.vec(dS))
+        pd = ca.vertcat(p, d)
+        F = ca.Function("rate", [t, y, pd, u], [ca.cse(rhs)])
+        m = len(self.inputs)
+        k = self.substeps
+        # one output interval: y at its start, (t_i, h_i), the inputs at its 2k+1 stage times (column j at
+        # t_i + j h_i / 2k), the parameters and modes
+        ys, th, us, ps = ca.SX.sym("y", y.numel()), ca.SX.sym("th", 2), ca.SX.sym("us", m, 2 * k + 1), \
+            ca.SX.sym("pd", pd.numel())
+        h = th[1] / k
+        yj = ys
+        for j in range(k):
+            t0 = th[0] + j * h
+            a, mid, b = us[:, 2 * j], us[:, 2 * j + 1], us[:, 2 * j + 2]
+            k1 = F(t0, yj, ps, a)
+            k2 = F(t0 + h / 2, yj + h / 2 * k1, ps, mid)
+            k3 = F(t0 + h / 2, yj + h / 2 * k2, ps, mid)
+            k4 = F(t0 + h, yj + h * k3, ps, b)
+            yj = yj + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        self.step = ca.Function("rk4_step", [ys, ca.vertcat(th, ca.vec(us)), ps], [yj])
+        self.n, self.q, self.size = n, q, y.numel()
+        self._rolls: dict = {}
+
+    def _roll(self, steps: int):
+        if steps not in self._rolls:
+            if len(self._rolls) > 64:
+                self._rolls.clear()
+            self._rolls[steps] = self.step.mapaccum("rk4_roll", steps)
+        return self._rolls[steps]
+
+    def stage_values(self, grid, u) -> np.ndarray:
+        """The inputs at every stage time of every interval of ``grid``: shape ``(2 + m (2k+1), intervals)``
+        (the interval's start and length first, then the inputs stage by stage, CasADi's column order)."""
+        cm, k = self.cm, self.substeps
+        t0, h = grid[:-1], np.diff(grid)
+        frac = np.arange(2 * k + 1) / (2 * k)
+        T = t0[:, None] + h[:, None] * frac[None, :]
+        T[:, -1] = np.nextafter(grid[1:], grid[:-1])  # the end stage inside its own interval
+        cols = [t0[None, :], h[None, :]]
+        if self.inputs:
+            vals = np.empty((len(t0), 2 * k + 1, len(self.inputs)))
+            for i, (token, order) in enumerate(self.inputs):
+                sig = u[cm.input_names.index(token)]
+                vals[:, :, i] = np.asarray(sig.evaluate(T.ravel(), order), dtype=float).reshape(T.shape)
+            cols.append(vals.reshape(len(t0), -1).T)
+        return np.vstack(cols)
+
+    def run(self, t_start: float, x0, t_out, p, d, u) -> tuple:
+        """``(X, S)``: states ``(n, N)`` and sensitivities ``(n, q, N)`` at the output times ``t_out``
+        (non-decreasing, not before ``t_start``; the steps run between the distinct ones), from states ``x0`` at
+        ``t_start`` (sensitivities zero there)."""
+        t_out = np.asarray(t_out, dtype=float)
+        n, q, N = self.n, self.q, t_out.size
+        if N and (t_out[0] < t_start or np.any(np.diff(t_out) < 0)):
+            raise ValueError("fixed step: output times must not decrease nor start before t_start")
+        X = np.repeat(np.asarray(x0, dtype=float)[:, None], N, axis=1)
+        S = np.zeros((n, q, N))
+        later = t_out > t_start
+        if later.any():
+            times, back = np.unique(t_out[later], return_inverse=True)
+            grid = np.concatenate(([t_start], times))
+            y0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(n * q)])
+            Y = np.asarray(self._roll(grid.size - 1)(y0, self.stage_values(grid, u),
+                                                     np.concatenate([p, d])), dtype=float)[:, back]
+            X[:, later] = Y[:n]
+            if q:
+                S[:, :, later] = Y[n:].reshape(q, n, -1).transpose(1, 0, 2)  # CasADi stacks S by columns
+        return X, S
+
+
+def fixed_step(cm, substeps: int, wrt=(), bindings=None) -> FixedStep:
+    """The :class:`FixedStep` of ``cm`` (cached on its compiled path by substeps, ``wrt`` and bindings)."""
+    cache = cm.compiled_path.__dict__.setdefault("_fixed_step", {})
+    key = (int(substeps), tuple(wrt), frozenset((k, str(v)) for k, v in (bindings or {}).items()))
+    if key not in cache:
+        if len(cache) > 64:
+            cache.clear()
+        try:
+            cache[key] = FixedStep(cm, substeps, wrt, bindings)
+        except Unsupported as exc:
+            cache[key] = str(exc)
+    if isinstance(cache[key], str):
+        raise Unsupported(cache[key])
+    return cache[key]
+
+
+def step_error(run, substeps: int) -> float:
+    """The largest difference between ``run(substeps)`` and ``run(2 * substeps)`` (arrays of equal shape): the
+    coarser run's error to within 16/15 where the solution is smooth (Richardson)."""
+    return float(np.max(np.abs(np.asarray(run(substeps)) - np.asarray(run(2 * substeps)))))
