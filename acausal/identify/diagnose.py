@@ -18,8 +18,9 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
 3. **Refit and score**: each candidate is added to the calibrated model and the extended model refitted on the
    training strides. (A candidate whose projected fingerprint explains so little of the residual that even the
    linearised best case gains less than ``Thresholds.screen`` is not refitted: it is scored by one Gauss-Newton
-   step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising
-   ones.) Scores, all on residuals in units of sensor noise pooled over the signals:
+   step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising ones, ranked
+   by the share of the residual their Gauss-Newton step explains once clipped to the candidate's bounds: an
+   effect that can only act the other way cannot help at first order.) Scores, all on residuals in units of sensor noise pooled over the signals:
 
    * ``heldout_rmse_gain = 1 - RMSE_extended / RMSE_before`` on the held-out strides;
    * leave-one-stride-out RMSE over the training strides (linearised, :func:`~.residuals.leave_one_group_out`)
@@ -182,15 +183,24 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict) -> dict:
     return out
 
 
+def _linearised(c: Candidate, r, f, cos) -> tuple:
+    """``(value, share)``: the candidate's size after one Gauss-Newton step from its zero on the residual ``r``
+    along its projected fingerprint ``f``, clipped to its bounds, and the share of the residual's sum of squares
+    that clipped step explains (``cos^2`` where the step stays inside; none where the effect can only act the
+    other way: zero on a bound that the step points out of)."""
+    ff, fr, rr = float(f @ f), float(f @ r), float(r @ r)
+    step = -fr / ff if ff > 0 else 0.0  # residual = predicted - measured
+    lo, hi = c.bounds
+    value = min(max(c.zero + step, lo), hi)
+    s = value - c.zero
+    share = -(2 * s * fr + s * s * ff) / rr if rr > 0 else 0.0
+    return value, float(min(max(share, 0.0), cos * cos))
+
+
 def _screened(base: Fit, c: Candidate, r, f, cos) -> CandidateScore:
     """A candidate whose fingerprint explains too little of the residual to reach the gain threshold even in the
     best case: scored by one linearised (Gauss-Newton) step instead of a refit."""
-    ff = float(f @ f)
-    step = -float(f @ r) / ff if ff > 0 else 0.0  # residual = predicted - measured
-    value = c.zero + step
-    lo, hi = c.bounds
-    value = min(max(value, lo), hi)
-    frac = cos * cos if lo <= c.zero + step <= hi else 0.0
+    value, frac = _linearised(c, r, f, cos)
     n = base.n_train
     gain = 1.0 - np.sqrt(1.0 - frac)
     return CandidateScore(c.id, c.parameter, value, float("nan"), {**base.values, c.parameter: value}, float(gain),
@@ -227,11 +237,13 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
         fp_step = fp if not causes else fingerprints(problem, base, rest, scales)
         scores = []
         cosines = {cid: _cos(fp_step[None], fp_step[cid]) for cid in rest}
-        order = sorted(rest, key=lambda cid: -abs(cosines[cid]))
+        share = {cid: _linearised(problem.candidates[cid], fp_step[None], fp_step[cid], cosines[cid])[1]
+                 for cid in rest}
+        order = sorted(rest, key=lambda cid: -share[cid])
         refit = set(order if problem.max_refits is None else order[:problem.max_refits])
         for cid in order:
             cos = cosines[cid]
-            if cid not in refit or 1.0 - np.sqrt(max(1.0 - cos * cos, 0.0)) < thresholds.screen:
+            if cid not in refit or 1.0 - np.sqrt(max(1.0 - share[cid], 0.0)) < thresholds.screen:
                 scores.append(_screened(base, problem.candidates[cid], fp_step[None], fp_step[cid], cos))
                 continue
             say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))

@@ -52,8 +52,9 @@ class Problem(ABC):
     #: further options of every calibration (:func:`~.calibrate.calibrate`: ``max_nfev``, ``tol``)
     fit_options: dict = {}
     #: candidates refitted per step at most, in the order of their linearised gain (the share of the residual
-    #: their projected fingerprint explains); the others are scored by one Gauss-Newton step and marked
-    #: ``screened``. None: every candidate above ``Thresholds.screen`` is refitted.
+    #: their projected fingerprint's Gauss-Newton step explains, clipped to their bounds); the others are scored
+    #: by one Gauss-Newton step and marked ``screened``. None: every candidate above ``Thresholds.screen`` is
+    #: refitted.
     max_refits: int | None = None
 
     @abstractmethod
