@@ -55,6 +55,22 @@ class SwitchedResistor(OnePort):
                 Eq(self.loss_power, self.v * self.i)]
 
 
+class CurrentLimitedResistor(SwitchedResistor):
+    """A :class:`SwitchedResistor` behind a driver that caps its current at ``i_max = 1 / inv_i_max`` (a servo's
+    current limit, e.g. a Dynamixel's Current Limit register): ``i = closed (v/R) / max(1, inv_i_max |v/R|)``.
+    At the cap the voltage the winding does not need is dropped here and counted in ``loss_power``; a real driver
+    lowers its duty instead and draws that much less from its supply (the current and the motion are the same).
+    The reciprocal keeps "no limit" at 0, so a fit can start there. ``loss_power = v i >= 0``."""
+
+    inv_i_max = Parameter(0.0, unit="1/A", min=0.0, doc="reciprocal of the current limit (0: no limit)")
+
+    def equations(self):
+        free = self.v / self.R  # the current without a limit
+        return [*OnePort.equations(self),
+                Eq(self.i, self.closed.value * free / sp.Max(1, self.inv_i_max * sp.Abs(free))),
+                Eq(self.loss_power, self.v * self.i)]
+
+
 class Capacitor(OnePort):
     """Ideal capacitor, ``i = C dv/dt``; stores ``energy = C v^2 / 2``."""
 

@@ -25,7 +25,9 @@ the limit) take a causal block with input ``u`` and output ``y`` (:mod:`acausal.
 :class:`~acausal.library.blocks.Bias`); ``bus`` a two-pin element in series with the supply (a
 :class:`~acausal.library.electrical.Resistor`: supply sag); ``output`` a two-flange element between the shaft
 the encoder reads and the output flange (:class:`~acausal.library.rotational.ElastoBacklash`). Elements of one
-slot are chained in the order given.
+slot are chained in the order given. ``winding`` replaces the winding (one element at most, built with the
+servo's ``R``, named ``winding``): a :class:`~acausal.library.electrical.CurrentLimitedResistor` for a driver's
+current limit.
 
 Parameters are those seen at the output shaft, as BAM identifies them: ``kt`` [N m/A] (motor constant times the
 gear ratio; also the back-EMF constant in V s/rad), ``R`` [ohm], ``armature`` [kg m2]. Defaults are BAM's published
@@ -45,9 +47,10 @@ from .rotational import AngleSensor, IdealGear, Inertia
 
 __all__ = ["PositionServo", "SLOTS"]
 
-#: the insertion slots of :class:`PositionServo` and the ports an element in each must have
+#: the insertion slots of :class:`PositionServo` and the ports an element in each must have ("winding" replaces
+#: the winding instead of being chained: its element also takes the input ``closed`` and the servo's ``R``)
 SLOTS = {"goal": ("u", "y"), "position": ("u", "y"), "error": ("u", "y"), "duty": ("u", "y"), "bus": ("p", "n"),
-         "output": ("flange_a", "flange_b")}
+         "output": ("flange_a", "flange_b"), "winding": ("p", "n", "closed")}
 
 
 class PositionServo(Model):
@@ -93,6 +96,8 @@ class PositionServo(Model):
         names = [i[1] for i in self.inserts]
         if len(set(names)) != len(names):
             raise ModelError(f"PositionServo: insert names must be distinct, got {names}")
+        if sum(i[0] == "winding" for i in self.inserts) > 1:
+            raise ModelError("PositionServo: one element at most replaces the winding (slot 'winding')")
         super().__init__(**kw)
         if load_measure == "external":
             self.load_torque = RealInput(doc="external torque on the load [N m], for the friction's load measure")
@@ -117,7 +122,11 @@ class PositionServo(Model):
         self.gain = Gain(k=self.kp * self.error_gain)
         self.ctrl = DutyOutput(d_max=self.d_max)
         self.driver = PWMDriver(ideal=True)  # lossless: the XL330's bridge losses are in the winding's fitted R
-        self.winding = SwitchedResistor(R=self.R)
+        replaced = [i for i in self.inserts if i[0] == "winding"]
+        self.winding = replaced[0][2](R=self.R) if replaced else SwitchedResistor(R=self.R)
+        if not all(hasattr(self.winding, port) for port in SLOTS["winding"]):
+            raise ModelError(f"PositionServo: the element replacing the winding must have ports "
+                             f"{SLOTS['winding']}; {type(self.winding).__name__} has not")
         self.emf = EMF(k=self.kt / self.ratio)
         self.gear = IdealGear(ratio=self.ratio)
         self.friction = GearFriction(terms=self.friction_terms, load_measure=self.load_measure, tau_c=self.tau_c,

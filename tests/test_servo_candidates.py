@@ -43,9 +43,13 @@ def test_every_candidate_is_the_baseline_at_zero_and_moves_the_arm_at_its_typica
 
 def test_energy_balance_with_every_slot_filled():
     """Supply energy = winding, friction, flank damping losses + change of stored energy (rel. 1e-6) with an
-    element in every slot of the servo (rate limit, delay, deadband, punch, quantisation, supply sag, play)."""
+    element in every slot of the servo (rate limit, delay, deadband, punch, quantisation, supply sag, play) and
+    the winding replaced by a current-limited one (a user's candidate in the ``winding`` slot)."""
+    cap = fx.user_effect({"id": "current_limit", "slot": "winding", "parameter": "inv_i_max", "bounds": [0, 20],
+                          "component": "acausal.library.electrical:CurrentLimitedResistor", "typical": 2.0})
+    assert cap.parameter == "servo.winding.inv_i_max"
     chosen = [fx.EFFECTS[k] for k in ("goal_rate_limit", "loop_delay", "error_deadband", "punch",
-                                      "duty_quantisation", "supply_sag", "backlash")]
+                                      "duty_quantisation", "supply_sag", "backlash")] + [cap]
     cm = compiled(("coulomb", "load"), tuple(chosen))
     rec = _xl330(5)
     params = {**rig_params(rec.meta), "servo.friction.k_l": 0.2, **{e.parameter: e.typical for e in chosen}}
@@ -55,6 +59,8 @@ def test_energy_balance_with_every_slot_filled():
     assert b.delivered > 0.5
     assert abs(b.residual) < 1e-6, b.table()
     assert {"servo.supply_sag.loss_power", "servo.backlash.loss_power"} <= set(b.losses)
+    i = np.abs(np.asarray(res["servo.winding.i"]))
+    assert 0.49 < i.max() <= 0.5 + 1e-6  # the 0.5 A cap binds
 
 
 def test_bam_published_sets_replay_as_in_bams_simulator():

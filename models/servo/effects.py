@@ -59,9 +59,9 @@ class _Factory:
     def __init__(self, ref, fixed, size_name, zero):
         self.ref, self.fixed, self.size_name, self.zero = ref, tuple(fixed), size_name, zero
 
-    def __call__(self):
+    def __call__(self, **over):
         cls = load_class(self.ref, Component, "candidate component")
-        return cls(**{**dict(self.fixed), self.size_name: self.zero})
+        return cls(**{**dict(self.fixed), self.size_name: self.zero, **over})
 
 
 F = "acausal.library.firmware:"
@@ -168,12 +168,13 @@ def user_effect(spec: dict, where: str = "candidate") -> Effect:
         raise DataError(f"{where}: bounds, zero, probe, scale, typical and fixed must be numbers ({exc})") from None
     if not lo <= zero <= hi or lo >= hi:
         raise DataError(f"{where}: bounds [{lo}, {hi}] must be increasing and hold zero = {zero}")
-    e = Effect(cid, slot, str(spec["component"]), f"servo.{cid}.{param}", str(spec.get("unit", "")), zero, typical,
+    where_param = "winding" if slot == "winding" else cid  # a replaced winding keeps its name
+    e = Effect(cid, slot, str(spec["component"]), f"servo.{where_param}.{param}", str(spec.get("unit", "")), zero, typical,
                (lo, hi), scale, str(spec.get("doc", "a user's candidate")), probe, fixed)
     cls = load_class(e.component, Component, f"{where}: component")
     if param not in cls.declarations():
         raise DataError(f"{where}: {e.component} has no parameter {param!r}")
-    element = e.factory()()  # builds it now, so a wrong fixed parameter is named here, not inside a worker
+    element = e.factory()(**({"R": 1.0} if slot == "winding" else {}))  # a wrong fixed parameter is named here
     ports = SLOTS[slot]
     if not all(hasattr(element, p) for p in ports):
         raise DataError(f"{where}: {e.component} has no ports {ports} for slot {slot!r}")
