@@ -43,9 +43,16 @@ def candidate(e) -> Candidate:
 
 CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 
-#: integration tolerances of the replays: the position's integration error stays below 5e-5 rad (measured on the
-#: XL330 set against rtol 1e-8), a tenth of the reading's noise (one 12-bit encoder step / sqrt(12) = 4.4e-4 rad),
-#: at 0.6 times the cost of rtol 1e-6
+#: the replays' integrator: RK4 on the recording's own samples (:mod:`acausal.compiled.fixed_step`), the logged
+#: inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per model while the
+#: fixed step's error exceeds a quarter of the reading's noise (checked as the fit moves: :class:`_Batch`). On the
+#: XL330 set the baseline's replays with sensitivities take 4 to 8 substeps at a fifth of the cost of CVODES at
+#: rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain) is what needs more.
+SUBSTEPS = 4
+#: the most substeps tried before a recording's replays go to CVODES (RK4 with sensitivities at 16 substeps costs
+#: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction; at 32 as much)
+MAX_SUBSTEPS = 16
+#: tolerances of a replay on CVODES (``substeps=None``): within 5e-5 rad of rtol 1e-8 on the XL330 set
 RTOL, ATOL = 1e-5, 1e-7
 
 
@@ -95,21 +102,41 @@ def model_key(effects) -> tuple:
     return fx.terms(effects), tuple(e for e in effects if e.slot not in ("friction", "parameter"))
 
 
-def replay_job(key, rec, values: dict, names=()) -> tuple:
+def replay_job(key, rec, values: dict, names=(), substeps: int | None = SUBSTEPS) -> tuple:
     """The job of :func:`replay` for recording ``rec`` of model ``key`` (:func:`model_key`) with parameter
-    ``values`` (over its rig's) and the sensitivities to ``names`` (none: the position only)."""
-    return (key, rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names))
+    ``values`` (over its rig's) and the sensitivities to ``names`` (none: the position only), integrated by RK4
+    with ``substeps`` per sample interval (None: CVODES at :data:`RTOL`, :data:`ATOL`)."""
+    return (key, rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names), substeps)
+
+
+def fixed_step_runs(cm) -> bool:
+    """Whether the replays of ``cm`` can take the fixed step (:mod:`acausal.compiled.fixed_step`): CasADi is
+    installed and the model has neither events nor a Newton block."""
+    try:
+        from acausal.compiled.fixed_step import fixed_step
+        from acausal.compiled.translate import Unsupported
+    except ImportError:
+        return False
+    try:
+        fixed_step(cm, SUBSTEPS)
+    except Unsupported:
+        return False
+    return True
 
 
 def replay(job: tuple) -> tuple:
     """One closed-loop replay (a module-level function, so a process pool can run it): ``job`` =
-    ``(model key, t, input columns, params, starts, names)`` (:func:`replay_job`); returns ``(position, sens)``
-    with ``sens`` the sensitivities of the encoder's reading to ``names`` (shape ``(len(names), N)``), or
-    ``None`` when ``names`` is empty."""
-    key, t, columns, params, x0, names = job
+    ``(model key, t, input columns, params, starts, names, substeps)`` (:func:`replay_job`); returns
+    ``(position, sens)`` with ``sens`` the sensitivities of the encoder's reading to ``names`` (shape
+    ``(len(names), N)``), or ``None`` when ``names`` is empty."""
+    key, t, columns, params, x0, names, substeps = job
     cm = compiled(*key)
     u = inputs_from(t, columns)
     x0 = _starts(cm, x0)
+    if substeps is not None and fixed_step_runs(cm):
+        vals, S = cm.sensitivities(t, list(names), names=[READING], params=params, inputs=u, t_start=t[0],
+                                   starts=x0, method="RK4", substeps=substeps)
+        return np.asarray(vals[READING]), np.asarray(S[READING]) if names else None
     if not names:
         res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=params, inputs=u, starts=x0,
                           rtol=RTOL, atol=ATOL, dense_output=False)
@@ -134,11 +161,65 @@ class _Batch:
     """The replays of one model's experiments, run together (through ``executor`` when given) the first time any
     of them is asked for with a parameter set, and kept for the other experiments' calls with the same set.
     Experiments are batched with those of the same role (fitted or held out), since a calibration asks only for
-    the fitted ones."""
+    the fitted ones.
 
-    def __init__(self, key, recordings, held, executor):
+    **Substeps** (RK4 per sample interval) are chosen per recording and checked against ``tol`` [rad] by the
+    difference between a replay and one at twice the substeps: on every recording at the first parameter set
+    asked for (from ``start``, doubled until the difference is within ``tol``; beyond :data:`MAX_SUBSTEPS`, that
+    recording goes to CVODES), then at every new parameter set asked for with sensitivities (a fit's accepted
+    iterates) on the recording closest to its limit, and on all of them again where that one fails: a candidate
+    that stiffens the model as its size grows (load friction) gets more substeps where and when it needs them.
+    ``start``: the substeps to start from (one number for every recording, or per recording; None: CVODES);
+    ``parent``, ``index``: the batch and recording whose substeps a one-recording batch takes."""
+
+    def __init__(self, key, recordings, held, executor, tol: float = np.inf, parent=None, index: int = 0,
+                 start=SUBSTEPS):
         self.key, self.recordings, self.held, self.executor = key, recordings, held, executor
+        self.tol, self.parent, self.index = tol, parent, index
+        self.start = start if isinstance(start, dict) else {j: start for j in range(len(recordings))}
+        self.chosen = None  # recording -> substeps (None: CVODES), once checked
+        self.errors: dict = {}  # recording -> the last check's difference [rad]
         self._cache: dict = {}
+
+    def _map(self, jobs):
+        return list((self.executor.map if self.executor is not None else map)(replay, jobs))
+
+    def _check(self, ks: dict, values: dict) -> dict:
+        """Substeps from ``ks`` (recording -> substeps) on, doubled per recording until its replay differs from
+        one at twice as many by ``tol`` at most (None beyond :data:`MAX_SUBSTEPS`: CVODES)."""
+        out = dict(ks)
+        if not fixed_step_runs(compiled(*self.key)):  # e.g. a Newton block (a current limit behind a sagging bus)
+            return {j: None for j in ks}
+        todo = [j for j, k in ks.items() if k is not None]
+        coarse = dict(zip(todo, self._map([replay_job(self.key, self.recordings[j], values, (), ks[j])
+                                           for j in todo])))
+        while todo:
+            fine = dict(zip(todo, self._map([replay_job(self.key, self.recordings[j], values, (), 2 * out[j])
+                                             for j in todo])))
+            failed = []
+            for j in todo:
+                self.errors[j] = float(np.max(np.abs(coarse[j][0] - fine[j][0])))
+                if self.errors[j] > self.tol:
+                    out[j] = 2 * out[j] if 2 * out[j] <= MAX_SUBSTEPS else None
+                    if out[j] is not None:
+                        failed.append(j)
+            todo, coarse = failed, fine
+        return out
+
+    def substeps(self, values: dict, moved: bool) -> dict:
+        """Recording -> substeps of this model's replays at ``values`` (None: CVODES); ``moved``: a new parameter
+        set asked for with sensitivities (see the class docstring)."""
+        if self.chosen is None and self.parent is not None and self.parent.chosen is not None:
+            self.chosen, moved = {0: self.parent.chosen[self.index]}, True
+        if self.chosen is None:
+            self.chosen = self._check(self.start, values)
+        elif moved:
+            rk4 = [j for j, k in self.chosen.items() if k is not None]
+            if rk4:
+                j = max(rk4, key=lambda j: self.errors.get(j, np.inf))
+                if self._check({j: self.chosen[j]}, values)[j] != self.chosen[j]:
+                    self.chosen = self._check(self.chosen, values)
+        return self.chosen
 
     def get(self, k: int, values: dict, names=()) -> tuple:
         key = (tuple(sorted(values.items())), tuple(names), bool(self.held[k]))
@@ -148,9 +229,8 @@ class _Batch:
                 return near[k][0], None
         if key not in self._cache:
             group = [j for j in range(len(self.recordings)) if self.held[j] == self.held[k]]
-            jobs = [replay_job(self.key, self.recordings[j], values, names) for j in group]
-            runner = self.executor.map if self.executor is not None else map
-            results = list(runner(replay, jobs))
+            ks = self.substeps(values, moved=bool(names))
+            results = self._map([replay_job(self.key, self.recordings[j], values, names, ks[j]) for j in group])
             self._cache = {k2: v for k2, v in self._cache.items() if k2[1] != tuple(names) or k2[2] != key[2]}
             self._cache[key] = dict(zip(group, results))
         return self._cache[key][k]
@@ -175,8 +255,8 @@ def experiment(rec, k: int, batch: _Batch, effects=(), held_out: bool = False, s
                       info={"meta": rec.meta, "inputs": inputs(rec), "params": rig_params(rec.meta),
                             "effects": tuple(effects), "start": start(rec), "clusters": "recording"},
                       sensitivity=sensitivity, clusters=np.zeros(t.size, dtype=int),
-                      solo=lambda: experiment(rec, 0, _Batch(batch.key, [rec], [held_out], None), effects,
-                                              held_out, segment))
+                      solo=lambda: experiment(rec, 0, _Batch(batch.key, [rec], [held_out], None, batch.tol, batch,
+                                                             k), effects, held_out, segment))
 
 
 def resolution(recordings) -> float:
@@ -218,12 +298,21 @@ class ServoProblem(Problem):
         self.signals = list(SIGNALS)
         self.mask, self.split_text = split.held_out(self.recordings)
         self.step = resolution(self.recordings)
+        #: the largest position error [rad] a replay's fixed step may add: a quarter of the reading's noise (it
+        #: adds at most 3 % to the residual's RMS at the noise floor; CVODES at rtol 1e-5 left up to 0.4 of it on
+        #: the XL330 set with load friction)
+        self.replay_tolerance = 0.25 * self.step / np.sqrt(12.0)
         self._cache: dict = {}
+        self._batches: dict = {}
 
     def experiments(self, effects: tuple) -> list:
         key = model_key(self.effects[e] for e in effects)
         if key not in self._cache:
-            batch = _Batch(key, self.recordings, self.mask, self.executor)
+            # an extension starts from the substeps of the model it extends (its stiffness is at least that one's)
+            inner = self._batches.get(model_key(self.effects[e] for e in effects[:-1])) if effects else None
+            start = inner.chosen if inner is not None and inner.chosen is not None else SUBSTEPS
+            batch = self._batches[key] = _Batch(key, self.recordings, self.mask, self.executor,
+                                                self.replay_tolerance, start=start)
             self._cache[key] = [experiment(r, k, batch, effects, bool(h), self.split.segment)
                                 for k, (r, h) in enumerate(zip(self.recordings, self.mask))]
         return self._cache[key]

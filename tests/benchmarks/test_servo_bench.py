@@ -6,7 +6,9 @@ load-dependent friction:
 
 * the compiled model's replay vs a hand-written ``solve_ivp`` (LSODA, same tolerances) of the same equations;
   the two must agree to 1e-4 rad (a functional check of the assembled components);
-* the replay with exact sensitivities to the seven parameters the diagnosis fits, as a multiple of one replay.
+* the replay with exact sensitivities to the seven parameters the diagnosis fits, as a multiple of one replay;
+* the same with the diagnosis's fixed step (RK4 on the recording's samples, 16 substeps: what this recording needs
+  with load friction at the tolerance the diagnosis checks), against CVODES with sensitivities.
 
 Ratios go to ``extra_info`` and the README; the only assertions on time are loose regression guards on ratios.
 """
@@ -69,19 +71,24 @@ def _best(fn, rounds=3):
 def test_servo_replay_vs_handwritten(benchmark):
     rec = _recording()
     columns, rig, x0 = replay_columns(rec), rig_params(rec.meta), start(rec)
-    job = replay_job((TERMS, ()), rec, PARAMS)
+    job = replay_job((TERMS, ()), rec, PARAMS, substeps=None)
     replay(job)  # compile once (cached per process), as the diagnosis does
     pos, _ = benchmark.pedantic(lambda: replay(job), rounds=3, iterations=1)
     t_ref, ref = _best(lambda: _handwritten(rec, columns, rig, x0))
     assert np.max(np.abs(pos - ref)) < 1e-4
-    t_sens, (pos_s, S) = _best(lambda: replay(job[:-1] + (tuple(PARAMS),)), rounds=1)
-    # the same replay with its sensitivities: the same positions within the replays' integration error (RTOL's
-    # comment: below 5e-5 rad, a tenth of the reading's noise)
-    assert S.shape == (len(PARAMS), rec.t.size) and np.max(np.abs(pos_s - pos)) < 5e-5
+    t_sens, (pos_s, S) = _best(lambda: replay(replay_job((TERMS, ()), rec, PARAMS, tuple(PARAMS), None)), rounds=1)
+    # the same replay with its sensitivities: the same positions within the replays' integration error
+    assert S.shape == (len(PARAMS), rec.t.size) and np.max(np.abs(pos_s - pos)) < 1e-4
+    fixed = replay_job((TERMS, ()), rec, PARAMS, tuple(PARAMS), 16)
+    replay(fixed)  # builds the roll-out once
+    t_rk4, (pos_r, S_r) = _best(lambda: replay(fixed), rounds=2)
+    assert np.max(np.abs(pos_r - ref)) < 1e-4 and np.max(np.abs(S_r - S)) < 0.05 * np.max(np.abs(S))
     if not benchmark.disabled and benchmark.stats is not None:
         t = benchmark.stats.stats.min
         benchmark.extra_info.update(replay_s=t, handwritten_s=t_ref, ratio=t / t_ref, sensitivities_s=t_sens,
-                                    sensitivities_per_replay=t_sens / t)
+                                    sensitivities_per_replay=t_sens / t, rk4_sensitivities_s=t_rk4,
+                                    rk4_vs_cvodes=t_rk4 / t_sens)
         print(f"\nservo replay {t:.3f} s, hand-written {t_ref:.3f} s (ratio {t / t_ref:.2f}); with sensitivities "
-              f"to {len(PARAMS)} parameters {t_sens:.3f} s ({t_sens / t:.1f} replays)")
+              f"to {len(PARAMS)} parameters {t_sens:.3f} s ({t_sens / t:.1f} replays); RK4 x 16 with them "
+              f"{t_rk4:.3f} s ({t_rk4 / t_sens:.2f} of CVODES)")
         assert t / t_ref < 10.0  # regression guard only
