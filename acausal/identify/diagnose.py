@@ -37,7 +37,11 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    recordings (seeds 0-2), where every candidate stays below 1 % gain, and tested on others.
 4. **Verdict**: the significant candidate with the largest held-out gain; greedy forward selection then repeats
    step 3 with that effect in the model, until no candidate is significant (the evidence stops the search; a
-   ``max_effects`` count may stop it earlier, and the candidates it then leaves out are said). ``none`` when
+   ``max_effects`` count may stop it earlier, and the candidates it then leaves out are said). Where nothing is
+   significant but a candidate gains held out and lowers BIC without consistent per-segment improvements, the
+   search looks one step further on top of it: a second candidate significant there is named with it when the
+   pair passes every test against the model before both (``named_by: "pair with ..."``; one effect can mask
+   another). ``none`` when
    nothing is significant. A slow effect (a winding warming over a session) changes every sample only a little, so its
    held-out gain can stay small while the per-recording fit drifts plainly: a candidate that makes a drift of the
    final model go away, with a BIC fall and consistent per-stride improvements, is named too (``named_by:
@@ -235,31 +239,17 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     while len(causes) < limit:
         rest = [cid for cid in ids if cid not in causes]
         fp_step = fp if not causes else fingerprints(problem, base, rest, scales)
-        scores = []
-        cosines = {cid: _cos(fp_step[None], fp_step[cid]) for cid in rest}
-        share = {cid: _linearised(problem.candidates[cid], fp_step[None], fp_step[cid], cosines[cid])[1]
-                 for cid in rest}
-        order = sorted(rest, key=lambda cid: -share[cid])
-        refit = set(order if problem.max_refits is None else order[:problem.max_refits])
-        for cid in order:
-            cos = cosines[cid]
-            if cid not in refit or 1.0 - np.sqrt(max(1.0 - share[cid], 0.0)) < thresholds.screen:
-                scores.append(_screened(base, problem.candidates[cid], fp_step[None], fp_step[cid], cos))
-                continue
-            say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))
-            try:
-                ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
-            except AcausalError as err:  # e.g. a parameter leaving its range: the candidate cannot be scored
-                say(f"{cid}: refit failed: {err}")
-                sc = _screened(base, problem.candidates[cid], fp_step[None], fp_step[cid], cos)
-                sc.failed, sc.significant = str(err), False
-                scores.append(sc)
-                continue
-            sc = score(base, ext, problem.candidates[cid], thresholds)
-            sc.fingerprint_match = cos
-            scores.append(sc)
-        scores.sort(key=lambda s: -s.heldout_rmse_gain)
+        scores = _scores(problem, base, causes, {k: fp_step[k] for k in [None, *rest]}, scales, thresholds, say)
         best = next((s for s in scores if s.significant), None)
+        if best is None and len(causes) + 2 <= limit:
+            found = _lookahead(problem, base, causes, scores, rest, scales, thresholds, say)
+            if found is not None:  # a pair that passes every test together: both named, the search goes on
+                first, later, second = found
+                steps.append(Step(base, scores, first.id, "pair"))
+                steps.append(Step(first.fit, later, second.id, "pair"))
+                causes += [first.id, second.id]
+                base = second.fit
+                continue
         steps.append(Step(base, scores, best.id if best else None))
         if best is None:
             break
@@ -300,6 +290,63 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     for w in d.warnings:
         say(f"warning: {w}")
     return d
+
+
+def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say) -> list:
+    """Every candidate of ``fp_step`` (id -> projected fingerprint at ``base``; the residual under None) scored on
+    top of ``base`` (the model with ``causes``): the most promising refitted, the rest screened (step 3 of the
+    module docstring); sorted by held-out gain."""
+    rest = [cid for cid in fp_step if cid is not None]
+    r = fp_step[None]
+    cosines = {cid: _cos(r, fp_step[cid]) for cid in rest}
+    share = {cid: _linearised(problem.candidates[cid], r, fp_step[cid], cosines[cid])[1] for cid in rest}
+    order = sorted(rest, key=lambda cid: -share[cid])
+    refit = set(order if problem.max_refits is None else order[:problem.max_refits])
+    scores = []
+    for cid in order:
+        cos = cosines[cid]
+        if cid not in refit or 1.0 - np.sqrt(max(1.0 - share[cid], 0.0)) < thresholds.screen:
+            scores.append(_screened(base, problem.candidates[cid], r, fp_step[cid], cos))
+            continue
+        say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))
+        try:
+            ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
+        except AcausalError as err:  # e.g. a parameter leaving its range: the candidate cannot be scored
+            say(f"{cid}: refit failed: {err}")
+            sc = _screened(base, problem.candidates[cid], r, fp_step[cid], cos)
+            sc.failed, sc.significant = str(err), False
+            scores.append(sc)
+            continue
+        sc = score(base, ext, problem.candidates[cid], thresholds)
+        sc.fingerprint_match = cos
+        scores.append(sc)
+    scores.sort(key=lambda s: -s.heldout_rmse_gain)
+    return scores
+
+
+def _lookahead(problem, base: Fit, causes, scores, rest, scales, thresholds, say):
+    """One step further where nothing is significant: a candidate that the held-out data and BIC favour but whose
+    per-segment improvements are not consistent (one effect can mask another: a supply sag refitted while a loop
+    delay is missing helps some segments and hurts others) is added provisionally, the others are scored on top
+    of it, and the best one significant there is named with it when the pair, scored against ``base`` with both
+    parameters counted, passes every test. Returns ``(first, scores on top of it, second)`` or None."""
+    first = next((s for s in scores if s.fit is not None and not s.screened and not s.failed
+                  and s.heldout_rmse_gain >= thresholds.min_gain and s.delta_bic <= thresholds.max_delta_bic), None)
+    others = [cid for cid in rest if first is not None and cid != first.id]
+    if not others:
+        return None
+    say(f"{first.id} gains held out but not consistently per segment: scoring the others on top of it")
+    with_first = list(causes) + [first.id]
+    fp2 = fingerprints(problem, first.fit, others, scales)
+    later = _scores(problem, first.fit, with_first, fp2, scales, thresholds, say)
+    second = next((s for s in later if s.significant), None)
+    if second is None:
+        return None
+    both = score(base, second.fit, problem.candidates[second.id], thresholds)
+    if not both.significant:
+        return None
+    first.named_by, second.named_by = f"pair with {second.id}", f"pair with {first.id}"
+    return first, later, second
 
 
 def _drift(problem, fit, causes, scales) -> dict:

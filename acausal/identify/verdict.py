@@ -137,7 +137,8 @@ class CandidateScore:
     screened: bool = False  # not refitted: scores are the linearised prediction (training strides)
     failed: str = ""  # why the refit failed (scores are then the linearised prediction)
     sign_p: float = float("nan")  # one-sided sign test: P(at least this many strides improved | no effect)
-    named_by: str = ""  # "drift": named because it explains a drift over the session (:func:`_named_by_drift`)
+    named_by: str = ""  # "drift": named because it explains a drift over the session (:func:`_named_by_drift`);
+    # "pair with ID": named with ID as a pair that passes the tests together (:func:`_lookahead`)
 
     def summary(self) -> dict:
         return {"id": self.id, "heldout_rmse_gain": self.heldout_rmse_gain, "delta_bic": self.delta_bic,
@@ -158,7 +159,8 @@ class Step:
     before: Fit
     scores: list
     chosen: str | None
-    kind: str = "gain"  # "gain": every candidate scored; "drift": one candidate tried on a drift it explains
+    kind: str = "gain"  # "gain": every candidate scored; "drift": one candidate tried on a drift it explains;
+    # "pair": one of two steps named together (:func:`~.diagnose._lookahead`)
     drift: dict | None = None  # kind "drift": the drift check of the model with the candidate added
 
 
