@@ -1,9 +1,12 @@
 """Trust checks on every simulation: a result that the integrator's own accuracy cannot vouch for is flagged.
 
-Two checks run after each :func:`~acausal.simulate.simulate` (``trust="raise"``, the default: a
+Three checks run after each :func:`~acausal.simulate.simulate` (``trust="raise"``, the default: a
 :class:`UntrustedResult` error; ``"warn"``: a :class:`UntrustedResultWarning`; ``"off"``: none). What they found
 is kept as :attr:`Result.trust <acausal.result.Result.trust>` (an empty list when the result passed).
 
+* **Finite values.** A state that is not finite at any output time, or a variable that is not finite at one of the
+  sampled output times (a zero resistance across a source: an infinite current; the square root of a state that
+  crossed zero): named with where it starts and its solved equation. The other checks are skipped then.
 * **Conditioning of the energy accounts.** Every loss power, source power and stored energy is a function of the
   states. At a sample of output times each state is moved by its own error tolerance (``atol + rtol |x|``, what
   the integrator lets it be off by) and these variables evaluated again: one that moves by more than
@@ -61,9 +64,13 @@ def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
     res.trust = []
     if trust == "off":
         return
-    findings = conditioning(res, rtol, atol)
-    if dense_output:
-        findings += energy_balance(res, rtol)
+    findings = nonfinite(res)
+    if findings:  # a NaN or an infinity makes the other checks meaningless
+        res.trust = findings
+    else:
+        findings = conditioning(res, rtol, atol)
+        if dense_output:
+            findings += energy_balance(res, rtol)
     res.trust = findings
     if not findings:
         return
@@ -72,6 +79,45 @@ def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
     if trust == "raise":
         raise UntrustedResult(text + ' (simulate(..., trust="warn") returns it with a warning)')
     warnings.warn(text, UntrustedResultWarning, stacklevel=4)
+
+
+def nonfinite(res) -> list:
+    """A state that is not finite at some output time, or a variable that is not finite at one of the
+    :data:`SAMPLES` output times the conditioning samples (a zero resistance across a source, the square root of
+    a state that crossed zero): one finding naming the first few, where from, and their solved equations."""
+    cm = res.model
+    N = res.t.size
+    if N == 0:
+        return []
+    X = np.asarray(res.states, dtype=float)
+    bad = _first_nonfinite(cm.state_names, X, res.t)
+    if not bad and cm.unknown_names:
+        k = _samples(N)
+        D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
+        with np.errstate(all="ignore"):
+            vals = _rows(cm.generator.values_function(list(cm.unknown_names))(res.t[k], X[:, k], res.params, D,
+                                                                              res.inputs), k.size)
+        bad = _first_nonfinite(cm.unknown_names, vals, res.t[k])
+    if not bad:
+        return []
+    items = []
+    for name, t, v in bad[:3]:
+        expr = None if name in cm.state_names else _solved(cm, name)[0]
+        eq = "" if expr is None else f" ({name} = {expr})"
+        items.append(f"{name} is {v} from t = {t:g} s{eq}")
+    more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
+    return [f"not finite: {'; '.join(items)}{more} (a division by zero or a square root of a negative number in "
+            "the model's equations: check the parameters named there)"]
+
+
+def _first_nonfinite(names, values, t) -> list:
+    """``(name, time, value)`` where each row of ``values`` (at times ``t``) is first not finite."""
+    finite = np.isfinite(values)
+    if finite.all():
+        return []
+    rows = np.flatnonzero(~finite.all(axis=1))
+    first = np.argmax(~finite[rows], axis=1)
+    return [(names[i], float(t[c]), float(values[i, c])) for i, c in zip(rows, first)]
 
 
 def conditioning(res, rtol, atol) -> list:

@@ -109,3 +109,46 @@ def test_a_loss_passed_on_as_heat_is_counted_once():
     assert heat > 0 and "passed on as heat through motor.heat_port" in b.table()
     assert res.energy("motor.loss_power")[-1] == pytest.approx(b.losses["motor.loss_power"] + heat, rel=1e-9)
     assert res.trust == []
+
+
+# ---------------------------------------------------------------------------------------------- finite values
+class _Shorted(Model):
+    """A zero resistance across a 10 V source, beside an RC branch (its state is fine; the short's current is
+    not)."""
+
+    def build(self):
+        from acausal.library.electrical import Capacitor, Resistor
+        self.src, self.R0 = ConstantVoltage(V=10.0), Resistor(R=0.0)
+        self.R, self.C, self.gnd = Resistor(R=1.0), Capacitor(C=0.1, v=Start(0.0)), Ground()
+        connect(self.src.p, self.R0.p, self.R.p)
+        connect(self.R.n, self.C.p)
+        connect(self.C.n, self.R0.n, self.src.n, self.gnd.p)
+
+
+def test_an_infinite_current_is_refused_naming_the_variable_and_its_equation():
+    cm = compile_model(_Shorted())
+    with pytest.raises(UntrustedResult, match=r"not finite: R0\.i is inf from t = 0 s \(R0\.i = src\.V/R0\.R\)"):
+        cm.simulate(1.0)
+    with pytest.warns(UntrustedResultWarning, match="not finite"):
+        res = cm.simulate(1.0, trust="warn")
+    assert res.trust and "R0.i" in res.trust[0]
+    assert np.all(np.isfinite(res["C.v"]))  # the rest of the run is still there
+
+
+def test_a_square_root_of_a_state_that_crossed_zero_is_refused():
+    from acausal import Component, Variable, der
+    from sympy import Eq
+
+    class Draining(Component):
+        x = Variable(start=0.5, fixed=True)
+        y = Variable()
+
+        def equations(self):
+            return [Eq(der(self.x), -1.0), Eq(self.y, sp.sqrt(self.x))]
+
+    class Tank(Model):
+        def build(self):
+            self.tank = Draining()
+
+    with pytest.raises(UntrustedResult, match=r"tank\.y is nan from t = 0\.5"):
+        compile_model(Tank()).simulate(1.0)
