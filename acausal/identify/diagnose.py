@@ -20,7 +20,8 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    linearised best case gains less than ``Thresholds.screen`` is not refitted: it is scored by one Gauss-Newton
    step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising ones, ranked
    by the share of the residual their Gauss-Newton step explains once clipped to the candidate's bounds: an
-   effect that can only act the other way cannot help at first order.) Scores, all on residuals in units of sensor noise pooled over the signals:
+   effect that can only act the other way cannot help at first order.) Scores, all on residuals in units of
+   sensor noise pooled over the signals:
 
    * ``heldout_rmse_gain = 1 - RMSE_extended / RMSE_before`` on the held-out strides;
    * leave-one-stride-out RMSE over the training strides (linearised, :func:`~.residuals.leave_one_group_out`)

@@ -169,8 +169,8 @@ def user_effect(spec: dict, where: str = "candidate") -> Effect:
     if not lo <= zero <= hi or lo >= hi:
         raise DataError(f"{where}: bounds [{lo}, {hi}] must be increasing and hold zero = {zero}")
     where_param = "winding" if slot == "winding" else cid  # a replaced winding keeps its name
-    e = Effect(cid, slot, str(spec["component"]), f"servo.{where_param}.{param}", str(spec.get("unit", "")), zero, typical,
-               (lo, hi), scale, str(spec.get("doc", "a user's candidate")), probe, fixed)
+    e = Effect(cid, slot, str(spec["component"]), f"servo.{where_param}.{param}", str(spec.get("unit", "")), zero,
+               typical, (lo, hi), scale, str(spec.get("doc", "a user's candidate")), probe, fixed)
     cls = load_class(e.component, Component, f"{where}: component")
     if param not in cls.declarations():
         raise DataError(f"{where}: {e.component} has no parameter {param!r}")
