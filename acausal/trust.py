@@ -65,9 +65,7 @@ def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
     if trust == "off":
         return
     findings = nonfinite(res)
-    if findings:  # a NaN or an infinity makes the other checks meaningless
-        res.trust = findings
-    else:
+    if not findings:  # a NaN or an infinity makes the other checks meaningless
         findings = conditioning(res, rtol, atol)
         if dense_output:
             findings += energy_balance(res, rtol)

@@ -18,18 +18,19 @@ without a CasADi form (any :class:`~acausal.signals.Signal`) are supported.
 the states, which for an explicit Runge-Kutta method gives the exact derivatives of the discrete solution (what a
 least-squares fit of the discrete replay needs), not an approximation of the continuous ones.
 
-**Accuracy** is the caller's to check: a fixed step has no error control. :func:`step_error` compares a run with
-one of twice the substeps (the difference estimates the coarser run's error to within a factor 16/15 for a smooth
-solution); callers choose ``substeps`` by it or against a tight CVODES run.
+**Accuracy** is the caller's to check: a fixed step has no error control. Comparing a run with one of twice the
+substeps estimates the coarser run's error (to within 16/15 where the solution is smooth); callers choose
+``substeps`` by that or against a tight CVODES run.
 
-Unsupported here (:class:`~acausal.compiled.translate.Unsupported` with the reason): event zero functions,
-Newton blocks, and an input read at another time than the current one.
+Unsupported here (:func:`unsupported` says why): event zero functions, Newton blocks, and an input read at another
+time than the current one.
 """
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
-from .translate import Unsupported
+from .translate import Unsupported, state_derivatives, translate, variational
 
 
 class StageInputs:
@@ -37,14 +38,11 @@ class StageInputs:
     time (``token``, derivative ``order``) becomes a symbol; ``used`` lists them in symbol order."""
 
     def __init__(self, t):
-        import casadi as ca
         self.t = t
         self.used: list = []
         self.symbols: list = []
-        self._ca = ca
 
     def __call__(self, token, order, arg):
-        ca = self._ca
         if not (isinstance(arg, ca.SX) and arg.is_symbolic() and ca.is_equal(arg, self.t)):
             raise Unsupported(f"input {token!r} is read at {arg}, not at the current time (fixed-step stages "
                               "evaluate inputs at the time only)")
@@ -55,45 +53,53 @@ class StageInputs:
         return self.symbols[self.used.index(key)]
 
 
+def _rates(cm):
+    """The state rates of ``cm`` with the inputs as symbols, translated once per model (cached on its compiled
+    path): ``dict(t, x, p, d, f, u, inputs)``, or the reason there is none."""
+    cache = cm.compiled_path.__dict__
+    if "_fixed_step_rates" not in cache:
+        if cm.event_zeros:
+            cache["_fixed_step_rates"] = "the model has event zero functions (a fixed step cannot locate them)"
+        elif not cm.state_names:
+            cache["_fixed_step_rates"] = "the model has no states"
+        else:
+            t, x = ca.SX.sym("t"), ca.SX.sym("x", len(cm.state_names))
+            p, d = ca.SX.sym("p", len(cm.param_names)), ca.SX.sym("d", len(cm.discrete_names))
+            stage = StageInputs(t)
+            try:
+                f = ca.vertcat(*translate(cm, state_derivatives(cm), stage, t, x, p, d))  # a Newton block raises
+            except Unsupported as exc:
+                cache["_fixed_step_rates"] = str(exc)
+            else:
+                cache["_fixed_step_rates"] = dict(t=t, x=x, p=p, d=d, f=f, inputs=tuple(stage.used),
+                                                  u=ca.vertcat(*stage.symbols) if stage.symbols else ca.SX(0, 1))
+    return cache["_fixed_step_rates"]
+
+
+def unsupported(cm) -> str | None:
+    """Why ``cm`` cannot take the fixed step (None: it can)."""
+    rates = _rates(cm)
+    return rates if isinstance(rates, str) else None
+
+
 class FixedStep:
     """The RK4 roll-out of one compiled model, ``substeps`` steps per output interval, with the sensitivities to
     the parameters ``wrt`` (through their ``bindings``; none: the states alone)."""
 
     def __init__(self, cm, substeps: int, wrt=(), bindings=None):
-        import casadi as ca
-
-        from ..parameter_values import binding_totals
-        from ..symbols import par_symbol
-        from .translate import Converter, state_derivatives, translate
-        if cm.event_zeros:
-            raise Unsupported("the model has event zero functions (a fixed step cannot locate them)")
-        if not cm.state_names:
-            raise Unsupported("the model has no states")
+        rates = _rates(cm)
+        if isinstance(rates, str):
+            raise Unsupported(rates)
         self.cm, self.substeps, self.wrt = cm, int(substeps), tuple(wrt)
-        n, q = len(cm.state_names), len(self.wrt)
-        t = ca.SX.sym("t")
-        x = ca.SX.sym("x", n)
-        p = ca.SX.sym("p", len(cm.param_names))
-        d = ca.SX.sym("d", len(cm.discrete_names))
-        stage = StageInputs(t)
-        f = ca.vertcat(*translate(cm, state_derivatives(cm), stage, t, x, p, d))  # a Newton block raises
-        self.inputs = tuple(stage.used)
-        u = ca.vertcat(*stage.symbols) if stage.symbols else ca.SX(0, 1)
+        self.inputs = rates["inputs"]
+        t, x, f = rates["t"], rates["x"], rates["f"]
         y, rhs = x, f
-        if q:
-            env = {par_symbol(nm): p[i] for i, nm in enumerate(cm.param_names)}
-            conv = Converter(env, None)
-            B = ca.SX.zeros(len(cm.param_names), q)
-            for name, col in binding_totals(cm.param_names, self.wrt, bindings or {}).items():
-                for j, e in col.items():
-                    B[cm.param_index(name), j] = conv(e)
-            S = ca.SX.sym("S", n * q)
-            dS = ca.mtimes(ca.jacobian(f, x), ca.reshape(S, n, q)) + ca.mtimes(ca.jacobian(f, p), B)
-            y, rhs = ca.vertcat(x, S), ca.vertcat(f, ca.vec(dS))
-        pd = ca.vertcat(p, d)
-        F = ca.Function("rate", [t, y, pd, u], [ca.cse(rhs)])
-        m = len(self.inputs)
-        k = self.substeps
+        if self.wrt:
+            S, dS = variational(cm, f, x, rates["p"], self.wrt, bindings)
+            y, rhs = ca.vertcat(x, S), ca.vertcat(f, dS)
+        pd = ca.vertcat(rates["p"], rates["d"])
+        F = ca.Function("rate", [t, y, pd, rates["u"]], [ca.cse(rhs)])
+        m, k = len(self.inputs), self.substeps
         # one output interval: y at its start, (t_i, h_i), the inputs at its 2k+1 stage times (column j at
         # t_i + j h_i / 2k), the parameters and modes
         ys, th, us, ps = ca.SX.sym("y", y.numel()), ca.SX.sym("th", 2), ca.SX.sym("us", m, 2 * k + 1), \
@@ -109,7 +115,7 @@ class FixedStep:
             k4 = F(t0 + h, yj + h * k3, ps, b)
             yj = yj + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         self.step = ca.Function("rk4_step", [ys, ca.vertcat(th, ca.vec(us)), ps], [yj])
-        self.n, self.q, self.size = n, q, y.numel()
+        self.n, self.q = len(cm.state_names), len(self.wrt)
         self._rolls: dict = {}
 
     def _roll(self, steps: int):
@@ -160,22 +166,12 @@ class FixedStep:
 
 
 def fixed_step(cm, substeps: int, wrt=(), bindings=None) -> FixedStep:
-    """The :class:`FixedStep` of ``cm`` (cached on its compiled path by substeps, ``wrt`` and bindings)."""
+    """The :class:`FixedStep` of ``cm`` (cached on its compiled path by substeps, ``wrt`` and bindings); raises
+    :class:`~acausal.compiled.translate.Unsupported` with the reason where the model has none."""
     cache = cm.compiled_path.__dict__.setdefault("_fixed_step", {})
     key = (int(substeps), tuple(wrt), frozenset((k, str(v)) for k, v in (bindings or {}).items()))
     if key not in cache:
         if len(cache) > 64:
             cache.clear()
-        try:
-            cache[key] = FixedStep(cm, substeps, wrt, bindings)
-        except Unsupported as exc:
-            cache[key] = str(exc)
-    if isinstance(cache[key], str):
-        raise Unsupported(cache[key])
+        cache[key] = FixedStep(cm, substeps, wrt, bindings)
     return cache[key]
-
-
-def step_error(run, substeps: int) -> float:
-    """The largest difference between ``run(substeps)`` and ``run(2 * substeps)`` (arrays of equal shape): the
-    coarser run's error to within 16/15 where the solution is smooth (Richardson)."""
-    return float(np.max(np.abs(np.asarray(run(substeps)) - np.asarray(run(2 * substeps)))))

@@ -366,24 +366,11 @@ class CompiledPath:
     def _sens_integrator(self, entry, wrt, bindings, tau, rtol, atol):
         import casadi as ca
 
-        from ..parameter_values import binding_totals
-        from .translate import Converter
-        from ..symbols import par_symbol
-        cm = self.cm
-        n, q = len(cm.state_names), len(wrt)
-        env = {par_symbol(nm): entry["p"][i] for i, nm in enumerate(cm.param_names)}
-        conv = Converter(env, None)
-        B = ca.SX.zeros(len(cm.param_names), q)
-        for name, col in binding_totals(cm.param_names, wrt, bindings).items():
-            i = cm.param_index(name)
-            for j, e in col.items():
-                B[i, j] = conv(e)
-        f, x, p = entry["f"], entry["x"], entry["p"]
-        Ssym = ca.SX.sym("S", n * q)
-        Smat = ca.reshape(Ssym, n, q)
-        dS = ca.mtimes(ca.jacobian(f, x), Smat) + ca.mtimes(ca.jacobian(f, p), B)
+        from .translate import variational
+        f, x = entry["f"], entry["x"]
+        S, dS = variational(self.cm, f, x, entry["p"], wrt, bindings)
         s, params, scaled = _scaled_time(entry)
-        dae = {"x": ca.vertcat(x, Ssym), "t": s, "p": params, "ode": scaled(ca.vertcat(f, ca.vec(dS)))}
+        dae = {"x": ca.vertcat(x, S), "t": s, "p": params, "ode": scaled(ca.vertcat(f, dS))}
         return ca.integrator("acausal_sens", "cvodes", dae, 0.0, tau.tolist(),
                              {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS,
                               "disable_internal_warnings": True, "show_eval_warnings": False})

@@ -261,6 +261,22 @@ def translate(cm, exprs, signals: Signals, t, x, p, d, given: dict | None = None
     return [conv(e) for e in exprs]
 
 
+def variational(cm, f, x, p, wrt, bindings):
+    """``(S, dS)``: the sensitivity states ``S`` (``n q`` symbols, CasADi's column order) and their rates
+    ``dS/dt = f_x S + f_p B`` for the state rates ``f`` of ``cm`` in the SX states ``x`` and parameters ``p``,
+    ``B`` the derivatives of the parameters with respect to ``wrt`` through their ``bindings``
+    (:func:`acausal.parameter_values.binding_totals`)."""
+    from ..parameter_values import binding_totals
+    n, q = x.numel(), len(wrt)
+    conv = Converter({par_symbol(nm): p[i] for i, nm in enumerate(cm.param_names)}, None)
+    B = ca.SX.zeros(len(cm.param_names), q)
+    for name, col in binding_totals(cm.param_names, wrt, bindings or {}).items():
+        for j, e in col.items():
+            B[cm.param_index(name), j] = conv(e)
+    S = ca.SX.sym("S", n * q)
+    return S, ca.vec(ca.mtimes(ca.jacobian(f, x), ca.reshape(S, n, q)) + ca.mtimes(ca.jacobian(f, p), B))
+
+
 def state_derivatives(cm):
     """The symbols of the state derivatives of ``cm``, in state order."""
     return [var_symbol(der_name(s)) for s in cm.state_names]

@@ -32,7 +32,7 @@ from importlib import resources
 
 import numpy as np
 
-from .problem import _Batch, resolution
+from .problem import ReplayBatch, replay_tolerance, resolution
 from .recording_format import POSITION
 
 #: BAM parameter name -> our parameter
@@ -68,8 +68,8 @@ def replay_set(recordings, label: str, params: dict, executor=None) -> dict:
     model = label.split()[-1]
     key = (TERMS[model], (), "external")
     values = mapped(params)
-    batch = _Batch(key, list(recordings), [False] * len(recordings), executor,
-                   tol=0.25 * resolution(recordings) / np.sqrt(12.0))
+    batch = ReplayBatch(key, list(recordings), [False] * len(recordings), executor,
+                        replay_tolerance(resolution(recordings)))
     return {r.name: float(np.mean(np.abs(batch.get(k, values)[0] - r[POSITION]))) for k, r in enumerate(recordings)}
 
 

@@ -44,10 +44,11 @@ def candidate(e) -> Candidate:
 CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 
 #: the replays' integrator: RK4 on the recording's own samples (:mod:`acausal.compiled.fixed_step`), the logged
-#: inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per model while the
-#: fixed step's error exceeds a quarter of the reading's noise (checked as the fit moves: :class:`_Batch`). On the
-#: XL330 set the baseline's replays with sensitivities take 4 to 8 substeps at a fifth of the cost of CVODES at
-#: rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain) is what needs more.
+#: inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per recording and
+#: model while the fixed step's error exceeds :func:`replay_tolerance` (checked as the fit moves:
+#: :class:`ReplayBatch`). On the XL330 set the baseline's replays with sensitivities take 4 to 8 substeps at a
+#: fifth of the cost of CVODES at rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain)
+#: is what needs more.
 SUBSTEPS = 4
 #: the most substeps tried before a recording's replays go to CVODES (RK4 with sensitivities at 16 substeps costs
 #: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction; at 32 as much)
@@ -113,15 +114,10 @@ def fixed_step_runs(cm) -> bool:
     """Whether the replays of ``cm`` can take the fixed step (:mod:`acausal.compiled.fixed_step`): CasADi is
     installed and the model has neither events nor a Newton block."""
     try:
-        from acausal.compiled.fixed_step import fixed_step
-        from acausal.compiled.translate import Unsupported
+        from acausal.compiled.fixed_step import unsupported
     except ImportError:
         return False
-    try:
-        fixed_step(cm, SUBSTEPS)
-    except Unsupported:
-        return False
-    return True
+    return unsupported(cm) is None
 
 
 def replay(job: tuple) -> tuple:
@@ -157,7 +153,7 @@ def _starts(cm, x0: dict) -> dict:
     return out
 
 
-class _Batch:
+class ReplayBatch:
     """The replays of one model's experiments, run together (through ``executor`` when given) the first time any
     of them is asked for with a parameter set, and kept for the other experiments' calls with the same set.
     Experiments are batched with those of the same role (fitted or held out), since a calibration asks only for
@@ -236,7 +232,7 @@ class _Batch:
         return self._cache[key][k]
 
 
-def experiment(rec, k: int, batch: _Batch, effects=(), held_out: bool = False, segment: float = 1.0) -> Experiment:
+def experiment(rec, k: int, batch: ReplayBatch, effects=(), held_out: bool = False, segment: float = 1.0) -> Experiment:
     """Recording ``rec`` (number ``k`` of ``batch``) as a closed-loop replay :class:`Experiment`."""
     t = rec.t
     piece = np.floor((t - t[0]) / segment).astype(int)
@@ -255,8 +251,16 @@ def experiment(rec, k: int, batch: _Batch, effects=(), held_out: bool = False, s
                       info={"meta": rec.meta, "inputs": inputs(rec), "params": rig_params(rec.meta),
                             "effects": tuple(effects), "start": start(rec), "clusters": "recording"},
                       sensitivity=sensitivity, clusters=np.zeros(t.size, dtype=int),
-                      solo=lambda: experiment(rec, 0, _Batch(batch.key, [rec], [held_out], None, batch.tol, batch,
+                      solo=lambda: experiment(rec, 0, ReplayBatch(batch.key, [rec], [held_out], None, batch.tol, batch,
                                                              k), effects, held_out, segment))
+
+
+def replay_tolerance(step: float) -> float:
+    """The largest position error [rad] a replay's fixed step may add with the reading's ``step``
+    (:func:`resolution`): a quarter of the reading's noise (one step over sqrt(12)); it adds at most 3 % to the
+    residual's RMS at the noise floor (CVODES at rtol 1e-5 left up to 0.4 of the noise on the XL330 set with load
+    friction)."""
+    return 0.25 * step / np.sqrt(12.0)
 
 
 def resolution(recordings) -> float:
@@ -298,10 +302,7 @@ class ServoProblem(Problem):
         self.signals = list(SIGNALS)
         self.mask, self.split_text = split.held_out(self.recordings)
         self.step = resolution(self.recordings)
-        #: the largest position error [rad] a replay's fixed step may add: a quarter of the reading's noise (it
-        #: adds at most 3 % to the residual's RMS at the noise floor; CVODES at rtol 1e-5 left up to 0.4 of it on
-        #: the XL330 set with load friction)
-        self.replay_tolerance = 0.25 * self.step / np.sqrt(12.0)
+        self.replay_tolerance = replay_tolerance(self.step)
         self._cache: dict = {}
         self._batches: dict = {}
 
@@ -311,7 +312,7 @@ class ServoProblem(Problem):
             # an extension starts from the substeps of the model it extends (its stiffness is at least that one's)
             inner = self._batches.get(model_key(self.effects[e] for e in effects[:-1])) if effects else None
             start = inner.chosen if inner is not None and inner.chosen is not None else SUBSTEPS
-            batch = self._batches[key] = _Batch(key, self.recordings, self.mask, self.executor,
+            batch = self._batches[key] = ReplayBatch(key, self.recordings, self.mask, self.executor,
                                                 self.replay_tolerance, start=start)
             self._cache[key] = [experiment(r, k, batch, effects, bool(h), self.split.segment)
                                 for k, (r, h) in enumerate(zip(self.recordings, self.mask))]
