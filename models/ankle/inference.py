@@ -22,8 +22,9 @@ the linearised covariance ``(J^T J)^-1`` of the scaled Jacobian at the optimum; 
 deviation exceeds a quarter of its range, or that sits on a bound, is reported as not identified by these numbers
 (its value is then the range's choice, not the data's).
 
-``acausal infer --out DIR`` runs it and writes (:mod:`acausal.models.ankle.fit_record`) ``paper_fit.json`` (the preset with ranges, sources, standard
-deviations, the targets met, the condition of the fit); ``--install`` also replaces the shipped one
+``acausal infer --out DIR`` runs it and writes (:mod:`acausal.models.ankle.fit_record`) ``paper_fit.json`` (the
+preset with ranges, sources, standard deviations, the targets met, the condition of the fit); ``--install`` also
+replaces the shipped one
 (:data:`acausal.models.ankle.presets.PAPER_FIT_RECORD`) that the ``paper_fit`` preset reads.
 """
 from __future__ import annotations
