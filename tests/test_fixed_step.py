@@ -91,6 +91,26 @@ def test_one_rollout_serves_every_recording():
     assert np.abs(b - ref).max() < 1e-7 and not np.allclose(a[:50], b[:50])
 
 
+def test_a_long_log_is_crossed_in_pieces_as_by_one_roll():
+    """Logs of any length share a few cached rolls (whole chunks, then the rest's binary digits); the pieces give
+    what one roll over the whole grid gives, states and sensitivities."""
+    from acausal.compiled.fixed_step import CHUNK, fixed_step
+    t, sig = _log(6, n=2 * CHUNK + 45)
+    cm = compile_model(RC(SampledSignal(t, sig)))
+    vals, sens = cm.sensitivities(t, ["R.R"], names=["C.v"], t_start=t[0], method="RK4", substeps=2)
+    stepper = fixed_step(cm, 2, ("R.R",))
+    assert stepper.pieces(t.size - 1) == [CHUNK, CHUNK, 32, 8, 4]
+    assert sorted(stepper._rolls) == [4, 8, 32, CHUNK]
+    u = [SampledSignal(t, sig)]
+    grid = np.asarray(t, dtype=float)
+    y0 = np.concatenate([[0.0], np.zeros(1)])
+    pd = np.concatenate([cm.param_vector({}), np.zeros(len(cm.discrete_names))])
+    whole = np.asarray(stepper.step.mapaccum("whole", t.size - 1)(y0, stepper.stage_values(grid, u), pd))
+    i = cm.state_names.index("C.v")
+    assert np.abs(vals["C.v"][1:] - whole[i]).max() < 1e-14
+    assert np.abs(sens["C.v"][0][1:] - whole[1 + i]).max() < 1e-12 * np.abs(whole[1 + i]).max()
+
+
 def test_fixed_step_refuses_what_it_cannot_run():
     t, sig = _model(5)
     with pytest.raises(ModelError, match="substeps must be a positive integer"):

@@ -51,8 +51,9 @@ CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 #: is what needs more.
 SUBSTEPS = 4
 #: the most substeps tried before a recording's replays go to CVODES (RK4 with sensitivities at 16 substeps costs
-#: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction; at 32 as much)
-MAX_SUBSTEPS = 16
+#: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction, at 32 as much; with the play
+#: of ``backlash`` (stiff flanks) 32 substeps pass where 16 do not, at half of CVODES's cost)
+MAX_SUBSTEPS = 32
 #: tolerances of a replay on CVODES (``substeps=None``): within 5e-5 rad of rtol 1e-8 on the XL330 set
 RTOL, ATOL = 1e-5, 1e-7
 
@@ -163,18 +164,24 @@ class ReplayBatch:
     difference between a replay and one at twice the substeps: on every recording at the first parameter set
     asked for (from ``start``, doubled until the difference is within ``tol``; beyond :data:`MAX_SUBSTEPS`, that
     recording goes to CVODES), then at every new parameter set asked for with sensitivities (a fit's accepted
-    iterates) on the recording closest to its limit, and on all of them again where that one fails: a candidate
-    that stiffens the model as its size grows (load friction) gets more substeps where and when it needs them.
-    ``start``: the substeps to start from (one number for every recording, or per recording; None: CVODES);
-    ``parent``, ``index``: the batch and recording whose substeps a one-recording batch takes."""
+    iterates) or for the held-out recordings, on the recording of the batch closest to its limit (its replay at
+    twice the substeps runs in the same call as the batch), and on all of them again where that one fails: a
+    candidate that stiffens the model as its size grows (load friction) gets more substeps where and when it needs
+    them. ``start``: the substeps to start from (one number for every recording, or per recording; None: CVODES);
+    ``extends``: the batch of the model this one extends, already checked: its substeps are taken and checked on
+    the recording closest to its limit only (an extension at its zero is that model); ``parent``, ``index``: the
+    batch and recording whose substeps a one-recording batch takes."""
 
     def __init__(self, key, recordings, held, executor, tol: float = np.inf, parent=None, index: int = 0,
-                 start=SUBSTEPS):
+                 start=SUBSTEPS, extends=None):
         self.key, self.recordings, self.held, self.executor = key, recordings, held, executor
         self.tol, self.parent, self.index = tol, parent, index
         self.start = start if isinstance(start, dict) else {j: start for j in range(len(recordings))}
         self.chosen = None  # recording -> substeps (None: CVODES), once checked
         self.errors: dict = {}  # recording -> the last check's difference [rad]
+        self.probe_next = False  # check the recording nearest its limit at the next batch, whatever its kind
+        if extends is not None and extends.chosen is not None:
+            self.chosen, self.errors, self.probe_next = dict(extends.chosen), dict(extends.errors), True
         self._cache: dict = {}
 
     def _map(self, jobs):
@@ -202,20 +209,36 @@ class ReplayBatch:
             todo, coarse = failed, fine
         return out
 
-    def substeps(self, values: dict, moved: bool) -> dict:
-        """Recording -> substeps of this model's replays at ``values`` (None: CVODES); ``moved``: a new parameter
-        set asked for with sensitivities (see the class docstring)."""
+    def _start(self, values: dict) -> None:
+        """The substeps at the parameter set asked for first: those of the model extended (or of the parent), or
+        checked on every recording."""
         if self.chosen is None and self.parent is not None and self.parent.chosen is not None:
-            self.chosen, moved = {0: self.parent.chosen[self.index]}, True
+            self.chosen, self.probe_next = {0: self.parent.chosen[self.index]}, True
         if self.chosen is None:
             self.chosen = self._check(self.start, values)
-        elif moved:
-            rk4 = [j for j, k in self.chosen.items() if k is not None]
-            if rk4:
-                j = max(rk4, key=lambda j: self.errors.get(j, np.inf))
-                if self._check({j: self.chosen[j]}, values)[j] != self.chosen[j]:
-                    self.chosen = self._check(self.chosen, values)
-        return self.chosen
+        elif not fixed_step_runs(compiled(*self.key)):  # an extension with a Newton block: CVODES throughout
+            self.chosen = {j: None for j in self.chosen}
+
+    def _run(self, group: list, values: dict, names: tuple) -> list:
+        """The replays of recordings ``group`` at ``values`` with sensitivities to ``names``; the substeps checked
+        as the class docstring says."""
+        self._start(values)
+        jobs = [replay_job(self.key, self.recordings[j], values, names, self.chosen[j]) for j in group]
+        rk4 = [j for j in group if self.chosen[j] is not None]
+        probe = None
+        if rk4 and (names or self.probe_next or self.held[group[0]]):
+            probe = max(rk4, key=lambda j: self.errors.get(j, np.inf))
+            jobs.append(replay_job(self.key, self.recordings[probe], values, (), 2 * self.chosen[probe]))
+        results = self._map(jobs)
+        if probe is None:
+            return results
+        fine = results.pop()
+        self.probe_next = False
+        self.errors[probe] = float(np.max(np.abs(results[group.index(probe)][0] - fine[0])))
+        if self.errors[probe] <= self.tol:
+            return results
+        self.chosen = self._check(self.chosen, values)
+        return self._map([replay_job(self.key, self.recordings[j], values, names, self.chosen[j]) for j in group])
 
     def get(self, k: int, values: dict, names=()) -> tuple:
         key = (tuple(sorted(values.items())), tuple(names), bool(self.held[k]))
@@ -225,8 +248,7 @@ class ReplayBatch:
                 return near[k][0], None
         if key not in self._cache:
             group = [j for j in range(len(self.recordings)) if self.held[j] == self.held[k]]
-            ks = self.substeps(values, moved=bool(names))
-            results = self._map([replay_job(self.key, self.recordings[j], values, names, ks[j]) for j in group])
+            results = self._run(group, values, tuple(names))
             self._cache = {k2: v for k2, v in self._cache.items() if k2[1] != tuple(names) or k2[2] != key[2]}
             self._cache[key] = dict(zip(group, results))
         return self._cache[key][k]
@@ -309,11 +331,10 @@ class ServoProblem(Problem):
     def experiments(self, effects: tuple) -> list:
         key = model_key(self.effects[e] for e in effects)
         if key not in self._cache:
-            # an extension starts from the substeps of the model it extends (its stiffness is at least that one's)
+            # an extension starts from the substeps of the model it extends (at its zero, it is that model)
             inner = self._batches.get(model_key(self.effects[e] for e in effects[:-1])) if effects else None
-            start = inner.chosen if inner is not None and inner.chosen is not None else SUBSTEPS
             batch = self._batches[key] = ReplayBatch(key, self.recordings, self.mask, self.executor,
-                                                self.replay_tolerance, start=start)
+                                                     self.replay_tolerance, extends=inner)
             self._cache[key] = [experiment(r, k, batch, effects, bool(h), self.split.segment)
                                 for k, (r, h) in enumerate(zip(self.recordings, self.mask))]
         return self._cache[key]
