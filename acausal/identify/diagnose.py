@@ -3,7 +3,8 @@
 Model-agnostic engine; a model supplies a :class:`Problem` (its experiments with and without candidate effects,
 the baseline parameters to fit, the candidates, regressors for the residual analysis). The steps:
 
-1. **Baseline**: calibrate the baseline parameters on the training strides (:func:`~.calibrate.calibrate`).
+1. **Baseline**: calibrate the baseline parameters on the training strides (:func:`~.calibrate.calibrate`; a fit
+   that stops at the problem's evaluation limit is continued to its optimum, as is every model named later).
 2. **Fingerprints**: for every candidate, the exact sensitivity of the predicted signals to its parameter at the
    value where the effect vanishes (``Candidate.zero``; for a hard limit, which has no first-order effect there,
    the secant to ``Candidate.probe``), at the calibrated baseline, stacked over signals and
@@ -83,6 +84,22 @@ def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict, drift
     free += problem.effect_free(tuple(effects), start, drift)
     cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss, **problem.fit_options)
     return _assess(problem, tuple(effects), cal, exps, scales)
+
+
+def converged(problem: Problem, fit: Fit, scales: dict, rounds: int = 3) -> Fit:
+    """``fit`` continued from where it stopped while it stopped at the evaluation limit (``max_nfev`` of
+    ``problem.fit_options``), at most ``rounds`` times and while a round lowers the cost by more than the fit's
+    ``tol``: a model the diagnosis names, or builds on, is the optimum, not an iterate. (A candidate is scored on
+    its refit within the limit, which can only understate its gain.)"""
+    tol = problem.fit_options.get("tol", 1e-10)
+    for _ in range(rounds):
+        if fit.cal.success:
+            break
+        more = fit_model(problem, fit.effects, fit.values, scales)
+        if more.cal.cost > fit.cal.cost * (1 - tol):  # at the optimum already, only slow to say so
+            break
+        fit = more
+    return fit
 
 
 def _assess(problem, effects, cal, exps, scales) -> Fit:
@@ -230,7 +247,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     exps0 = problem.experiments(())
     scales = problem.noise_scales(exps0)
     say("calibrating the baseline")
-    base = fit_model(problem, (), dict(start or {}), scales)
+    base = converged(problem, fit_model(problem, (), dict(start or {}), scales), scales)
     baseline = base
     say("fingerprints")
     fp = fingerprints(problem, base, ids, scales)
@@ -249,13 +266,13 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                 steps.append(Step(base, scores, first.id, "pair"))
                 steps.append(Step(first.fit, later, second.id, "pair"))
                 causes += [first.id, second.id]
-                base = second.fit
+                base = converged(problem, second.fit, scales)
                 continue
         steps.append(Step(base, scores, best.id if best else None))
         if best is None:
             break
         causes.append(best.id)
-        base = best.fit
+        base = converged(problem, best.fit, scales)
     drifted = {}
     if len(baseline.exps) >= 3:
         say("per-recording fit (drift)")
@@ -280,7 +297,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                 d.suspects.setdefault(cid, []).append(param)
     if len(causes) >= limit and steps and steps[-1].kind == "gain":
         d.left_out = [sc.id for sc in steps[-1].scores if sc.significant and sc.id not in causes]
-    d.warnings = screen(problem, d.final, scales, thresholds)
+    d.warnings = screen(problem, d.final, scales, thresholds) + oversized(problem, d.final, causes, thresholds)
     for cid, params in d.suspects.items():
         d.warnings.append(f"{', '.join(params)} drift{'s' if len(params) == 1 else ''} over the session and "
                           f"{cid} explains such a drift, but it could not be named from these recordings: "
@@ -404,3 +421,20 @@ def screen(problem: Problem, fit: Fit, scales: dict, thresholds: Thresholds = Th
             if not fit.effects else "the named effects do not explain everything")
     return screen_fit(fit.exps, preds, problem.signals, scales, thresholds.outlier, thresholds.misfit,
                       period=problem.period, who="the final model", misfit_hint=hint)
+
+
+def oversized(problem: Problem, fit: Fit, causes, thresholds: Thresholds = Thresholds()) -> list:
+    """Sentences about named candidates fitted at ``Thresholds.oversized`` times their typical size or more
+    (``Candidate.typical``): the data wants the effect, but at a size the physics it stands for rarely has, so it
+    may stand in for another effect (one outside the candidates) rather than be what its name says."""
+    out = []
+    for cid in causes:
+        c = problem.candidates[cid]
+        if not c.typical:
+            continue
+        ratio = abs(fit.values[c.parameter] - c.zero) / abs(c.typical - c.zero)
+        if ratio >= thresholds.oversized:
+            out.append(f"{cid} is named at {c.parameter} = {fit.values[c.parameter]:.4g} {c.unit}".rstrip() +
+                       f", {ratio:.1f} times its typical size ({c.typical:g}): it may stand in for an effect "
+                       "outside the candidates; compare it with the range its component's docstring gives")
+    return out

@@ -23,6 +23,8 @@ class Candidate:
     #: a size at which the effect shows for certain, for an effect with no first-order change at ``zero`` (a hard
     #: limit not reached there): its fingerprint is the secant from zero to the probe, and its refit starts there
     probe: float | None = None
+    #: a realistic size of the effect (its source in the candidate's docstring); None: not known
+    typical: float | None = None
 
     def sized(self, size: float) -> float:
         """The parameter at effect size ``size``: ``zero + size``, or ``zero - size`` where the upper bound does
@@ -41,6 +43,7 @@ class Thresholds:
     screen: float = 0.005  # refit only candidates whose fingerprint alone could gain this much (linearised)
     outlier: float = 5.0  # a recording whose RMSE is this many times the median of the set is flagged
     misfit: float = 10.0  # a final model whose held-out RMSE is this many noise levels is flagged
+    oversized: float = 5.0  # a named effect this many times its typical size is flagged
 
 
 class Problem(ABC):

@@ -33,7 +33,8 @@ from .session import carry_winding, free_winding_starts, is_session, own_start
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
 
-CANDIDATES = {e.id: Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, e.signal, e.unit) for e in EFFECTS.values()}
+CANDIDATES = {e.id: Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, e.signal, e.unit, typical=e.typical)
+              for e in EFFECTS.values()}
 
 #: speed [rad/s] and power [W] scales of the smooth sign regressors (tanh(x / scale))
 _SIGN_SPEED, _SIGN_POWER = 5.0, 1.0

@@ -38,7 +38,7 @@ BOUNDS = {"servo.kt": (0.01, 10.0, 0.3), "servo.R": (0.1, 100.0, 3.0), "servo.ar
 
 def candidate(e) -> Candidate:
     """The diagnosis candidate of effect record ``e``."""
-    return Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, POSITION, e.unit, e.probe)
+    return Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, POSITION, e.unit, e.probe, e.typical)
 
 
 CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}

@@ -1,0 +1,67 @@
+"""The diagnosis's own fits: a named model is the optimum, not the iterate where the evaluation limit stopped it
+(:func:`~acausal.identify.diagnose.converged`), and a named effect far beyond its typical size is said
+(:func:`~acausal.identify.diagnose.oversized`). A toy problem without an integrator: y = a exp(-k t) + c t^2
+with the candidate ``c``."""
+import numpy as np
+
+from acausal.identify.calibrate import Experiment, Free
+from acausal.identify.diagnose import Candidate, Problem, Thresholds, converged, diagnose, fit_model, oversized
+
+
+class Decay(Problem):
+    signals = ["y"]
+    loss = "linear"
+
+    def __init__(self, c_true, typical=0.1, max_nfev=100):
+        rng = np.random.default_rng(7)
+        self.t = np.linspace(0.0, 4.0, 400)
+        self.y = 2.0 * np.exp(-1.3 * self.t) + c_true * self.t**2 + 0.01 * rng.standard_normal(self.t.size)
+        self.candidates = {"c": Candidate("c", "c", 0.0, (0.0, 10.0), 0.1, "y", "V/s2", typical=typical)}
+        self.fit_options = {"max_nfev": max_nfev, "tol": 1e-8}
+
+    def experiments(self, effects):
+        out = []
+        for k in range(4):  # four pieces, the last one held out
+            piece = (self.t >= k) & (self.t < k + 1) if k < 3 else self.t >= 3
+            t, y = self.t[piece], self.y[piece]
+
+            def predict(v, t=t, effects=effects):
+                return {"y": v["a"] * np.exp(-v["k"] * t) + (v["c"] if "c" in effects else 0.0) * t**2}
+            held = np.full(t.size, k == 3)
+            out.append(Experiment(f"piece{k}", t, {"y": y}, predict, ~held, held,
+                                  np.floor(10 * (t - t[0])).astype(int)))
+        return out
+
+    def base_free(self, start):
+        return [Free("a", start.get("a", 1.5), 0.0, 10.0, 1.0), Free("k", start.get("k", 1.0), 0.0, 10.0, 1.0)]
+
+    def period(self, exp):
+        return None
+
+    def noise_scales(self, exps):
+        return {"y": 0.01}
+
+
+def test_a_fit_stopped_by_its_evaluation_limit_is_continued_to_the_optimum():
+    p = Decay(0.05, max_nfev=3)
+    scales = p.noise_scales(None)
+    stopped = fit_model(p, ("c",), {}, scales)
+    assert not stopped.cal.success  # three evaluations do not reach it from a = 1.5, k = 1
+    done = converged(p, stopped, scales, rounds=20)
+    assert done.cal.cost < stopped.cal.cost
+    full = fit_model(Decay(0.05, max_nfev=200), ("c",), {}, scales)
+    assert full.cal.success
+    for name in ("a", "k", "c"):
+        assert abs(done.values[name] - full.values[name]) < 1e-5 * max(1.0, abs(full.values[name])), name
+    assert converged(p, done, scales) is done  # a converged fit is left alone
+
+
+def test_a_named_effect_far_beyond_its_typical_size_is_said():
+    p = Decay(2.0, typical=0.1)
+    d = diagnose(p)
+    assert d.causes == ["c"] and abs(d.final.values["c"] - 2.0) < 0.01
+    said = [w for w in d.warnings if w.startswith("c is named at c = ")]
+    assert len(said) == 1 and "20.0 times its typical size (0.1)" in said[0], d.warnings
+    # at its typical size nothing is said
+    q = Decay(0.1, typical=0.1)
+    assert oversized(q, fit_model(q, ("c",), {}, q.noise_scales(None)), ["c"], Thresholds()) == []
