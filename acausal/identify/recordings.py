@@ -86,6 +86,10 @@ class RecordingFormat:
     #: (a gap of 2), as jittery loggers come close to it (the XL330 recordings reach 1.75), and refuses two (a gap
     #: of 3). ``None``: gaps allowed (a format for data recorded in bursts)
     max_gap: float | None = 2.5
+    #: physical plausibility checks of the format: each ``check(columns, meta) -> str | None`` returns what is wrong
+    #: (a sentence naming the line, column or key) or None; the loader raises it as a DataError on the CSV file
+    #: (units by magnitude, values in range, flags in their set, enough rows)
+    checks: tuple = ()
 
     def column(self, name: str) -> Column:
         return next(c for c in self.columns if c.name == name)
@@ -221,6 +225,10 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
         _check_gaps(csv_path, columns[fmt.time_column], fmt.max_gap, fmt.time_column)
     if fmt.expected_span is not None:
         _check_span(csv_path, columns[fmt.time_column], fmt.expected_span(meta))
+    for check in fmt.checks:
+        problem = check(columns, meta)
+        if problem:
+            raise DataError(f"{csv_path} ({json_path.name}): {problem}")
     return Recording(csv_path.stem, columns, meta, extra, csv_path, notes)
 
 

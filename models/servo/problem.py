@@ -79,9 +79,13 @@ class Split:
         if by == "auto":
             by = "kp" if len(set(kps)) > 1 else "trajectory" if len(set(trajs)) > 1 else "every"
         if by == "every":
-            mask = np.arange(len(recordings)) % 4 == 3
             if len(recordings) < 2:
                 raise DataError("split: one recording cannot be split into training and held-out data")
+            if len(recordings) < 4:  # every fourth would hold out none
+                mask = np.arange(len(recordings)) == len(recordings) - 1
+                return mask, (f"the last of {len(recordings)} recordings (one gain and one trajectory only; fewer "
+                              "than four)")
+            mask = np.arange(len(recordings)) % 4 == 3
             return mask, "every fourth recording (one gain and one trajectory only)"
         values = kps if by == "kp" else trajs
         distinct = sorted(set(values))

@@ -31,9 +31,62 @@ SERVO_FORMAT = RecordingFormat(
             required=False, positive=False, nullable=True),
         Key("trajectory_name", "", "name of the goal trajectory (groups recordings in the report)", required=False,
             kind="text"),
+        Key("duration_s", "s", "length of the log, last time minus first (optional: checks the time column's unit)",
+            required=False),
     ),
     unknown_keys="note",
+    checks=(lambda c, m: _plausible(c, m),),
 )
+
+#: the fewest rows a replay is fitted on (a recording is cut into 1-s segments; a servo is polled at 100 Hz or more)
+MIN_ROWS = 20
+#: plausibility ranges of a servo on a pendulum: a sample interval (s), a supply voltage (V), a mass (kg), an arm
+#: length (m) and a position or goal (rad): a value outside is a unit slip (ms, mV, g, mm, degrees), not physics
+RANGES = {"sample interval": (1e-5, 0.1), "input_voltage_V": (1.0, 60.0), "mass_kg": (0.0, 50.0),
+          "arm_mass_kg": (0.0, 50.0), "arm_length_m": (0.0, 2.0), "angle": (-4 * np.pi, 4 * np.pi)}
+
+
+def _line(mask) -> int:
+    """The file line (header = 1) of the first row where ``mask`` holds."""
+    return int(np.argmax(mask)) + 2
+
+
+def _plausible(columns: dict, meta: dict) -> str | None:
+    """What makes a servo recording physically implausible (see :data:`RANGES`), or None."""
+    t = columns["time_s"]
+    if t.size < MIN_ROWS:
+        return f"only {t.size} rows; a replay is fitted on {MIN_ROWS} at least"
+    dt = float(np.median(np.diff(t)))
+    lo, hi = RANGES["sample interval"]
+    if not lo <= dt <= hi:
+        return (f"column 'time_s': the samples are {dt:.4g} s apart (median); a servo log is polled every "
+                f"{lo:g}-{hi:g} s: is the time in another unit (ms, us)?")
+    if "duration_s" in meta and abs((t[-1] - t[0]) - meta["duration_s"]) > 2 * dt + 1e-3 * meta["duration_s"]:
+        return (f"column 'time_s' spans {t[-1] - t[0]:.6g} s but key 'duration_s' says {meta['duration_s']:.6g} s: "
+                "a time column in another unit, or the JSON of another log")
+    enable = columns["torque_enable"]
+    off = ~np.isin(enable, (0.0, 1.0))
+    if off.any():
+        return (f"line {_line(off)}, column 'torque_enable': {enable[off][0]:g}; the torque enable is 0 (off) or 1 "
+                "(on)")
+    v = columns["input_voltage_V"]
+    lo, hi = RANGES["input_voltage_V"]
+    bad = (v < lo) | (v > hi)
+    if bad.any():
+        return (f"line {_line(bad)}, column 'input_voltage_V': {v[bad][0]:g} V; a servo's supply is {lo:g}-{hi:g} V "
+                "(a dead supply, a sign slip, or mV)")
+    lo, hi = RANGES["angle"]
+    for name in ("position_rad", "goal_position_rad"):
+        bad = (columns[name] < lo) | (columns[name] > hi)
+        if bad.any():
+            return (f"line {_line(bad)}, column {name!r}: {columns[name][bad][0]:g} rad, more than two turns from "
+                    "zero: degrees or encoder counts in a column of radians?")
+    for key in ("mass_kg", "arm_mass_kg", "arm_length_m"):
+        lo, hi = RANGES[key]
+        if key in meta and not lo <= meta[key] <= hi:
+            return (f"key {key!r} = {meta[key]:g}: outside {lo:g}-{hi:g} for a pendulum on a servo (grams or mm "
+                    "where SI units are declared, or a sign slip)")
+    return None
 
 #: the fitted output and its column
 POSITION = "position_rad"
