@@ -21,6 +21,7 @@ see the dependency rules in the design).
 from __future__ import annotations
 
 import argparse
+import math
 import importlib.util
 import os
 import sys
@@ -158,7 +159,7 @@ def cmd_bench(args) -> int:
 
     effects = parse_effects(args.effect)
     sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
-    truth = {bench_name(k): float(v) for k, v in _pairs(args.truth, "--truth")}
+    truth = {bench_name(k): _number(v, f"--truth {k}={v}") for k, v in _pairs(args.truth, "--truth")}
     if args.chain is not None and args.session is not None:
         from acausal import ModelError
         raise ModelError("--session records the Eq. (4) truth (its winding warms between recordings); it does not "
@@ -185,6 +186,18 @@ def bench_name(short: str) -> str:
     return SHORT.get(short, short)
 
 
+def _number(text: str, where: str) -> float:
+    """``text`` as a finite number, or an error naming ``where`` (the option and its item)."""
+    from acausal import DataError
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not math.isfinite(value):
+        raise DataError(f"{where}: the value after '=' must be a finite number, got {text!r}")
+    return value
+
+
 def _pairs(items, flag):
     for item in items or ():
         name, sep, value = item.partition("=")
@@ -199,7 +212,7 @@ def cmd_fit(args) -> int:
 
     check_outputs(args.data, out=args.out)
     out = Path(args.out)
-    weights = {k: float(v) for k, v in _pairs(args.weight, "--weight")}
+    weights = {k: _number(v, f"--weight {k}={v}") for k, v in _pairs(args.weight, "--weight")}
     signals = [s.strip() for s in args.signals.split(",") if s.strip()]
     cal, exps = calibration.fit(args.data, args.params, signals=signals, weights=weights,
                                 split=calibration.Split(holdout_every=args.holdout_every))
@@ -350,6 +363,19 @@ def cmd_export(args) -> int:
     return 0
 
 
+def _whole(option: str):
+    """An argparse type: a whole number >= 0, refused with a message naming ``option``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = -1
+        if value < 0 or str(value) != text.strip():
+            raise argparse.ArgumentTypeError(f"{option} takes a whole number >= 0, got {text!r}")
+        return value
+    return parse
+
+
 def _positive_int(option: str):
     """An argparse type: a whole number >= 1, refused with a message naming ``option``."""
     def parse(text: str) -> int:
@@ -388,7 +414,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--truth", action="append", metavar="PARAM=VALUE", help="truth parameter, e.g. R=0.8")
     bench.add_argument("--sensor", action="append", metavar="NAME=VALUE", help="sensor setting, e.g. "
                        "motor_current_noise=0.05")
-    bench.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    bench.add_argument("--seed", type=_whole("--seed"), default=0, help="noise seed (default 0)")
     bench.add_argument("--force", action="store_true", help="write into a folder that already holds files (its "
                        "files are deleted first)")
     bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
@@ -409,7 +435,8 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--signals", default="motor_current_A,supply_current_A",
                      help="recorded signals to fit (default motor_current_A,supply_current_A)")
     fit.add_argument("--weight", action="append", metavar="SIGNAL=W", help="weight of a signal (default 1)")
-    fit.add_argument("--holdout-every", type=int, default=3, help="hold out every n-th stride (default 3)")
+    fit.add_argument("--holdout-every", type=_positive_int("--holdout-every"), default=3,
+                     help="hold out every n-th stride (default 3)")
     fit.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     fit.set_defaults(run=cmd_fit)
     from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
@@ -444,7 +471,8 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--max-effects", type=_positive_int("--max-effects"), default=None,
                     help="effects to name at most (default: as many as the evidence supports; a significant "
                     "candidate the limit leaves out is said)")
-    dg.add_argument("--holdout-every", type=int, default=3, help="ankle: hold out every n-th stride (default 3)")
+    dg.add_argument("--holdout-every", type=_positive_int("--holdout-every"), default=3,
+                    help="ankle: hold out every n-th stride (default 3)")
     dg.add_argument("--model", choices=DIAGNOSE_MODELS, default="ankle",
                     help="which model the recordings are of (default: ankle, the paper's actuator; servo_pendulum: "
                     "a position servo swinging a pendulum, BAM's log format)")

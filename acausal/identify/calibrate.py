@@ -29,6 +29,8 @@ parameter's bounds) names the experiment.
 """
 from __future__ import annotations
 
+import difflib
+
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -217,6 +219,13 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
             if s not in e.measured:
                 raise DataError(f"calibrate: experiment {e.name!r} has no measured signal {s!r}")
     weights = dict(weights or {})
+    for k, w in weights.items():
+        if k not in signals:
+            close = difflib.get_close_matches(str(k), list(signals), n=1)
+            raise DataError(f"calibrate: a weight is given for {k!r}, which is not a fitted signal"
+                            + (f" (did you mean {close[0]!r}?)" if close else f"; fitted: {', '.join(signals)}"))
+        if not (isinstance(w, (int, float, np.floating)) and np.isfinite(w) and w >= 0):
+            raise DataError(f"calibrate: the weight of {k!r} must be a finite number >= 0, got {w!r}")
     scales = dict(scales or noise_scales(experiments, signals))
     fixed = dict(fixed or {})
     xs = np.array([f.scale or (abs(f.start) or 1.0) for f in free])

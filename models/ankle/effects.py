@@ -85,4 +85,8 @@ def parse_effects(items) -> dict:
             out[e.id] = float(value) if value.strip() else e.typical
         except ValueError:
             raise ModelError(f"--effect {item!r}: the value after '=' must be a number [{e.unit}]") from None
+        lo, hi = e.bounds
+        if not lo <= out[e.id] <= hi:
+            raise ModelError(f"--effect {item!r}: outside the range the diagnosis fits it in, {lo:g}-{hi:g} "
+                             f"[{e.unit}] (typical {e.typical:g})")
     return out

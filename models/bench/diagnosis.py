@@ -28,7 +28,7 @@ from ..ankle.actuator import WINDING_G
 from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS
-from .session import carry_winding, free_winding_starts, is_session, own_start
+from .session import carry_winding, check_session, free_winding_starts, is_session, own_start
 
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
@@ -59,6 +59,7 @@ class AnkleProblem(Problem):
         if not isinstance(recordings, (list, tuple)):
             recordings = load_recordings(recordings, ANKLE_FORMAT)
         self.recordings = list(recordings)
+        check_session(self.recordings)
         if is_session(self.recordings):  # a session: in the order it was recorded
             self.recordings.sort(key=lambda r: r.meta["session_time_s"])
         self.split = split

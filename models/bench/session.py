@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from acausal import DataError
 from acausal.identify.evidence import PER_EXPERIMENT
 from acausal.library.drives import DCMotor
 
@@ -81,8 +82,42 @@ def _own_rows(sensitivity, values, names, own):
 
 
 def is_session(recordings) -> bool:
-    """Every recording says when it started (JSON ``session_time_s``)."""
+    """Every recording says when it started (JSON ``session_time_s``); :func:`check_session` first."""
     return bool(recordings) and all("session_time_s" in r.meta for r in recordings)
+
+
+#: the longest a session may span [s]: one sitting at the bench (the winding cools to ambient within about an hour;
+#: a longer span is session times in another unit, or recordings of several sessions)
+MAX_SESSION_S = 24 * 3600.0
+
+
+def check_session(recordings) -> None:
+    """A DataError naming the recordings where the session times cannot be what they say: some recordings with
+    ``session_time_s`` and some without (session handling would silently be off), a recording that starts before
+    the one before it ended (equal or overlapping times: the pause would be clamped to none), or a session longer
+    than :data:`MAX_SESSION_S` (times in ms)."""
+    have = [r for r in recordings if "session_time_s" in r.meta]
+    if not have:
+        return
+    if len(have) < len(recordings):
+        lacking = [r.name for r in recordings if "session_time_s" not in r.meta]
+        raise DataError(f"{len(have)} of {len(recordings)} recordings say when they were made (JSON "
+                        f"session_time_s) and {len(lacking)} do not ({', '.join(lacking[:3])}"
+                        f"{', ...' if len(lacking) > 3 else ''}): give it to every recording of the session, or to "
+                        "none")
+    ordered = sorted(have, key=lambda r: r.meta["session_time_s"])
+    for a, b in zip(ordered, ordered[1:]):
+        ta, tb, length = float(a.meta["session_time_s"]), float(b.meta["session_time_s"]), float(a.t[-1] - a.t[0])
+        if tb < ta + length - 1e-6 * max(1.0, length):
+            raise DataError(f"{b.path or b.name}: session_time_s = {tb:g} s, but {a.name} started at {ta:g} s and "
+                            f"lasts {length:.4g} s: the recordings overlap (equal or wrong session times, or "
+                            "times in another unit than seconds)")
+    span = float(ordered[-1].meta["session_time_s"]) - float(ordered[0].meta["session_time_s"])
+    if span > MAX_SESSION_S:
+        raise DataError(f"{ordered[-1].path or ordered[-1].name}: session_time_s = "
+                        f"{float(ordered[-1].meta['session_time_s']):g} s, {span / 3600:.4g} h after the first "
+                        f"recording; a session is one sitting at the bench (at most {MAX_SESSION_S / 3600:g} h): "
+                        "session times in ms, or recordings of several sessions")
 
 
 def carry_winding(exps, cm) -> None:
@@ -105,6 +140,7 @@ class _Chain:
     def __init__(self, exps, cm):
         self.exps, self.cm = list(exps), cm
         starts = [float(e.info["meta"]["session_time_s"]) for e in self.exps]
+        # check_session refused overlaps; what is left below zero is rounding
         self.gaps = [0.0] + [max(starts[k] - starts[k - 1] - float(self.exps[k - 1].t[-1] - self.exps[k - 1].t[0]),
                                  0.0) for k in range(1, len(self.exps))]
         self._memo: dict = {}

@@ -261,11 +261,42 @@ def _write_readme(out: Path, conditions, effects, truth, sensors, seed, chain: s
     atomic_write_text(out / "README.md", "\n".join(lines) + "\n")
 
 
+#: what each sensor setting may be: (lowest, highest, whole number); the encoder needs one bit at least and a
+#: 64-bit float resolves no more than 52 of a turn, a rate must be positive, noise and offsets not negative, the
+#: current filter below the Nyquist frequency (checked against the rate)
+SENSOR_RANGES = {"encoder_bits": (1, 52, True), "motor_current_noise": (0.0, np.inf, False),
+                 "motor_current_offset": (-np.inf, np.inf, False), "supply_current_noise": (0.0, np.inf, False),
+                 "supply_voltage_noise": (0.0, np.inf, False), "torque_noise": (0.0, np.inf, False),
+                 "rate": (1e-300, np.inf, False), "current_filter_hz": (0.0, np.inf, False)}
+
+
 def sensors_with(overrides: dict) -> Sensors:
-    """:class:`Sensors` with fields overridden (``--sensor NAME=VALUE``); an unknown field lists the known ones."""
+    """:class:`Sensors` with fields overridden (``--sensor NAME=VALUE``); an unknown field lists the known ones, a
+    value that is not a number or outside :data:`SENSOR_RANGES` names the setting and the range."""
+    from acausal import DataError
+
     known = set(asdict(Sensors()))
-    for k in overrides:
+    values = {}
+    for k, text in overrides.items():
         if k not in known:
-            from acausal import ModelError
-            raise ModelError(f"unknown sensor setting {k!r}; known: {', '.join(sorted(known))}")
-    return replace(Sensors(), **{k: type(getattr(Sensors(), k))(v) for k, v in overrides.items()})
+            raise DataError(f"unknown sensor setting {k!r}; known: {', '.join(sorted(known))}")
+        lo, hi, whole = SENSOR_RANGES[k]
+        try:
+            v = float(text)
+        except (TypeError, ValueError):
+            v = float("nan")
+        if not (np.isfinite(v) and lo <= v <= hi and (not whole or v == int(v))):
+            span = (f" {lo:g}-{hi:g}" if np.isfinite(hi) else " > 0" if 0 < lo else " >= 0" if lo == 0 else "")
+            raise DataError(f"--sensor {k}={text}: {'a whole number' if whole else 'a finite number'}{span} "
+                            f"expected [{_SENSOR_UNITS[k]}]")
+        values[k] = int(v) if whole else v
+    sensors = replace(Sensors(), **values)
+    if sensors.current_filter_hz >= sensors.rate / 2:
+        raise DataError(f"--sensor current_filter_hz={sensors.current_filter_hz:g}: the current filter must be "
+                        f"below half the sample rate ({sensors.rate:g} Hz)")
+    return sensors
+
+
+_SENSOR_UNITS = {"encoder_bits": "bits", "motor_current_noise": "A", "motor_current_offset": "A",
+                 "supply_current_noise": "A", "supply_voltage_noise": "V", "torque_noise": "N m", "rate": "Hz",
+                 "current_filter_hz": "Hz"}
