@@ -262,6 +262,9 @@ def _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_eve
         raise ModelError("simulate: t_eval must be an array of times") from None
     if t_out.ndim != 1:
         raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
+    if not np.all(np.isfinite(t_out)):
+        k = int(np.argmax(~np.isfinite(t_out)))
+        raise ModelError(f"simulate: t_eval[{k}] is {t_out[k]}; output times must be finite numbers")
     if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
         raise ModelError("t_eval must be increasing and within [t_start, t_end]")
     return t_start, t_end, t_out
@@ -371,6 +374,9 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
         if n in starts:
             x[i] = starts.pop(n)
             fixed_state[i] = True
+        if not np.isfinite(x[i]):
+            raise ModelError(f"the start value of {n!r} is {x[i]} (its Start(...) in the model); a start value must "
+                             "be a finite number")
     targets = {}  # non-state fixed variables: name -> value
     if "fixed non-states" not in cm.derived:  # which they are is structure: found once per model
         states = set(cm.state_names)

@@ -152,3 +152,22 @@ def test_a_square_root_of_a_state_that_crossed_zero_is_refused():
 
     with pytest.raises(UntrustedResult, match=r"tank\.y is nan from t = 0\.5"):
         compile_model(Tank()).simulate(1.0)
+
+
+class _NanStart(Model):
+    def build(self):
+        from acausal.library.electrical import Capacitor, Resistor
+        self.src, self.R, self.gnd = ConstantVoltage(V=1.0), Resistor(R=1.0), Ground()
+        self.C = Capacitor(C=1.0, v=Start(float("nan")))
+        connect(self.src.p, self.R.p)
+        connect(self.R.n, self.C.p)
+        connect(self.C.n, self.src.n, self.gnd.p)
+
+
+def test_a_nan_start_or_output_time_is_refused_by_name():
+    """Issue 39, item 6: ``Start(nan)`` reached scipy raw; a NaN in ``t_eval`` hung the run."""
+    cm = compile_model(RC())
+    with pytest.raises(ModelError, match=r"t_eval\[1\] is nan; output times must be finite"):
+        cm.simulate(1.0, t_eval=[0.0, np.nan, 1.0])
+    with pytest.raises(ModelError, match=r"the start value of 'C.v' is nan \(its Start\(...\) in the model\)"):
+        compile_model(_NanStart()).simulate(1.0)
