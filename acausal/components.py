@@ -302,9 +302,21 @@ class Component:
     # ---- hierarchy
     def __setattr__(self, name, value):
         if isinstance(value, Component) and not name.startswith("_"):
+            if value is self:
+                raise ModelError(f"{self._describe()}: self.{name} = self; a component cannot contain itself")
             if value._parent is not None and value._parent is not self:
                 raise ModelError(f"{value._describe()} is already part of {value._parent._describe()}; "
                                  f"create a new instance for {self._child_path(name)!r}")
+            old_name = value._attr_name if value._parent is self else None
+            if old_name is not None and old_name != name and self._children.get(old_name) is value:
+                raise ModelError(f"{self._describe()}: one {type(value).__name__} instance under two names, "
+                                 f"{self._child_path(old_name)!r} and {self._child_path(name)!r}; create a new "
+                                 "instance for each")
+            replaced = self._children.get(name)
+            if replaced is not None and replaced is not value and _connected(self, replaced):
+                raise ModelError(f"{self._describe()}: {self._child_path(name)!r} is assigned twice (a "
+                                 f"{type(replaced).__name__}, already connected, then a {type(value).__name__}); "
+                                 "the first would be dropped with its connections: give each its own name")
             object.__setattr__(value, "_parent", self)
             object.__setattr__(value, "_attr_name", name)
             self._children[name] = value
@@ -393,6 +405,11 @@ class Connector(Component):
         return f"<{type(self).__name__} {self._path!r}>"
 
 
+def _connected(model, child) -> bool:
+    """Whether a port of ``child`` (a sub-component of ``model``) appears in ``model``'s connections."""
+    return any(p._parent is child for pair in model._connections for p in pair)
+
+
 def connect(*ports: Connector):
     """Connect ports: their potentials are equal and their flows sum to zero (flow into a component positive).
 
@@ -418,6 +435,12 @@ def connect(*ports: Connector):
         if owner is not model and (owner is None or owner._parent is not model):
             raise ConnectError(f"{model._describe()}: port {p.path!r} is neither a port of this model nor of one of "
                                "its direct sub-components")
+    from .connectors import RealOutput
+    driving = [p for p in ports if isinstance(p, RealOutput) and p._parent is not model]
+    if len(driving) > 1:
+        raise ConnectError(f"{model._describe()}: connect({', '.join(repr(p.path) for p in ports)}) joins "
+                           f"{len(driving)} outputs ({', '.join(repr(p.path) for p in driving)}); one output drives "
+                           "a signal, which inputs read")
     for p in ports[1:]:
         model._connections.append((first, p))
 

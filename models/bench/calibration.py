@@ -187,7 +187,7 @@ def fit(recordings, params="R,J,b", signals=DEFAULT_SIGNALS, weights=None, effec
     free = [free_parameter(n, start) for n in parameter_names(params)]
     cal = calibrate(exps, free, list(signals), weights=weights, fixed=fixed, loss=loss)
     unseen = [n for n in cal.names if not np.isfinite(cal.std[n])]
-    if unseen:
+    if unseen and not cal.warnings:  # (where the screening flags the data, its warnings say why)
         raise DataError(f"calibration on {', '.join(signals)}: {', '.join(unseen)} cannot be identified (the fitted "
                         "signals do not depend on them, or not independently of the others: the standard error is "
                         "infinite); fit them on a signal that sees them (motor_current_A, supply_current_A)")
