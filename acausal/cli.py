@@ -21,12 +21,13 @@ see the dependency rules in the design).
 from __future__ import annotations
 
 import argparse
-import math
 import importlib.util
 import os
 import sys
 import time
 from pathlib import Path
+
+from .cli_values import check_bench_folder, check_outputs, number, pairs, whole_number
 
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
 EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
@@ -115,51 +116,13 @@ def cmd_infer(args) -> int:
     return 0
 
 
-def check_outputs(data, **outputs):
-    """Output paths must not touch the input data: none equal to or inside the data folder (outputs would mix with
-    the recordings) and none an existing input file. ``outputs``: option name -> path (None: not given).
-    A DataError names the option, the path and why."""
-    from acausal import DataError
-
-    data = Path(data).resolve()
-    for option, path in outputs.items():
-        if path is None:
-            continue
-        p = Path(path).resolve()
-        flag = "--" + option.replace("_", "-")
-        if p == data or data in p.parents:
-            raise DataError(f"{flag} {path}: inside the input data folder {data}; outputs would mix with the "
-                            "recordings (and a folder of recordings with other files in it no longer loads): "
-                            "choose a folder outside it")
-
-
-def check_bench_folder(out, force: bool):
-    """``acausal bench --out`` into a folder that already holds files needs ``--force`` (its recordings of the same
-    names would be overwritten and others would stay beside them)."""
-    from acausal import DataError
-
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise DataError(f"--out {out}: exists and is not a folder")
-    if out.is_dir() and not force:
-        present = [p.name for p in out.iterdir() if not p.name.startswith(".")]
-        if present:
-            raise DataError(f"--out {out}: the folder is not empty ({len(present)} files, e.g. {sorted(present)[0]!r}); "
-                            "its recordings would be overwritten or mixed with the new ones: give an empty or new "
-                            "folder, or --force to clear it first")
-    if out.is_dir() and force:
-        for p in out.iterdir():
-            if p.is_file():
-                p.unlink()
-
-
 def cmd_bench(args) -> int:
     from acausal.models.bench import virtual as bench
     from acausal.models.ankle.effects import parse_effects
 
     effects = parse_effects(args.effect)
-    sensors = bench.sensors_with(dict(_pairs(args.sensor, "--sensor")))
-    truth = {bench_name(k): _number(v, f"--truth {k}={v}") for k, v in _pairs(args.truth, "--truth")}
+    sensors = bench.sensors_with(dict(pairs(args.sensor, "--sensor")))
+    truth = {bench_name(k): number(v, f"--truth {k}={v}") for k, v in pairs(args.truth, "--truth")}
     if args.chain is not None and args.session is not None:
         from acausal import ModelError
         raise ModelError("--session records the Eq. (4) truth (its winding warms between recordings); it does not "
@@ -186,33 +149,13 @@ def bench_name(short: str) -> str:
     return SHORT.get(short, short)
 
 
-def _number(text: str, where: str) -> float:
-    """``text`` as a finite number, or an error naming ``where`` (the option and its item)."""
-    from acausal import DataError
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not math.isfinite(value):
-        raise DataError(f"{where}: the value after '=' must be a finite number, got {text!r}")
-    return value
-
-
-def _pairs(items, flag):
-    for item in items or ():
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise SystemExit(f"acausal: {flag} {item!r}: expected NAME=VALUE")
-        yield name.strip(), value.strip()
-
-
 def cmd_fit(args) -> int:
     from acausal.models.bench import calibration
     from acausal.models.bench.fit_report import fit_outputs
 
     check_outputs(args.data, out=args.out)
     out = Path(args.out)
-    weights = {k: _number(v, f"--weight {k}={v}") for k, v in _pairs(args.weight, "--weight")}
+    weights = {k: number(v, f"--weight {k}={v}") for k, v in pairs(args.weight, "--weight")}
     signals = [s.strip() for s in args.signals.split(",") if s.strip()]
     cal, exps = calibration.fit(args.data, args.params, signals=signals, weights=weights,
                                 split=calibration.Split(holdout_every=args.holdout_every))
@@ -332,7 +275,7 @@ def cmd_export(args) -> int:
     from acausal.export import export_fmu
 
     sets = {}
-    for name, value in _pairs(args.set, "--set"):
+    for name, value in pairs(args.set, "--set"):
         try:
             sets[name] = float(value)
         except ValueError:
@@ -363,32 +306,6 @@ def cmd_export(args) -> int:
     return 0
 
 
-def _whole(option: str):
-    """An argparse type: a whole number >= 0, refused with a message naming ``option``."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = -1
-        if value < 0 or str(value) != text.strip():
-            raise argparse.ArgumentTypeError(f"{option} takes a whole number >= 0, got {text!r}")
-        return value
-    return parse
-
-
-def _positive_int(option: str):
-    """An argparse type: a whole number >= 1, refused with a message naming ``option``."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = 0
-        if value < 1 or str(value) != text.strip():
-            raise argparse.ArgumentTypeError(f"{option} takes a whole number >= 1, got {text!r}")
-        return value
-    return parse
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="acausal", description="Modelica-style acausal modelling: the paper's "
                                 "results, a virtual bench, calibration, diagnosis and drive-train comparison.")
@@ -414,7 +331,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--truth", action="append", metavar="PARAM=VALUE", help="truth parameter, e.g. R=0.8")
     bench.add_argument("--sensor", action="append", metavar="NAME=VALUE", help="sensor setting, e.g. "
                        "motor_current_noise=0.05")
-    bench.add_argument("--seed", type=_whole("--seed"), default=0, help="noise seed (default 0)")
+    bench.add_argument("--seed", type=whole_number("--seed", least=0), default=0, help="noise seed (default 0)")
     bench.add_argument("--force", action="store_true", help="write into a folder that already holds files (its "
                        "files are deleted first)")
     bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
@@ -435,7 +352,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--signals", default="motor_current_A,supply_current_A",
                      help="recorded signals to fit (default motor_current_A,supply_current_A)")
     fit.add_argument("--weight", action="append", metavar="SIGNAL=W", help="weight of a signal (default 1)")
-    fit.add_argument("--holdout-every", type=_positive_int("--holdout-every"), default=3,
+    fit.add_argument("--holdout-every", type=whole_number("--holdout-every"), default=3,
                      help="hold out every n-th stride (default 3)")
     fit.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     fit.set_defaults(run=cmd_fit)
@@ -468,10 +385,10 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     dg.add_argument("--json", help="also write the machine-readable verdict to this file")
     dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all)")
-    dg.add_argument("--max-effects", type=_positive_int("--max-effects"), default=None,
+    dg.add_argument("--max-effects", type=whole_number("--max-effects"), default=None,
                     help="effects to name at most (default: as many as the evidence supports; a significant "
                     "candidate the limit leaves out is said)")
-    dg.add_argument("--holdout-every", type=_positive_int("--holdout-every"), default=3,
+    dg.add_argument("--holdout-every", type=whole_number("--holdout-every"), default=3,
                     help="ankle: hold out every n-th stride (default 3)")
     dg.add_argument("--model", choices=DIAGNOSE_MODELS, default="ankle",
                     help="which model the recordings are of (default: ankle, the paper's actuator; servo_pendulum: "

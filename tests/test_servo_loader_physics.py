@@ -49,6 +49,12 @@ def _set(key, value):
     return edit
 
 
+def _drop(key):
+    def edit(m):
+        del m[key]
+    return edit
+
+
 def _row(name, k, value):
     def edit(header, data):
         data = data.copy()
@@ -58,10 +64,14 @@ def _row(name, k, value):
 
 
 CASES = {
-    "time in ms": (dict(rows=lambda h, d: _col(h, d, "time_s", lambda t: 1000 * t)),
+    "time in ms": (dict(rows=lambda h, d: _col(h, d, "time_s", lambda t: 1000 * t), meta=_drop("duration_s")),
                    r"column 'time_s': the samples are [\d.]+ s apart .* another unit \(ms"),
+    "time in ms against its JSON": (dict(rows=lambda h, d: _col(h, d, "time_s", lambda t: 1000 * t)),
+                                    r"the samples cover 600\d\.?\d* s \(1510 rows\) but its JSON declares 5\.998 s: "
+                                    r"longer than declared, by a factor 1\d\d\d: time in another unit"),
     "time stretched against its JSON": (dict(rows=lambda h, d: _col(h, d, "time_s", lambda t: 1.5 * t)),
-                                        r"column 'time_s' spans 8\.99.* key 'duration_s' says 5\.99"),
+                                        r"the samples cover 9\.00\d s \(1510 rows\) but its JSON declares 5\.998 s: "
+                                        r"longer than declared$"),
     "torque enable 5": (dict(rows=_row("torque_enable", 40, 5.0)), r"line 42, column 'torque_enable': 5;"),
     "torque enable -1": (dict(rows=_row("torque_enable", 3, -1.0)), r"line 5, column 'torque_enable': -1;"),
     "supply at 0 V": (dict(rows=_row("input_voltage_V", 10, 0.0)), r"line 12, column 'input_voltage_V': 0 V"),

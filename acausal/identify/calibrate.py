@@ -30,7 +30,6 @@ parameter's bounds) names the experiment.
 from __future__ import annotations
 
 import difflib
-
 from dataclasses import dataclass, field
 from typing import Callable
 

@@ -254,6 +254,8 @@ def _check_span(path: Path, t: np.ndarray, span):
     covered = float(t[-1] - t[0]) + dt
     if abs(covered - span) > 1.5 * dt:
         why = "truncated (an interrupted write?)" if covered < span else "longer than declared"
+        if span > 0 and not 0.1 < covered / span < 10:
+            why += f", by a factor {covered / span:.4g}: time in another unit than seconds?"
         raise DataError(f"{path}: the samples cover {covered:.4g} s ({t.size} rows) but its JSON declares "
                         f"{span:.4g} s: {why}")
 

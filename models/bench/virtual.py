@@ -261,13 +261,15 @@ def _write_readme(out: Path, conditions, effects, truth, sensors, seed, chain: s
     atomic_write_text(out / "README.md", "\n".join(lines) + "\n")
 
 
-#: what each sensor setting may be: (lowest, highest, whole number); the encoder needs one bit at least and a
-#: 64-bit float resolves no more than 52 of a turn, a rate must be positive, noise and offsets not negative, the
-#: current filter below the Nyquist frequency (checked against the rate)
-SENSOR_RANGES = {"encoder_bits": (1, 52, True), "motor_current_noise": (0.0, np.inf, False),
-                 "motor_current_offset": (-np.inf, np.inf, False), "supply_current_noise": (0.0, np.inf, False),
-                 "supply_voltage_noise": (0.0, np.inf, False), "torque_noise": (0.0, np.inf, False),
-                 "rate": (1e-300, np.inf, False), "current_filter_hz": (0.0, np.inf, False)}
+#: what each sensor setting may be: (lowest, highest, whole number, unit); the encoder needs one bit at least and a
+#: 64-bit float resolves no more than 52 of a turn, a rate must be positive (:data:`_ABOVE_ZERO`), noise not
+#: negative, the current filter below the Nyquist frequency (checked against the rate)
+_ABOVE_ZERO = float(np.finfo(float).tiny)
+SENSOR_RANGES = {"encoder_bits": (1, 52, True, "bits"), "motor_current_noise": (0.0, np.inf, False, "A"),
+                 "motor_current_offset": (-np.inf, np.inf, False, "A"),
+                 "supply_current_noise": (0.0, np.inf, False, "A"), "supply_voltage_noise": (0.0, np.inf, False, "V"),
+                 "torque_noise": (0.0, np.inf, False, "N m"), "rate": (_ABOVE_ZERO, np.inf, False, "Hz"),
+                 "current_filter_hz": (0.0, np.inf, False, "Hz")}
 
 
 def sensors_with(overrides: dict) -> Sensors:
@@ -280,15 +282,16 @@ def sensors_with(overrides: dict) -> Sensors:
     for k, text in overrides.items():
         if k not in known:
             raise DataError(f"unknown sensor setting {k!r}; known: {', '.join(sorted(known))}")
-        lo, hi, whole = SENSOR_RANGES[k]
+        lo, hi, whole, unit = SENSOR_RANGES[k]
         try:
             v = float(text)
         except (TypeError, ValueError):
             v = float("nan")
         if not (np.isfinite(v) and lo <= v <= hi and (not whole or v == int(v))):
-            span = (f" {lo:g}-{hi:g}" if np.isfinite(hi) else " > 0" if 0 < lo else " >= 0" if lo == 0 else "")
+            span = (f" {lo:g}-{hi:g}" if np.isfinite(hi) else " > 0" if lo == _ABOVE_ZERO else " >= 0" if lo == 0
+                    else "")
             raise DataError(f"--sensor {k}={text}: {'a whole number' if whole else 'a finite number'}{span} "
-                            f"expected [{_SENSOR_UNITS[k]}]")
+                            f"expected [{unit}]")
         values[k] = int(v) if whole else v
     sensors = replace(Sensors(), **values)
     if sensors.current_filter_hz >= sensors.rate / 2:
@@ -296,7 +299,3 @@ def sensors_with(overrides: dict) -> Sensors:
                         f"below half the sample rate ({sensors.rate:g} Hz)")
     return sensors
 
-
-_SENSOR_UNITS = {"encoder_bits": "bits", "motor_current_noise": "A", "motor_current_offset": "A",
-                 "supply_current_noise": "A", "supply_voltage_noise": "V", "torque_noise": "N m", "rate": "Hz",
-                 "current_filter_hz": "Hz"}

@@ -186,6 +186,8 @@ class ReplayBatch:
         self.probe_next = False  # check the recording nearest its limit at the next batch, whatever its kind
         if extends is not None and extends.chosen is not None:
             self.chosen, self.errors, self.probe_next = dict(extends.chosen), dict(extends.errors), True
+            if not fixed_step_runs(compiled(*key)):  # an extension with a Newton block: CVODES throughout
+                self.chosen = {j: None for j in self.chosen}
         self._cache: dict = {}
 
     def _map(self, jobs):
@@ -220,8 +222,6 @@ class ReplayBatch:
             self.chosen, self.probe_next = {0: self.parent.chosen[self.index]}, True
         if self.chosen is None:
             self.chosen = self._check(self.start, values)
-        elif not fixed_step_runs(compiled(*self.key)):  # an extension with a Newton block: CVODES throughout
-            self.chosen = {j: None for j in self.chosen}
 
     def _run(self, group: list, values: dict, names: tuple) -> list:
         """The replays of recordings ``group`` at ``values`` with sensitivities to ``names``; the substeps checked
