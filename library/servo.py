@@ -6,9 +6,9 @@
                             ^-                                      enable --^         bus_p -[bus]-^   |
                             |                                                               [SwitchedResistor R]
                             |                                                                [EMF kt/ratio]
-    position <-[position]- [AngleSensor] <-- [Inertia armature] <-- [GearFriction] <-- [IdealGear ratio]
-                                                   |
-                                                   +-[output]-> flange
+    position <-[position]- [AngleSensor] <-[drive]- [Inertia armature] <-- [GearFriction] <-- [IdealGear ratio]
+                                 |
+                                 +-[output]-> flange
 
 The firmware's proportional law commands the PWM duty; the bridge puts ``duty * v_bus`` on the winding (lossless,
 no quiescent draw: what a hobby servo's electronics dissipate is not measured and does not move the arm); the
@@ -18,16 +18,18 @@ law between the gear and the rotor inertia (:mod:`acausal.library.friction`). Th
 the output as ``armature`` (the reflected inertia, BAM's term) *after* the friction, so the friction's load
 measure is the air-gap torque through the gear, as in BAM's models.
 
-**Insertion slots** (the ``-[name]->`` above): ``inserts`` puts elements into the servo without changing its
-class, each ``(slot, name, factory)`` with ``factory()`` returning a component that becomes ``servo.<name>``:
-``goal`` (the goal the firmware tracks), ``position`` (the reading it regulates), ``error``, ``duty`` (before
-the limit) take a causal block with input ``u`` and output ``y`` (:mod:`acausal.library.firmware`,
+**Insertion slots** (the ``-[name]->`` above): ``inserts`` puts elements into the servo without changing its class,
+each ``(slot, name, factory)`` with ``factory()`` returning a component that becomes ``servo.<name>``: ``goal`` (the
+goal the firmware tracks), ``position`` (the reading it regulates), ``error``, ``duty`` (before the limit) take a
+causal block with input ``u`` and output ``y`` (:mod:`acausal.library.firmware`,
 :class:`~acausal.library.blocks.Bias`); ``bus`` a two-pin element in series with the supply (a
-:class:`~acausal.library.electrical.Resistor`: supply sag); ``output`` a two-flange element between the shaft
-the encoder reads and the output flange (:class:`~acausal.library.rotational.ElastoBacklash`). Elements of one
-slot are chained in the order given. ``winding`` replaces the winding (one element at most, built with the
-servo's ``R``, named ``winding``): a :class:`~acausal.library.electrical.CurrentLimitedResistor` for a driver's
-current limit.
+:class:`~acausal.library.electrical.Resistor`: supply sag); ``drive`` a two-flange element between the rotor and the
+shaft the encoder reads (play in the gear train ahead of an encoder on the output shaft, as in the XL330, whose
+magnetic encoder reads the output: :class:`~acausal.library.rotational.ElastoBacklash`); ``output`` a two-flange
+element between the shaft the encoder reads and the output flange (play behind the encoder: a motor-side encoder, a
+loose horn or coupling). Elements of one slot are chained in the order given. ``winding`` replaces the winding (one
+element at most, built with the servo's ``R``, named ``winding``): a
+:class:`~acausal.library.electrical.CurrentLimitedResistor` for a driver's current limit.
 
 Parameters are those seen at the output shaft, as BAM identifies them: ``kt`` [N m/A] (motor constant times the
 gear ratio; also the back-EMF constant in V s/rad), ``R`` [ohm], ``armature`` [kg m2]. Defaults are BAM's published
@@ -50,7 +52,7 @@ __all__ = ["PositionServo", "SLOTS"]
 #: the insertion slots of :class:`PositionServo` and the ports an element in each must have ("winding" replaces
 #: the winding instead of being chained: its element also takes the input ``closed`` and the servo's ``R``)
 SLOTS = {"goal": ("u", "y"), "position": ("u", "y"), "error": ("u", "y"), "duty": ("u", "y"), "bus": ("p", "n"),
-         "output": ("flange_a", "flange_b"), "winding": ("p", "n", "closed")}
+         "drive": ("flange_a", "flange_b"), "output": ("flange_a", "flange_b"), "winding": ("p", "n", "closed")}
 
 
 class PositionServo(Model):
@@ -102,8 +104,9 @@ class PositionServo(Model):
         if load_measure == "external":
             self.load_torque = RealInput(doc="external torque on the load [N m], for the friction's load measure")
 
-    def _chain(self, slot: str, start, end) -> None:
-        """Connect ``start`` to ``end`` through the elements inserted in ``slot`` (in order)."""
+    def _chain(self, slot: str, start, end=()):
+        """Connect ``start`` through the elements inserted in ``slot`` (in order) to the ports ``end``; returns the
+        chain's last port (``start`` itself when the slot is empty)."""
         a, b = SLOTS[slot]
         for _, name, factory in (i for i in self.inserts if i[0] == slot):
             element = factory()
@@ -115,7 +118,9 @@ class PositionServo(Model):
             setattr(self, name, element)
             connect(start, getattr(element, a))
             start = getattr(element, b)
-        connect(start, *end)
+        if end:
+            connect(start, *end)
+        return start
 
     def build(self):
         self.error = Feedback()
@@ -144,8 +149,9 @@ class PositionServo(Model):
         connect(self.emf.flange, self.gear.flange_a)
         connect(self.gear.flange_b, self.friction.flange_a)
         connect(self.friction.flange_b, self.rotor.flange_a)
-        connect(self.rotor.flange_b, self.sensor.flange)
-        self._chain("output", self.rotor.flange_b, (self.flange,))
+        shaft = self._chain("drive", self.rotor.flange_b)  # the shaft the encoder reads
+        connect(shaft, self.sensor.flange)
+        self._chain("output", shaft, (self.flange,))
         self._chain("goal", self.position_ref, (self.error.u1,))
         self._chain("position", self.sensor.phi, (self.error.u2,))
         self._chain("error", self.error.y, (self.gain.u,))

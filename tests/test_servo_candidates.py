@@ -43,24 +43,29 @@ def test_every_candidate_is_the_baseline_at_zero_and_moves_the_arm_at_its_typica
 
 def test_energy_balance_with_every_slot_filled():
     """Supply energy = winding, friction, flank damping losses + change of stored energy (rel. 1e-6) with an
-    element in every slot of the servo (rate limit, delay, deadband, punch, quantisation, supply sag, play) and
-    the winding replaced by a current-limited one (a user's candidate in the ``winding`` slot)."""
-    cap = fx.user_effect({"id": "current_limit", "slot": "winding", "parameter": "inv_i_max", "bounds": [0, 20],
-                          "component": "acausal.library.electrical:CurrentLimitedResistor", "typical": 2.0})
-    assert cap.parameter == "servo.winding.inv_i_max"
-    chosen = [fx.EFFECTS[k] for k in ("goal_rate_limit", "loop_delay", "error_deadband", "punch",
-                                      "duty_quantisation", "supply_sag", "backlash")] + [cap]
-    cm = compiled(("coulomb", "load"), tuple(chosen))
+    element in every slot of the servo (rate limit, delay, deadband, punch, quantisation, supply sag, the plays
+    ahead of and behind the encoder) and the winding replaced by a current-limited one; a user's candidate in
+    the ``winding`` slot is named as the winding's."""
+    mine = fx.user_effect({"id": "my_cap", "slot": "winding", "parameter": "inv_i_max", "bounds": [0, 20],
+                           "component": "acausal.library.electrical:CurrentLimitedResistor", "typical": 2.0})
+    assert mine.parameter == "servo.winding.inv_i_max"
     rec = _xl330(5)
-    params = {**rig_params(rec.meta), "servo.friction.k_l": 0.2, **{e.parameter: e.typical for e in chosen}}
-    res = cm.simulate(rec.t[0] + 2.0, t_start=rec.t[0], params=params, inputs=inputs(rec),
-                      starts=_starts(cm, start(rec)), rtol=1e-10, atol=1e-12, n_points=4001)
-    b = balance(res, cm.accounts)
-    assert b.delivered > 0.5
-    assert abs(b.residual) < 1e-6, b.table()
-    assert {"servo.supply_sag.loss_power", "servo.backlash.loss_power"} <= set(b.losses)
-    i = np.abs(np.asarray(res["servo.winding.i"]))
-    assert 0.49 < i.max() <= 0.5 + 1e-6  # the 0.5 A cap binds
+    for play in ("backlash", "gear_backlash"):  # one at a time: they exclude each other
+        chosen = [fx.EFFECTS[k] for k in ("goal_rate_limit", "loop_delay", "error_deadband", "punch",
+                                          "duty_quantisation", "supply_sag", play, "current_limit")]
+        cm = compiled(("coulomb", "load"), tuple(chosen))
+        params = {**rig_params(rec.meta), "servo.friction.k_l": 0.2, **{e.parameter: e.typical for e in chosen},
+                  "servo.winding.inv_i_max": 2.0}
+        res = cm.simulate(rec.t[0] + 2.0, t_start=rec.t[0], params=params, inputs=inputs(rec),
+                          starts=_starts(cm, start(rec)), rtol=1e-10, atol=1e-12, n_points=4001)
+        b = balance(res, cm.accounts)
+        assert b.delivered > 0.5
+        assert abs(b.residual) < 1e-6, b.table()
+        assert {"servo.supply_sag.loss_power", f"servo.{play}.loss_power"} <= set(b.losses)
+        i = np.abs(np.asarray(res["servo.winding.i"]))
+        assert 0.49 < i.max() <= 0.5 + 1e-6  # the 0.5 A cap binds
+    with pytest.raises(ModelError, match="'backlash' and 'gear_backlash' cannot be in one model"):
+        compiled(("coulomb",), (fx.EFFECTS["backlash"], fx.EFFECTS["gear_backlash"]))
 
 
 def test_bam_published_sets_replay_as_in_bams_simulator():
@@ -176,7 +181,7 @@ def test_hidden_pair_that_masks_itself_is_named_together(tmp_path):
 
 HIDDEN = [("goal_rate_limit", 0.4), ("error_deadband", 0.01), ("error_dependent_gain", 2.0), ("duty_limit", 0.45),
           ("punch", 0.05), ("supply_sag", 3.0), ("duty_quantisation", 0.03), ("encoder_offset", 0.03),
-          ("backlash", 0.05)]
+          ("backlash", 0.05), ("gear_backlash", 0.05), ("current_limit", 2.0)]
 
 
 @pytest.mark.parametrize("eid, size", HIDDEN, ids=[h[0] for h in HIDDEN])
@@ -187,7 +192,8 @@ def test_hidden_effect_is_named_among_its_neighbours(tmp_path, eid, size):
               "error_dependent_gain": "duty_limit,load", "duty_limit": "error_dependent_gain,supply_sag",
               "punch": "error_deadband,stribeck", "supply_sag": "duty_limit,load",
               "duty_quantisation": "error_deadband,punch", "encoder_offset": "loop_delay,backlash",
-              "backlash": "encoder_offset,stribeck"}[eid]
+              "backlash": "encoder_offset,stribeck", "gear_backlash": "backlash,stribeck",
+              "current_limit": "duty_limit,supply_sag"}[eid]
     v = _diagnose(tmp_path, {eid: size}, "--candidates", f"{eid},{others}", "--max-effects", "1",
                   gains=(300, 600, 1200), duration=2.0)  # 6 recordings of 2 s, those at kp 600 held out
     assert v["cause"] == eid, v["candidates"]

@@ -69,6 +69,9 @@ from .residuals import leave_one_group_out
 from .screening import screen as screen_fit
 from .verdict import Candidate, CandidateScore, Diagnosis, Fit, Problem, Step, Thresholds  # noqa: F401  (interface)
 
+#: a hard limit whose probe changes no training sample by more than this many noise levels is not reached there
+UNREACHED = 1e-6
+
 
 # ---------------------------------------------------------------------------------------------- fitting
 def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict, drift: bool = False) -> Fit:
@@ -172,14 +175,16 @@ def score(before: Fit, after: Fit, candidate: Candidate, thresholds: Thresholds)
 
 
 # ---------------------------------------------------------------------------------------------- fingerprints
-def fingerprints(problem: Problem, base: Fit, ids, scales: dict) -> dict:
+def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | None = None) -> dict:
     """Projected, noise-scaled fingerprint (training samples stacked) of each candidate at the calibrated
     ``base``; returns ``id -> vector``, and the base residual under key ``None``.
 
     A candidate vanishes at its ``zero``, where the extended model is the base model: the columns of the base
     parameters are the base model's, computed once, and each candidate adds its own column (a run with one
     sensitivity, or the secant to its ``probe``; where the sensitivity at zero cannot be integrated, the secant
-    to its typical magnitude ``scale``)."""
+    to its typical magnitude ``scale``). A hard limit that its probe does not reach on ``base`` (a current cap
+    above every current the base model draws) is probed twice as far from zero, and again, up to its bound; the
+    size its secant was taken to is put into ``probes`` (id -> value), where its refit starts."""
     signals = problem.signals
     ones = {s: 1.0 for s in signals}
     out = {None: residual_vector(base.exps, base.values, signals, ones, scales, "train")}
@@ -198,8 +203,15 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict) -> dict:
         if f is None:  # a hard limit: the secant from zero to the probe (or to its typical magnitude)
             to = c.probe if c.probe is not None else c.sized(c.scale or 1.0)
             r0 = residual_vector(exps, values, signals, ones, scales, "train")
-            r1 = residual_vector(exps, {**values, c.parameter: to}, signals, ones, scales, "train")
+            while True:
+                r1 = residual_vector(exps, {**values, c.parameter: to}, signals, ones, scales, "train")
+                further = c.zero + 2 * (to - c.zero)
+                if np.max(np.abs(r1 - r0)) > UNREACHED or not c.bounds[0] <= further <= c.bounds[1]:
+                    break
+                to = further
             f = (r1 - r0) / (to - c.zero)
+            if probes is not None and c.probe is not None:
+                probes[cid] = to
         coef, *_ = np.linalg.lstsq(B, f, rcond=None)
         out[cid] = f - B @ coef
     return out
@@ -250,17 +262,19 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     base = converged(problem, fit_model(problem, (), dict(start or {}), scales), scales)
     baseline = base
     say("fingerprints")
-    fp = fingerprints(problem, base, ids, scales)
+    probes = {}  # where each hard limit's refit starts (a size its probe reaches on the current model)
+    fp = fingerprints(problem, base, ids, scales, probes)
     match = {cid: _cos(fp[None], fp[cid]) for cid in ids}
     limit = len(ids) if max_effects is None else max_effects
     steps, causes = [], []
     while len(causes) < limit:
-        rest = [cid for cid in ids if cid not in causes]
-        fp_step = fp if not causes else fingerprints(problem, base, rest, scales)
-        scores = _scores(problem, base, causes, {k: fp_step[k] for k in [None, *rest]}, scales, thresholds, say)
+        rest = _open(problem, ids, causes)
+        fp_step = fp if not causes else fingerprints(problem, base, rest, scales, probes)
+        scores = _scores(problem, base, causes, {k: fp_step[k] for k in [None, *rest]}, scales, thresholds, say,
+                         probes)
         best = next((s for s in scores if s.significant), None)
         if best is None and len(causes) + 2 <= limit:
-            found = _lookahead(problem, base, causes, scores, rest, scales, thresholds, say)
+            found = _lookahead(problem, base, causes, scores, rest, scales, thresholds, say, probes)
             if found is not None:  # a pair that passes every test together: both named, the search goes on
                 first, later, second = found
                 steps.append(Step(base, scores, first.id, "pair"))
@@ -282,7 +296,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     else:
         drifted = {"axis": None, "recordings": [], "trends": {}, "drifting": [], "explained_by": {},
                    "note": "not judged: fewer than 3 recordings"}
-    rest = [cid for cid in ids if cid not in causes]
+    rest = _open(problem, ids, causes)
     if causes and rest and steps[-1].before is not base:  # fingerprints on top of the final model
         fp_step = fingerprints(problem, base, rest, scales)
     d = Diagnosis(causes, steps, baseline, base, confusable(ids, fp, steps, thresholds), thresholds, scales, match,
@@ -310,10 +324,11 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     return d
 
 
-def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say) -> list:
+def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say, probes=None) -> list:
     """Every candidate of ``fp_step`` (id -> projected fingerprint at ``base``; the residual under None) scored on
-    top of ``base`` (the model with ``causes``): the most promising refitted, the rest screened (step 3 of the
-    module docstring); sorted by held-out gain."""
+    top of ``base`` (the model with ``causes``): the most promising refitted (a hard limit from the size in
+    ``probes`` its fingerprint was taken to), the rest screened (step 3 of the module docstring); sorted by
+    held-out gain."""
     rest = [cid for cid in fp_step if cid is not None]
     r = fp_step[None]
     cosines = {cid: _cos(r, fp_step[cid]) for cid in rest}
@@ -328,7 +343,9 @@ def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say) 
             continue
         say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))
         try:
-            ext = fit_model(problem, tuple(causes) + (cid,), base.values, scales)
+            start = {**base.values, **({problem.candidates[cid].parameter: probes[cid]} if cid in (probes or {})
+                                       else {})}
+            ext = fit_model(problem, tuple(causes) + (cid,), start, scales)
         except AcausalError as err:  # e.g. a parameter leaving its range: the candidate cannot be scored
             say(f"{cid}: refit failed: {err}")
             sc = _screened(base, problem.candidates[cid], r, fp_step[cid], cos)
@@ -342,7 +359,14 @@ def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say) 
     return scores
 
 
-def _lookahead(problem, base: Fit, causes, scores, rest, scales, thresholds, say):
+def _open(problem, ids, causes) -> list:
+    """The candidates of ``ids`` that can still be added to a model with ``causes``: not named, not excluded by
+    (and not excluding) a named one (:meth:`Candidate.combines`)."""
+    named = [problem.candidates[c] for c in causes]
+    return [cid for cid in ids if cid not in causes and all(problem.candidates[cid].combines(n) for n in named)]
+
+
+def _lookahead(problem, base: Fit, causes, scores, rest, scales, thresholds, say, probes=None):
     """One step further where nothing is significant: a candidate that the held-out data and BIC favour but whose
     per-segment improvements are not consistent (one effect can mask another: a supply sag refitted while a loop
     delay is missing helps some segments and hurts others) is added provisionally, the others are scored on top
@@ -350,13 +374,13 @@ def _lookahead(problem, base: Fit, causes, scores, rest, scales, thresholds, say
     parameters counted, passes every test. Returns ``(first, scores on top of it, second)`` or None."""
     first = next((s for s in scores if s.fit is not None and not s.screened and not s.failed
                   and s.heldout_rmse_gain >= thresholds.min_gain and s.delta_bic <= thresholds.max_delta_bic), None)
-    others = [cid for cid in rest if first is not None and cid != first.id]
+    others = [] if first is None else _open(problem, [cid for cid in rest if cid != first.id], [first.id])
     if not others:
         return None
     say(f"{first.id} gains held out but not consistently per segment: scoring the others on top of it")
     with_first = list(causes) + [first.id]
-    fp2 = fingerprints(problem, first.fit, others, scales)
-    later = _scores(problem, first.fit, with_first, fp2, scales, thresholds, say)
+    fp2 = fingerprints(problem, first.fit, others, scales, probes)
+    later = _scores(problem, first.fit, with_first, fp2, scales, thresholds, say, probes)
     second = next((s for s in later if s.significant), None)
     if second is None:
         return None
@@ -383,7 +407,7 @@ def _named_by_drift(problem, base, causes, steps, drifted, ids, scales, threshol
     tried = []
     for param in drifted["drifting"]:
         for cid in drifted["explained_by"].get(param, ()):
-            if cid in causes or cid not in ids or cid in tried:
+            if cid in causes or cid not in _open(problem, ids, causes) or cid in tried:
                 continue
             tried.append(cid)
             say(f"refitting with {cid}: does it explain the drift of {param}?")

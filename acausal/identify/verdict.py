@@ -25,6 +25,13 @@ class Candidate:
     probe: float | None = None
     #: a realistic size of the effect (its source in the candidate's docstring); None: not known
     typical: float | None = None
+    #: candidates this one cannot be combined with in one model (two plays in series with no inertia between them
+    #: are one play, and the shaft between them has no defined position while both are open)
+    excludes: tuple = ()
+
+    def combines(self, other: "Candidate") -> bool:
+        """Whether this candidate and ``other`` can be in one model (neither excludes the other)."""
+        return other.id not in self.excludes and self.id not in other.excludes
 
     def sized(self, size: float) -> float:
         """The parameter at effect size ``size``: ``zero + size``, or ``zero - size`` where the upper bound does

@@ -8,8 +8,9 @@ value), with one parameter that sets its size:
 * firmware (:mod:`acausal.library.firmware`): ``goal_rate_limit``, ``error_deadband``, ``error_dependent_gain``,
   ``gain_error``, ``duty_limit``, ``punch``, ``loop_delay``;
 * electrics: ``supply_sag`` (a resistance between the logged supply voltage and the bridge),
-  ``duty_quantisation``;
-* sensing: ``encoder_offset``, ``backlash`` (play between the shaft the encoder reads and the output).
+  ``duty_quantisation``, ``current_limit`` (the driver caps the winding's current);
+* sensing and drive train: ``encoder_offset``, ``backlash`` (play between the shaft the encoder reads and the
+  output), ``gear_backlash`` (play in the gear train ahead of an encoder that reads the output shaft).
 
 ``zero`` is the value at which the extended model is the baseline. ``probe`` (where given) is a size at which
 the effect shows for certain: an effect that is a hard limit (a rate or duty limit, a play) has no first-order
@@ -47,6 +48,7 @@ class Effect:
     doc: str = ""
     probe: float | None = None  # fingerprint and refit start for a hard limit (None: at zero)
     fixed: tuple = field(default_factory=tuple)  # (name, value) pairs of the component's other parameters
+    excludes: tuple = ()  # ids of effects it cannot share a model with
 
     def factory(self):
         """A callable building the inserted element (with its size at ``zero``; the replay sets the size)."""
@@ -110,7 +112,17 @@ EFFECTS = {e.id: e for e in [
            "servo gears 0.5-2 deg); flanks stiff (1000 N m/rad) and damped. A hard nonlinearity: the play's first "
            "order effect at zero flips with the sign of the flanks' deflection, so it is fingerprinted by the secant "
            "to 0.01 rad (0.6 deg, the low end of that range)",
-           fixed=(("c", 1000.0), ("d", 1.0)), probe=0.01),
+           fixed=(("c", 1000.0), ("d", 1.0)), probe=0.01, excludes=("gear_backlash",)),
+    Effect("gear_backlash", "drive", "acausal.library.rotational:ElastoBacklash", "servo.gear_backlash.b", "rad",
+           0.0, 0.02, (0.0, 0.3), 0.005, "play in the gear train between the rotor and an encoder that reads the "
+           "output shaft (the XL330's magnetic encoder does): the firmware regulates the output, so the rotor "
+           "crosses the gap unseen when the torque reverses; flanks and fingerprint as for backlash. Not with "
+           "backlash: two plays in series with no inertia between them are one play",
+           fixed=(("c", 1000.0), ("d", 1.0)), probe=0.01, excludes=("backlash",)),
+    Effect("current_limit", "winding", "acausal.library.electrical:CurrentLimitedResistor",
+           "servo.winding.inv_i_max", "1/A", 0.0, 1 / 1.75, (0.0, 20.0), 0.5, "the driver caps the winding's "
+           "current at 1/inv_i_max (Dynamixel Current Limit register; XL330-M288: 1750 mA, ROBOTIS e-manual). A "
+           "hard limit: fingerprinted by the secant to a 1 A cap", probe=1.0),
 ]}
 
 
@@ -129,7 +141,13 @@ def terms(effects) -> tuple:
 
 
 def inserts(effects) -> tuple:
-    """The ``PositionServo`` inserts of ``effects``: ``(slot, name, factory)`` in the given order."""
+    """The ``PositionServo`` inserts of ``effects``: ``(slot, name, factory)`` in the given order; effects that
+    exclude each other are refused, naming both."""
+    for k, a in enumerate(effects):
+        for b in effects[k + 1:]:
+            if b.id in a.excludes or a.id in b.excludes:
+                raise ModelError(f"servo effects {a.id!r} and {b.id!r} cannot be in one model ({a.id} excludes "
+                                 f"{b.id})")
     return tuple((e.slot, e.id, e.factory()) for e in effects if e.slot in SLOTS)
 
 

@@ -38,7 +38,7 @@ BOUNDS = {"servo.kt": (0.01, 10.0, 0.3), "servo.R": (0.1, 100.0, 3.0), "servo.ar
 
 def candidate(e) -> Candidate:
     """The diagnosis candidate of effect record ``e``."""
-    return Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, POSITION, e.unit, e.probe, e.typical)
+    return Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, POSITION, e.unit, e.probe, e.typical, e.excludes)
 
 
 CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
@@ -153,7 +153,7 @@ def _starts(cm, x0: dict) -> dict:
     out = dict(x0)
     if "servo.rotor.phi" in cm.state_names:
         out.update({"servo.rotor.phi": x0["pendulum.phi"], "servo.rotor.w": 0.0})
-    if "servo.backlash.phi_rel" in cm.state_names and "pendulum.phi" not in cm.state_names:
+    if any(s.endswith(".phi_rel") for s in cm.state_names) and "pendulum.phi" not in cm.state_names:
         out.pop("pendulum.phi", None)
     return out
 
