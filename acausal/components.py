@@ -63,13 +63,15 @@ class Parameter(_Declaration):
     """
 
     def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
-                 max: float | None = None, device: str = ""):
+                 max: float | None = None, device: str = "", nonzero: bool = False):
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
-        self.device = device
+        self.device, self.nonzero = device, nonzero
 
     def __repr__(self):  # what help(Component) and a notebook show: default, unit, bounds, doc
         parts = [repr(self.default), f"unit={self.unit!r}"]
         parts += [f"{k}={v!r}" for k, v in (("min", self.min), ("max", self.max)) if v is not None]
+        if self.nonzero:
+            parts.append("nonzero=True")
         if self.doc:
             parts.append(f"doc={self.doc!r}")
         if self.device:

@@ -65,6 +65,8 @@ def check_parameter(info, v) -> bool:
     if info.min is not None and low < info.min:
         raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is below its minimum {info.min} "
                          f"[{info.unit}]")
+    if info.nonzero and (v == 0 if not batch else bool(np.any(arr == 0))):
+        raise ModelError(f"parameter {info.name!r} of {info.owner} is 0, which it must not be ({info.doc})")
     if info.max is not None and high > info.max:
         raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is above its maximum {info.max} "
                          f"[{info.unit}]")

@@ -134,7 +134,9 @@ class PartialGear(PartialElementaryTwoFlangesAndSupport2):
     relative to the support, ``phi_a = ratio * phi_b``; ``ratio`` > 1 reduces speed from a to b. A subclass
     writes the torque law, one equation between ``flange_a.tau`` and ``flange_b.tau``."""
 
-    ratio = Parameter(1.0, unit="1", doc="transmission ratio phi_a / phi_b")
+    ratio = Parameter(1.0, unit="1", nonzero=True,
+                      doc="transmission ratio phi_a / phi_b (negative: the output turns the other way; 0 would lock "
+                          "flange_a)")
     phi_a = Variable(unit="rad", doc="flange_a (input) angle relative to the support")
     phi_b = Variable(unit="rad", doc="flange_b (output) angle relative to the support")
 

@@ -30,7 +30,7 @@ import warnings
 
 import numpy as np
 
-from .errors import SimulationError
+from .errors import AcausalError, SimulationError
 
 CONDITION_LIMIT = 0.1  # a variable may move by this fraction of its range when the states move by their tolerance
 SAMPLES = 21  # output times at which the conditioning is checked (evenly spread, both ends included)
@@ -272,7 +272,7 @@ def energy_balance(res, rtol) -> list:
     """The energy balance residual relative to the largest energy that moved (through an account, or between the
     forms inside one: :func:`_exchanged`), if over :func:`balance_limit`."""
     acc = res.model.accounts
-    if acc is None or not (acc.sources or acc.boundary) or (not acc.losses and not acc.stored):
+    if acc is None or not (acc.losses or acc.stored):
         return []
     b = res.energy_balance()
     terms = list(b.sources.values()) + list(b.boundary.values()) + list(b.losses.values())
@@ -286,11 +286,56 @@ def energy_balance(res, rtol) -> list:
     limit = balance_limit(rtol)
     if rel <= limit:
         return []
-    if "compiled path" in (res.solver or ""):
-        hint = "the integrator accepted steps it should not have (a stiff model): tighten rtol/atol"
+    wrong = wrong_accounts(res)
+    if wrong:
+        hint = ("an account is wrong: " + "; ".join(wrong) + ": check the sign and the factor of its loss_power, "
+                "energy or source_power equation (or a port it leaves out)")
+    elif "compiled path" in (res.solver or ""):
+        hint = ("every component's account holds at each instant, so the residual is the integration's: the "
+                "integrator accepted steps it should not have (a stiff model): tighten rtol/atol")
     else:
-        hint = ("the scipy path integrates energies on its steps' interpolants, which a stiff model (a switch "
-                "through a tiny resistance) leaves uncertain: the compiled path (method='auto', with CasADi) "
-                "integrates them under the integrator's error control; or tighten rtol/atol")
+        hint = ("every component's account holds at each instant, so the residual is the integration's: the scipy "
+                "path integrates energies on its steps' interpolants, which a stiff model (a switch through a tiny "
+                "resistance) leaves uncertain: the compiled path (method='auto', with CasADi) integrates them "
+                "under the integrator's error control; or tighten rtol/atol")
     return [f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
             f"the limit at rtol {float(np.max(rtol)):g}): {hint}"]
+
+
+#: a component's power balance off by more than this fraction of its largest term at some output time is wrong
+#: (a correct account holds to round-off at every instant, whatever the integration's error; the margin covers a
+#: stored energy whose rate the model does not compute and that is differentiated on the output grid)
+ACCOUNT_LIMIT = 0.01
+
+
+def wrong_accounts(res) -> list:
+    """The components whose own account does not hold at the output times: the power into the component through
+    its physical ports plus its ``source_power`` differs from its ``loss_power`` (unless the loss leaves through
+    its heat ports, which are then among the ports) plus the rate of its stored ``energy`` by more than
+    :data:`ACCOUNT_LIMIT` of the largest of these terms. Each named with the worst mismatch and its time."""
+    acc = res.model.accounts
+    owners: dict = {}
+    for kind, names in (("loss", acc.losses), ("stored", acc.stored), ("source", acc.sources)):
+        for name in names:
+            owners.setdefault(name.rsplit(".", 1)[0], {}).setdefault(kind, []).append(name)
+    out = []
+    for comp, parts in owners.items():
+        try:
+            ports = res._through(comp)
+            flows = [np.asarray(res.power(p), dtype=float) for p in ports]
+            heat = any(f"{p}.Q_flow" in res._known_names() for p in ports)
+            terms = flows + [np.asarray(res[n], dtype=float) for n in parts.get("source", [])]
+            terms += [-np.asarray(res[n], dtype=float) for n in parts.get("loss", []) if not heat]
+            terms += [-np.asarray(res.der(n), dtype=float) for n in parts.get("stored", [])]
+        except (KeyError, ValueError, AcausalError):  # a port the result cannot give a power for: not judged
+            continue
+        terms = [np.broadcast_to(v, res.t.shape) for v in terms]
+        size = max(float(np.max(np.abs(v))) for v in terms) if terms else 0.0
+        if not size > 0:
+            continue
+        r = np.sum(terms, axis=0)
+        k = int(np.argmax(np.abs(r)))
+        if abs(r[k]) > ACCOUNT_LIMIT * size:
+            out.append(f"{comp!r}: the power into it through {', '.join(ports)} and its accounts differ by "
+                       f"{r[k]:.3g} W at t = {res.t[k]:.6g} s (its largest term {size:.3g} W)")
+    return out

@@ -391,7 +391,7 @@ class Gearbox(Model):
     input inertia 0.7 g cm2, then helical 10:1). ``law`` selects the mesh's switching (see :class:`LossyGear`).
     """
 
-    ratio = Parameter(1.0, unit="1", doc="transmission ratio")
+    ratio = Parameter(1.0, unit="1", nonzero=True, doc="transmission ratio (0 would lock flange_a)")
     eta = Parameter(1.0, unit="1", min=1e-6, max=1.0, doc="mesh efficiency")
     J_a = Parameter(0.0, unit="kg.m2", min=0.0, doc="inertia on the input side")
     J_b = Parameter(0.0, unit="kg.m2", min=0.0, doc="inertia on the output side")

@@ -107,3 +107,24 @@ def test_a_split_of_few_recordings_holds_one_out(n, tmp_path):
         r.meta = {**r.meta, "trajectory_name": "same"}
     mask, text = Split().held_out(recs)
     assert mask.tolist() == [False] * (n - 1) + [True] and f"the last of {n} recordings" in text
+
+
+def test_position_and_goal_swapped_are_named(tmp_path):
+    """A servo follows its goal: a log whose position leads the goal (the two columns swapped) is refused; the
+    shipped logs' positions lag their goals by 43-196 ms where the goal moves smoothly."""
+    from acausal.models.servo.recording_format import lag
+
+    name = "xl330_m0490_l100_kp400_sin_sin_2026-01-15_10h29m14"
+    src = res.files("acausal.models.servo").joinpath("data/xl330/recordings")
+    shutil.copy(str(src.joinpath(name + ".json")), tmp_path / f"{name}.json")
+    lines = src.joinpath(name + ".csv").read_text().splitlines()
+    header = lines[0].split(",")
+    i, j = header.index("position_rad"), header.index("goal_position_rad")
+    header[i], header[j] = header[j], header[i]
+    (tmp_path / f"{name}.csv").write_text(",".join(header) + "\n" + "\n".join(lines[1:]) + "\n")
+    with pytest.raises(DataError, match=rf"{name}.*the position leads the goal by 0\.10\d s.*swapped"):
+        load_recordings(tmp_path, SERVO_FORMAT)
+    recs = load_recordings(str(src), SERVO_FORMAT)
+    delays = [lag(r.t, r["goal_position_rad"], r["position_rad"], r["torque_enable"]) for r in recs]
+    moving = [d for d in delays if d != 0]  # the step goals (up_and_down, lift_and_drop) peak at no lag
+    assert len(moving) == 8 and 0.04 < min(moving) and max(moving) < 0.2

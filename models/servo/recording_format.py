@@ -21,6 +21,33 @@ RANGES = {"sample interval": (1e-5, 0.1), "input_voltage_V": (1.0, 60.0), "mass_
           "arm_mass_kg": (0.0, 50.0), "arm_length_m": (0.0, 2.0), "angle": (-4 * np.pi, 4 * np.pi)}
 
 
+#: the longest lead of the position over the goal that is not a swap [s]: the firmware cannot move the arm
+#: before it is sent the goal, so a position that leads by more (and by more than two samples) is the goal
+MAX_LEAD = 0.01
+#: the lags searched for the position's delay behind the goal [s]
+LAG_WINDOW = 0.25
+
+
+def lag(t, goal, position, enable) -> float | None:
+    """The delay [s] of ``position`` behind ``goal`` over the torque-enabled samples: the lag (within
+    +-:data:`LAG_WINDOW`, on the median sample interval) of the largest cross-correlation of the two, mean
+    removed; negative: the position leads. None where fewer than 50 samples have the torque on or the goal does
+    not move."""
+    on = enable > 0.5
+    t, goal, position = t[on], goal[on], position[on]
+    if t.size < 50 or np.ptp(goal) == 0:
+        return None
+    dt = float(np.median(np.diff(t)))
+    grid = np.arange(t[0], t[-1], dt)
+    g = np.interp(grid, t, goal)
+    p = np.interp(grid, t, position)
+    g, p = g - g.mean(), p - p.mean()
+    k = min(int(round(LAG_WINDOW / dt)), g.size - 1)
+    lags = np.arange(-k, k + 1)  # j: the position j samples after the goal
+    c = [float(g[max(-j, 0):g.size - max(j, 0)] @ p[max(j, 0):p.size - max(-j, 0)]) for j in lags]
+    return float(lags[int(np.argmax(c))] * dt)
+
+
 def _line(mask) -> int:
     """The file line (header = 1) of the first row where ``mask`` holds."""
     return int(np.argmax(mask)) + 2
@@ -53,6 +80,10 @@ def _plausible(columns: dict, meta: dict) -> str | None:
         if bad.any():
             return (f"line {_line(bad)}, column {name!r}: {columns[name][bad][0]:g} rad, more than two turns from "
                     "zero: degrees or encoder counts in a column of radians?")
+    delay = lag(t, columns["goal_position_rad"], columns["position_rad"], enable)
+    if delay is not None and delay < -max(MAX_LEAD, 2 * dt):
+        return (f"columns 'position_rad' and 'goal_position_rad': the position leads the goal by {-delay:.3g} s; a "
+                "servo follows its goal, it cannot lead it: are the two columns swapped?")
     for key in ("mass_kg", "arm_mass_kg", "arm_length_m"):
         lo, hi = RANGES[key]
         if key in meta and not lo <= meta[key] <= hi:
