@@ -28,6 +28,7 @@ from .errors import ModelError, SimulationError
 from .failures import non_finite_error, step_failure
 from .modes import (algebraic_modes, apply_hits, crossings_in_step, handle_event, restarts, settle_modes,
                     zeros)
+from .quadratures import Quadratures, StatesOnly
 
 METHODS = {"BDF": integrate.BDF, "Radau": integrate.Radau, "LSODA": integrate.LSODA, "RK45": integrate.RK45,
            "RK23": integrate.RK23, "DOP853": integrate.DOP853}
@@ -35,6 +36,10 @@ IMPLICIT = {"BDF", "Radau", "LSODA"}
 COMPILED = "CVODES"  # the compiled path's integrator (method="CVODES" asks for it explicitly)
 FALLBACK = "LSODA"  # what method="auto" uses on the scipy path (ROBUST for a model with state events)
 ROBUST = "BDF"  # models with events, and a failed compiled run run again (its failure report names the step)
+#: absolute tolerance of the energy integrals carried as states: so large that they take no part in the error
+#: control (as CVODES's quadratures on the compiled path): they follow the states' steps, evaluated at the
+#: integrator's own states, not at its interpolants
+UNCONTROLLED = 1e300
 MAX_STEPS = 2_000_000  # scipy steps of an implicit integrator at most (about 3 minutes of stepping)
 MAX_STEPS_EXPLICIT = 200_000  # of an explicit one: more means the model is stiff for it
 
@@ -59,18 +64,23 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     :data:`MAX_STEPS_EXPLICIT` for an explicit one: a stiff model on RK45 stops with an error saying so instead of
     running for hours).
     """
-    from .trust import check, check_mode
+    from .trust import check, check_mode, integration_fault
 
     check_mode(trust)
-    res = _simulate(cm, t_end, t_start=t_start, params=params, inputs=inputs, starts=starts, method=method,
-                    rtol=rtol, atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step,
-                    first_step=first_step, max_events=max_events, dense_output=dense_output, max_steps=max_steps)
+    run = dict(t_start=t_start, params=params, inputs=inputs, starts=starts, method=method, rtol=rtol, atol=atol,
+               t_eval=t_eval, n_points=n_points, max_step=max_step, first_step=first_step, max_events=max_events,
+               dense_output=dense_output, max_steps=max_steps)
+    res = _simulate(cm, t_end, **run)
+    if trust != "off" and dense_output and integration_fault(res, rtol):
+        # the scipy path's energies, integrated on the steps' interpolants, miss what every account holds: the
+        # run again with them as states, under the integrator's error control (acausal.quadratures)
+        res = _simulate(cm, t_end, **{**run, "method": res.scipy_method}, quadratures=True)
     check(res, rtol, atol, trust, dense_output)
     return res
 
 
 def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,
-              first_step, max_events, dense_output, max_steps):
+              first_step, max_events, dense_output, max_steps, quadratures: bool = False):
     from .result import Result
 
     t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
@@ -111,7 +121,10 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
     D = np.empty((len(d), t_out.size))
     events = []
     segments = []  # (t0, t1, dense interpolant, modes) of every accepted step, for exact energy integrals
-    t, x = t_start, x0
+    quad = Quadratures(cm) if quadratures else None  # energy integrals carried as states
+    nq = len(quad.names) if quad is not None else 0
+    Q = np.zeros((nq, t_out.size))
+    t, x = t_start, (np.concatenate([x0, np.zeros(nq)]) if nq else x0)
     k_out = 0
     n_out = t_out.size
     solver_cls = METHODS[method]
@@ -119,8 +132,14 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
     off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
     steps_left = limit = max_steps if max_steps is not None else MAX_STEPS if method in IMPLICIT else MAX_STEPS_EXPLICIT
     while True:
-        fun, jac = _make_functions(cm, p, d, u)
+        fun, jac = _make_functions(cm, p, d, u, quad)
         opts = dict(rtol=rtol, atol=atol, max_step=max_step)
+        if nq:  # the integrals outside the error control; the states' tolerances tightened so that scipy's RMS
+            # error norm over states and integrals (these contributing nothing) weighs the states as without them
+            k = math.sqrt(n / (n + nq))
+            opts["rtol"] = np.asarray(rtol, dtype=float) * k
+            opts["atol"] = np.concatenate([np.broadcast_to(np.asarray(atol, dtype=float) * k, (n,)),
+                                           np.full(nq, UNCONTROLLED)])
         if first_step is not None:
             opts["first_step"] = first_step
         if method in IMPLICIT:
@@ -129,7 +148,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
             solver = solver_cls(fun, t, x, t_end, **opts)  # evaluates the model to choose its first step
         except _NonFinite as exc:
             raise non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
-        z_old = zeros(cm, t, x, p, d, u, off=off) if has_events else None
+        z_old = zeros(cm, t, x[:n], p, d, u, off=off) if has_events else None
         restarted = False
         while solver.status == "running":
             t_prev = solver.t
@@ -137,7 +156,7 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
                 msg = solver.step()
             except _NonFinite as exc:  # see _make_functions
                 raise non_finite_error(cm, exc.t, exc.x, p, d, u, exc.where) from None
-            y_sum = float(solver.y.sum())
+            y_sum = float(solver.y.sum())  # (with quadratures, the states are solver.y[:n])
             if solver.status == "failed" or y_sum - y_sum != 0.0:  # failed, or NaN/inf in the states
                 bad = _find_non_finite(cm, solver, t_prev, p, d, u)
                 raise bad if bad is not None else step_failure(cm, solver, msg, p, d, u, rtol, atol)
@@ -148,10 +167,11 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
             if t_new == t_prev:
                 continue
             need_out = k_out < n_out and t_out[k_out] <= t_new
-            sol = solver.dense_output() if (need_out or has_events or dense_output) else None
+            full = solver.dense_output() if (need_out or has_events or dense_output) else None
+            sol = StatesOnly(full, n) if nq and full is not None else full
             hit = None
             if has_events:
-                z_new = zeros(cm, t_new, solver.y, p, d, u, False, off)  # a bad value: after any crossing
+                z_new = zeros(cm, t_new, solver.y[:n], p, d, u, False, off)  # a bad value: after any crossing
                 hits = crossings_in_step(cm, sol, t_prev, t_new, z_old, z_new, p, d, u, off=off)
                 z_old = z_new
                 if hits:
@@ -168,18 +188,26 @@ def _simulate(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol,
                 if k_end > k_out:
                     X[:, k_out:k_end] = sol(t_out[k_out:k_end])
                     D[:, k_out:k_end] = d[:, None]
+                    if nq:
+                        Q[:, k_out:k_end] = np.asarray(full(t_out[k_out:k_end]))[n:]
                     k_out = k_end
             if hit:
                 x_e, d, off = handle_event(cm, events, hit, t_e, x_e, p, d, d_new, u, max_events)
-                t, x = t_e, x_e
+                t, x = t_e, (np.concatenate([x_e, np.asarray(full(t_e))[n:]]) if nq else x_e)
                 restarted = True
                 break
         if not restarted or t >= t_end:
             break
     if k_out < n_out:  # t_end itself
-        X[:, k_out:] = solver.y[:, None]
+        X[:, k_out:] = solver.y[:n, None]
         D[:, k_out:] = d[:, None]
-    return Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label)
+        Q[:, k_out:] = solver.y[n:, None]
+    integrals = dict(zip(quad.names, Q)) if nq else None
+    if nq:
+        solver_label = solver_label[:-1] + "; energies integrated as states)"
+    res = Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label, integrals=integrals)
+    res.scipy_method = method
+    return res
 
 
 def _too_many_steps(cm, method, limit, t_prev, t_new, t_start, t_end) -> SimulationError:
@@ -292,12 +320,28 @@ def _number(value, what: str) -> float:
 
 
 # ---------------------------------------------------------------------------------------------- functions
-def _make_functions(cm, p, d, u):
+def _make_functions(cm, p, d, u, quad=None):
     """Right-hand side and Jacobian for the integrator. Scalar runs pass plain Python floats to the generated
-    code (several times faster arithmetic than numpy scalars)."""
+    code (several times faster arithmetic than numpy scalars). With ``quad`` (:class:`Quadratures`) the energy
+    integrals follow the states (their rows of the Jacobian are left zero: nothing depends on them, and the
+    Newton iteration of an implicit step converges on them with the states)."""
     rhs, jacf = cm.funcs["rhs"], cm.funcs["jac"]
     pl = p.tolist()
     dl = d.tolist()
+    if quad is not None:
+        n, nq = len(cm.state_names), len(quad.names)
+        fun0, jac0 = _make_functions(cm, p, d, u)
+
+        def fun_q(t, x):
+            xs = x[:n]
+            return np.concatenate([np.asarray(fun0(t, xs), dtype=float), quad.rhs(t, xs.tolist(), p, d, u)])
+
+        def jac_q(t, x):
+            J = np.zeros((n + nq, n + nq))
+            J[:n, :n] = jac0(t, x[:n])
+            return J
+
+        return fun_q, jac_q
 
     # On Python floats, 1/(1 - t) at t == 1 raises ZeroDivisionError (a huge power OverflowError) instead of
     # giving inf: it is reported as a non-finite value with its time and variable. A non-finite Jacobian (e.g.

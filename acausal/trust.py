@@ -64,8 +64,8 @@ def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
     res.trust = []
     if trust == "off":
         return
-    findings = nonfinite(res)
-    if not findings:  # a NaN or an infinity makes the other checks meaningless
+    findings = nonfinite(res) or poles(res)
+    if not findings:  # a NaN, an infinity or a pole makes the other checks meaningless
         findings = conditioning(res, rtol, atol)
         if dense_output:
             findings += energy_balance(res, rtol)
@@ -106,6 +106,51 @@ def nonfinite(res) -> list:
     more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
     return [f"not finite: {'; '.join(items)}{more} (a division by zero or a square root of a negative number in "
             "the model's equations: check the parameters named there)"]
+
+
+def poles(res) -> list:
+    """A variable solved as a quotient whose divisor changes sign between two output times: it went through a
+    pole there (``y = 1/x`` with ``x`` crossing zero gives a huge value, then one of the other sign, both finite).
+    One finding naming the first few, with the divisor and the times. Divisors of parameters only are the
+    parameters' checks (:class:`~acausal.components.Parameter` ``min``, ``nonzero``)."""
+    import sympy as sp
+
+    cm = res.model
+    found = cm.derived.get("trust: divisors")
+    if found is None:
+        from .solve import Assign
+        found = []
+        for st in cm.steps:
+            if not isinstance(st, Assign) or not isinstance(st.expr, sp.Basic):
+                continue
+            for pw in st.expr.atoms(sp.Pow):
+                base, ex = pw.args
+                if ex.is_number and ex.is_negative and any(not cm.has_parameter(str(x)) and str(x) != "time"
+                                                           for x in base.free_symbols):
+                    found.append((str(st.var), base))
+        cm.derived["trust: divisors"] = found
+    if not found or res.t.size < 2:
+        return []
+    items = []
+    for name, base in found:
+        try:
+            values = {str(x): res[str(x)] for x in base.free_symbols if not cm.has_parameter(str(x))
+                      and str(x) != "time"}
+            with np.errstate(all="ignore"):
+                v = np.broadcast_to(np.asarray(cm.eval_expr(base, values, res.params, None, res.t), dtype=float),
+                                    res.t.shape)
+        except (KeyError, AcausalError, TypeError, ValueError):  # a divisor the result cannot evaluate: not judged
+            continue
+        flip = np.flatnonzero(v[:-1] * v[1:] < 0)
+        if flip.size:
+            k = int(flip[0])
+            items.append(f"{name} (its divisor {base} changes sign between t = {res.t[k]:.6g} and "
+                         f"{res.t[k + 1]:.6g} s)")
+    if not items:
+        return []
+    more = f" and {len(items) - 3} more" if len(items) > 3 else ""
+    return [f"through a pole: {'; '.join(items[:3])}{more}: its values there are meaningless (a division by a "
+            "variable that crosses zero: check the model's equations or its range of operation)"]
 
 
 def _first_nonfinite(names, values, t) -> list:
@@ -268,9 +313,28 @@ def _exchanged(res, stored) -> list:
     return out
 
 
+def integration_fault(res, rtol) -> bool:
+    """Whether a scipy-path result (``res.scipy_method``) fails the energy balance only by the integration of its
+    energies: every value finite, no pole, every component's account holding at each instant
+    (:func:`wrong_accounts`), the energies integrated on the steps' interpolants. :func:`~acausal.simulate.simulate`
+    then runs again with the energies as states (:mod:`acausal.quadratures`)."""
+    if getattr(res, "scipy_method", None) is None or res._integrals:
+        return False
+    if nonfinite(res) or poles(res):
+        return False
+    return bool(energy_balance(res, rtol)) and not wrong_accounts(res)
+
+
 def energy_balance(res, rtol) -> list:
     """The energy balance residual relative to the largest energy that moved (through an account, or between the
-    forms inside one: :func:`_exchanged`), if over :func:`balance_limit`."""
+    forms inside one: :func:`_exchanged`), if over :func:`balance_limit` (found once per result and tolerance)."""
+    key = ("trust: balance", float(np.max(rtol)))
+    if key not in res._cache:
+        res._cache[key] = _energy_balance(res, rtol)
+    return res._cache[key]
+
+
+def _energy_balance(res, rtol) -> list:
     acc = res.model.accounts
     if acc is None or not (acc.losses or acc.stored):
         return []

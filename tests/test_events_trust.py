@@ -75,8 +75,9 @@ def test_a_three_phase_bridge_switches_the_same_way_in_every_process(tmp_path, m
     assert all(o == outs[0] for o in outs[1:])
     first = outs[0]
     assert len(first["events"]) >= 60 and first["v"][-1] == pytest.approx(100 * np.sqrt(3), rel=1e-3)
-    if method == "BDF":  # the scipy path's energies of stiff switched currents miss by 1 %: flagged, not silent
-        assert first["flagged"] and abs(first["residual"]) > 1e-3
+    if method == "BDF":  # on the steps' interpolants the energies of stiff switched currents missed by 1 %: the
+        # run is repeated with them as states (acausal.quadratures), and the balance closes
+        assert not first["flagged"] and abs(first["residual"]) < 1e-4
     elif _compiled():
         assert not first["flagged"] and abs(first["residual"]) < 1e-5
 
