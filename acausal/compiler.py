@@ -14,13 +14,14 @@ import sympy as sp
 
 from .alias import eliminate_aliases
 from .codegen import CodeGenerator
-from .errors import ModelError, SignalError, UnknownNameError
+from .errors import ModelError, SignalError, StructureError, UnknownNameError
 from .flatten import FlatModel, flatten
 from .parameter_values import check_parameter, parameter_plan
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import solve_blocks
 from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
+from .structure.balance import unbalanced_note
 from .time_events import time_events
 from .symbols import split_der, time
 
@@ -33,7 +34,11 @@ def compile_model(model) -> "CompiledModel":
     time_events(flat)
     system = EquationSystem.from_flat(flat)
     _check_symbols(flat, system)
-    system = reduce_index(check_balance(system))
+    try:
+        system = check_balance(system)
+    except StructureError as err:  # a component that does not balance its own unknowns is named first
+        raise StructureError(unbalanced_note(model) + str(err)) from None
+    system = reduce_index(system)
     _check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
     free = {n: (_resolve(nominal, flat), _resolve(scale, flat), origin)

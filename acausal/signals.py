@@ -101,7 +101,14 @@ class ExpressionSignal(Signal):
     """A sympy expression of :data:`acausal.time`, evaluated numerically with exact derivatives."""
 
     def __init__(self, expr, name: str = "expression"):
-        self.expr = sp.sympify(expr)
+        if isinstance(expr, str):  # sympify would evaluate the text as Python code
+            raise SignalError(f"signal {name!r}: got the string {expr!r}; give a sympy expression of acausal.time "
+                              "(text is not parsed: it would be executed as code)")
+        try:
+            self.expr = sp.sympify(expr, strict=True)
+        except sp.SympifyError:
+            raise SignalError(f"signal {name!r}: {expr!r} ({type(expr).__name__}) is not a number or a sympy "
+                              "expression of acausal.time") from None
         extra = self.expr.free_symbols - {time}
         if extra:
             raise SignalError(f"signal {name!r}: expression {self.expr} depends on {sorted(map(str, extra))}, "

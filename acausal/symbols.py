@@ -14,6 +14,8 @@ import re
 
 import sympy as sp
 
+from .errors import ModelError
+
 #: The independent variable, time [s].
 time = sp.Symbol("time", real=True)
 
@@ -71,7 +73,14 @@ def der(expr, order: int = 1):
     ``der(x)`` for a variable symbol ``x`` is the symbol ``der(x)``. Prescribed signals (sympy functions of
     ``time``) differentiate through sympy; see :mod:`acausal.signals`.
     """
-    expr = sp.sympify(expr)
+    if isinstance(expr, str):  # sympify would evaluate the text as Python code
+        raise ModelError(f"der({expr!r}): give a variable or a sympy expression of variables (self.x, not 'x'); "
+                         "text is not parsed: it would be executed as code")
+    try:
+        expr = sp.sympify(expr, strict=True)
+    except sp.SympifyError:
+        raise ModelError(f"der: {expr!r} ({type(expr).__name__}) is not a variable or an expression of variables") \
+            from None
     for _ in range(order):
         expr = _der1(expr)
     return expr

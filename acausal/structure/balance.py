@@ -104,6 +104,53 @@ def check_balance(system: EquationSystem) -> EquationSystem:
     raise StructureError("; ".join(lines))
 
 
+def local_balance(component) -> tuple:
+    """``(equations, unknowns)`` of a component without sub-components, counted as Modelica's local balance rule
+    counts them: its own variables, and the potentials of its physical ports and the values of its outputs (its
+    ports' flows are determined by the connections, its inputs' values by what drives them). A component whose
+    two counts differ makes every model it is used in over- or under-determined."""
+    from ..components import Connector, Flow, Potential, Variable
+    from ..connectors import RealInput
+
+    own = sum(1 for d in component.declarations().values() if isinstance(d, Variable))
+    for port in component._children.values():
+        if isinstance(port, Connector) and not isinstance(port, RealInput):
+            own += sum(1 for d in port.declarations().values() if isinstance(d, Potential) and not isinstance(d, Flow))
+    return len(component.equations()), own
+
+
+def unbalanced(model) -> list:
+    """The components of ``model`` (without sub-components of their own) whose local balance
+    (:func:`local_balance`) fails: ``(path, class name, equations, unknowns)``."""
+    from ..components import Connector
+
+    out = []
+
+    def visit(parent):
+        for child in parent._children.values():
+            if isinstance(child, Connector):
+                continue
+            if any(not isinstance(g, Connector) for g in child._children.values()):
+                visit(child)
+                continue
+            n_eq, n_var = local_balance(child)
+            if n_eq != n_var:
+                out.append((child._path, type(child).__name__, n_eq, n_var))
+    visit(model)
+    return out
+
+
+def unbalanced_note(model) -> str:
+    """What :func:`unbalanced` finds, as the head of a structure error ('' when every component balances)."""
+    found = unbalanced(model)
+    if not found:
+        return ""
+    parts = [f"{cls} {path!r} has {n_eq} equation(s) for {n_var} unknown(s) of its own "
+             f"({'too many' if n_eq > n_var else 'too few'})" for path, cls, n_eq, n_var in found]
+    return ("; ".join(parts) + " (its variables, its ports' potentials and its outputs' values; the flows come "
+            "from its connections): the likely culprit; ")
+
+
 def _fmt(items, limit=12):
     items = list(items)
     s = ", ".join(repr(i) if not str(i).startswith(("connect", "unconnected")) and " " not in str(i) else str(i)
