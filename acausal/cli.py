@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 from .cli_values import check_bench_folder, check_outputs, number, pairs, whole_number
+from .fileio import atomic_write_text
 
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
 EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
@@ -161,10 +162,9 @@ def cmd_fit(args) -> int:
                                 split=calibration.Split(holdout_every=args.holdout_every))
     res = fit_outputs(out, cal, exps, f"recordings in `{args.data}`")
     warned = "".join(f"- {w}\n" for w in cal.warnings)
-    (out / "report.md").write_text(f"# {res['title']}\n\n"
-                                   + (f"**Warnings: the data or the fit is suspect.**\n\n{warned}\n" if warned else "")
-                                   + f"{res['markdown']}\n\n"
-                                   + "\n".join(f"![{p.stem}]({p.name})" for p in res["figures"]) + "\n")
+    atomic_write_text(out / "report.md", f"# {res['title']}\n\n"  # written last: the folder's completion mark
+                      + (f"**Warnings: the data or the fit is suspect.**\n\n{warned}\n" if warned else "")
+                      + f"{res['markdown']}\n\n" + "\n".join(f"![{p.stem}]({p.name})" for p in res["figures"]) + "\n")
     for n in cal.names:
         print(f"{n} = {cal.values[n]:.6g} +- {cal.std[n]:.2g}")
     for w in cal.warnings:

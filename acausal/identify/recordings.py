@@ -328,7 +328,19 @@ def _lookup(raw: dict, dotted: str, missing):
 
 
 def _load_csv(path: Path, fmt: RecordingFormat):
-    with open(path, newline="") as fh:
+    try:
+        return _parse_csv(path, fmt)
+    except UnicodeDecodeError as exc:
+        with open(path, "rb") as fh:
+            head = fh.read(4)
+        what = ("gzip-compressed: decompress it first (gunzip)" if head[:2] == b"\x1f\x8b" else
+                "a zip archive: extract it first" if head[:2] == b"PK" else
+                f"not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset {exc.start})")
+        raise DataError(f"{path}: {what}; a recording is a comma-separated text file") from None
+
+
+def _parse_csv(path: Path, fmt: RecordingFormat):
+    with open(path, newline="", encoding="utf-8") as fh:
         header_line = fh.readline()
         if not header_line.strip():
             raise DataError(f"{path}: empty file (expected a header row of column names)")
@@ -396,6 +408,8 @@ def _find_bad_row(path, body, header):
             raise DataError(f"{path}, line {n}: {len(fields)} values for {len(header)} columns")
         for h, f in zip(header, fields):
             try:
+                if "_" in f:  # Python's float() takes 1_000; a CSV reader does not
+                    raise ValueError(f)
                 float(f)
             except ValueError:
                 raise DataError(f"{path}, line {n}, column {h!r}: {f.strip()!r} is not a number") from None

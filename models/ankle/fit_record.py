@@ -7,12 +7,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from acausal.fileio import atomic_write_text
+
 
 def write(record: dict, path: Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
-    return path
+    return atomic_write_text(path, json.dumps(record, indent=1, sort_keys=True) + "\n")  # never half a record
 
 
 def markdown(record: dict) -> str:

@@ -4,7 +4,44 @@ A recording set is a folder; each experiment is ``NAME.csv`` + ``NAME.json``. An
 plantarflexion positive, 0 at neutral stance; the linkage deflection is ``alpha = phi - theta``. The joint power
 is ``joint_torque_Nm * d(theta)/dt``. A recording holds several consecutive strides.
 """
+import numpy as np
+
 from acausal.identify import Column, Key, RecordingFormat
+
+#: plausibility ranges of an ankle-actuator bench recording: a value outside is a unit slip (ms, mA, mV, degrees,
+#: N mm) or a broken sensor, not physics. The actuator: a 48 V supply, a motor of a few amperes (the paper's
+#: EC-4pole 30 peaks near 10 A), a human ankle's torque up to about 2 N m per kg of body mass
+RANGES = {"sample interval": (1e-5, 0.1), "angle": (-2 * np.pi, 2 * np.pi), "joint_torque_Nm": (-1000.0, 1000.0),
+          "supply_voltage_V": (0.0, 200.0), "supply_current_A": (-200.0, 200.0), "motor_current_A": (-200.0, 200.0),
+          "precompression_m": (0.0, 0.1), "stride_time_s": (0.2, 20.0), "spring_stiffness_N_per_m": (1e3, 1e7),
+          "body_mass_kg": (1.0, 500.0)}
+_UNITS = {"joint_torque_Nm": "N m", "supply_voltage_V": "V", "supply_current_A": "A", "motor_current_A": "A"}
+
+
+def _plausible(columns: dict, meta: dict) -> str | None:
+    """What makes a bench recording physically implausible (see :data:`RANGES`), or None."""
+    t = columns["time_s"]
+    if t.size > 1:
+        dt = float(np.median(np.diff(t)))
+        lo, hi = RANGES["sample interval"]
+        if not lo <= dt <= hi:
+            return (f"column 'time_s': the samples are {dt:.4g} s apart (median); a bench is sampled every "
+                    f"{lo:g}-{hi:g} s: is the time in another unit (ms, us)?")
+    checks = [(n, RANGES["angle"], "rad", "degrees in a column of radians?") for n in
+              ("ankle_angle_rad", "moment_arm_angle_rad", "moment_arm_setpoint_rad")]
+    checks += [(n, RANGES[n], u, "another unit, or a broken sensor?") for n, u in _UNITS.items()]
+    for name, (lo, hi), unit, hint in checks:
+        bad = (columns[name] < lo) | (columns[name] > hi)
+        if bad.any():
+            k = int(np.argmax(bad))
+            return (f"line {k + 2}, column {name!r}: {columns[name][k]:g} {unit}, outside {lo:g} to {hi:g} for the "
+                    f"ankle actuator's bench: {hint}")
+    for key in ("precompression_m", "stride_time_s", "spring_stiffness_N_per_m", "body_mass_kg"):
+        lo, hi = RANGES[key]
+        if key in meta and not lo <= meta[key] <= hi:
+            return f"key {key!r} = {meta[key]:g}: outside {lo:g}-{hi:g} (mm for m, g for kg, N/mm for N/m?)"
+    return None
+
 
 def recorded_span(meta: dict):
     """The time a recording must cover by its JSON: ``strides`` x ``stride_time_s`` (None without ``strides``)."""
@@ -38,6 +75,7 @@ ANKLE_FORMAT = RecordingFormat(
         Key("description", "", "free text", required=False, kind="text"),
     ),
     expected_span=recorded_span,
+    checks=(_plausible,),
 )
 
 

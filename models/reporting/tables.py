@@ -2,22 +2,23 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 from pathlib import Path
 
 import numpy as np
 
+from acausal.fileio import atomic_write_text
+
 
 def write_csv(path: Path, rows: list[dict]) -> Path:
     """Rows of dictionaries (same keys) as CSV; floats with enough digits to re-plot."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        for row in rows:
-            w.writerow({k: (f"{v:.9g}" if isinstance(v, (float, np.floating)) else v) for k, v in row.items()})
-    return path
+    buf = io.StringIO(newline="")
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+    w.writeheader()
+    for row in rows:
+        w.writerow({k: (f"{v:.9g}" if isinstance(v, (float, np.floating)) else v) for k, v in row.items()})
+    return atomic_write_text(path, buf.getvalue())  # an interrupted run leaves the old table, never half of one
 
 
 def write_verdict(path, diagnosis) -> Path:
