@@ -63,9 +63,10 @@ class Parameter(_Declaration):
     """
 
     def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
-                 max: float | None = None, device: str = "", nonzero: bool = False):
+                 max: float | None = None, device: str = "", nonzero: bool = False, derived: str = ""):
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
         self.device, self.nonzero = device, nonzero
+        self.derived = derived  # without a default: the rule the constructor sets it by when not given ("ki/kp")
 
     def __repr__(self):  # what help(Component) and a notebook show: default, unit, bounds, doc
         parts = [repr(self.default), f"unit={self.unit!r}"]

@@ -58,7 +58,7 @@ def describe_component(cls, obj=None) -> Listing:
             given = obj is not None and k in obj._values
             value = obj._values[k] if given else d.default
             text = ("" if given or not d.device else f"[default of {d.device}] ") + d.doc
-            rows.append((k, "=", _number(value) if value is not None else "(required)", d.unit, _bounds(d), text))
+            rows.append((k, "=", _number(value) if value is not None else _unset(d), d.unit, _bounds(d), text))
         lines += _table(rows)
     ports = [(k, d) for k, d in decl.items() if isinstance(d, Connector)]
     if obj is not None:
@@ -79,10 +79,15 @@ def describe_component(cls, obj=None) -> Listing:
     return Listing("\n".join(lines))
 
 
+def _unset(d) -> str:
+    """What a parameter without a default shows: the rule that sets it when not given, else "(required)"."""
+    return f"({d.derived})" if getattr(d, "derived", "") else "(required)"
+
+
 def doc_table(cls) -> str:
     """The parameter table appended to a component class's docstring (what ``help()`` shows)."""
     from .components import Connector, Parameter
-    rows = [(k, "=", _number(d.default) if d.default is not None else "(required)", d.unit, _bounds(d),
+    rows = [(k, "=", _number(d.default) if d.default is not None else _unset(d), d.unit, _bounds(d),
              (f"[default of {d.device}] " if d.device else "") + d.doc)
             for k, d in cls.declarations().items() if isinstance(d, Parameter)]
     lines = ["Parameters (name = default, unit, bounds, doc):"] + _table(rows)

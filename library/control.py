@@ -78,7 +78,7 @@ class _PIDBase(Component, abc.ABC):
     ki = Parameter(0.0, unit="1/s", doc="integral gain [y]/([e] s)")
     kd = Parameter(0.0, unit="s", doc="derivative gain [y] s/[e], acting on the measurement")
     Td = Parameter(1e-3, unit="s", min=0.0, doc="time constant of the derivative filter (> 0)")
-    k_aw = Parameter(None, unit="1/s", min=0.0, doc="anti-windup back-calculation gain (default ki/kp)")
+    k_aw = Parameter(None, unit="1/s", min=0.0, derived="ki/kp", doc="anti-windup back-calculation gain")
     k_ff = Parameter(1.0, unit="1", doc="gain of the feed-forward input u_ff (with_feed_forward; MSL LimPID kFF)")
 
     e = Variable(unit="1", doc="control error setpoint - measurement")
@@ -156,7 +156,7 @@ class PID(_PIDBase):
     """
 
     y_max = Parameter(None, unit="1", doc="upper output limit")
-    y_min = Parameter(None, unit="1", doc="lower output limit (default -y_max)")
+    y_min = Parameter(None, unit="1", derived="-y_max", doc="lower output limit")
 
     def __init__(self, **kw):
         _negated_default(kw, "y_min", "y_max")

@@ -157,3 +157,13 @@ def test_a_generic_pwm_driver_is_lossless_and_the_epos2_has_the_papers_losses():
     im, vb = epos["driver.i_m"], epos["driver.v_bus"]
     assert np.allclose(epos["driver.loss_power"], 12.5 + 0.05 * im**2 + 0.004 * np.abs(im) * vb)
     assert abs(epos.energy_balance().residual) < 1e-6
+
+
+def test_a_parameter_set_by_a_rule_shows_the_rule_not_required():
+    """Issue 39, item 10: PID.describe() marked k_aw and y_min "(required)" although the constructor sets them
+    (ki/kp, -y_max) when they are not given; y_max, which has no rule, stays required."""
+    from acausal.library.control import PID
+
+    text = str(PID.describe())
+    assert "(ki/kp)" in text and "(-y_max)" in text
+    assert [ln.split()[0] for ln in text.splitlines() if "(required)" in ln] == ["y_max"]
