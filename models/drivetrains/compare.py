@@ -24,11 +24,13 @@ from __future__ import annotations
 
 import math
 import sys
+import textwrap
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
 from pathlib import Path
 
 from acausal import ModelError
+from acausal.fileio import atomic_write_text
 
 from ..ankle.presets import preset as preset_overrides
 from ..ankle.protocol import POINTS, STAGES, Condition, StrideResult, sweep
@@ -239,14 +241,31 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
             labels = LABELS if m not in NO_SERIES_LINK else {**LABELS, "link": "gear output (link)"}
             sankey(ax, e, scale=scale, labels=labels, loss_names=names,
                    lossless_note=f"output loss 0 J\n({link}\nconservative)" if e["output"] > 0 else "",
-                   title=f"{m} ({where}): {e['source']:.1f} J from the source, {e['output']:.1f} J to the joint")
-        fig.suptitle(f"{m}: {spec(m).summary} (arrow widths proportional to J per stride)", fontsize=10)
+                   title=f"{m} ({where}):\n{e['source']:.1f} J from the source, {e['output']:.1f} J to the joint")
+        fig.suptitle(textwrap.fill(f"{m}: {spec(m).summary} (arrow widths proportional to J per stride)",
+                                   width=int(16 * len(runs) + 40)), fontsize=10)  # a title wider than the figure was cut
         fig.tight_layout()
         path = Path(out_dir) / f"sankey_{m}.png"
         fig.savefig(path, dpi=100)
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+def settings(results) -> str:
+    """What the runs were made with, read from their conditions: the preset and each model's ``--set`` values (so
+    that a table can be reproduced from its own file)."""
+    presets = sorted({r.condition.preset for r in results})
+    lines = [f"Preset: {', '.join(f'`{p}`' for p in presets)}."]
+    sets = {}
+    for r in results:
+        sets.setdefault(r.condition.model, dict(r.condition.overrides))
+    given = {m: o for m, o in sets.items() if o}
+    if given:
+        lines += [f"- `--set {m}:{k}={v:g}`" for m, o in given.items() for k, v in sorted(o.items())]
+    else:
+        lines.append("No `--set` values: every parameter at the preset's value.")
+    return "\n".join(lines) + "\n\n"
 
 
 def write_outputs(results, out_dir) -> dict:
@@ -257,8 +276,7 @@ def write_outputs(results, out_dir) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = records(results)
     csv_path = write_csv(out_dir / "compare.csv", rows)
-    md_path = out_dir / "compare.md"
-    md_path.write_text("# acausal compare\n\n" + markdown(rows))
+    md_path = atomic_write_text(out_dir / "compare.md", "# acausal compare\n\n" + settings(results) + markdown(rows))
     return {"csv": csv_path, "markdown": md_path, "sankey": write_sankeys(results, out_dir)}
 
 
