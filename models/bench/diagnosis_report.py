@@ -139,6 +139,7 @@ def _phase_figure(path, before, after, d):
 
 def _acf_figure(path, before, after, d):
     signals = list(before)
+    dt = float(np.median(np.diff(d.baseline.exps[0].t)))  # the recordings' sample interval: lags in ms
     fig, axes = plt.subplots(1, len(signals), figsize=(3.2 * len(signals), 2.6), sharey=True)
     axes = np.atleast_1d(axes)
     for ax, s in zip(axes, signals):
@@ -146,11 +147,11 @@ def _acf_figure(path, before, after, d):
             if label == "extended" and not d.causes:
                 continue
             acf = np.mean([w.acf for w in ana[s]["whiteness"]], axis=0)
-            ax.plot(np.arange(acf.size), acf, color=color, label=label)
+            ax.plot(1e3 * dt * np.arange(acf.size), acf, color=color, label=label)
         band = np.mean([w.band for w in before[s]["whiteness"]])
         ax.axhspan(-band, band, color="0.8", lw=0)
         ax.set_title(s, fontsize=8)
-        ax.set_xlabel("lag [samples]")
+        ax.set_xlabel("lag [ms]")
     axes[0].set_ylabel("autocorrelation of the residual")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
