@@ -108,7 +108,8 @@ class Balance:
     boundary: dict
     losses: dict
     stored: dict
-    efficiency: tuple | None = None  # (from, to, ratio) when asked for (Result.energy_balance(between=...))
+    efficiency: float | None = None  # energy out at ``to`` / energy in at ``from`` when asked for
+    efficiency_path: tuple | None = None  # (from, to) of that efficiency (Result.energy_balance(between=...))
     heat: dict = field(default_factory=dict)  # (loss variable, heat ports) -> J of that loss passed on as heat into
     # the model's thermal network (not in ``losses``: counted where the network stores it or passes it on)
 
@@ -134,8 +135,8 @@ class Balance:
         for (loss, ports), v in self.heat.items():
             lines.append(f"  ({loss}: {v:.6g} J more, passed on as heat through {', '.join(ports)})")
         if self.efficiency is not None:
-            a, b, eta = self.efficiency
-            lines.append(f"  efficiency {a} -> {b}: {eta:.4g}")
+            a, b = self.efficiency_path
+            lines.append(f"  efficiency {a} -> {b}: {self.efficiency:.4g}")
         return "\n".join(lines)
 
     @property

@@ -113,6 +113,8 @@ class Result:
             base, order = split_der(name)
             if order:
                 return self.der(base, order)
+            if not name.endswith(".value") and name + ".value" in self._known_names():
+                return self[name + ".value"]  # a causal port by its own name: res["ref.y"] is ref.y.value
             raise UnknownNameError(self._missing(name))
         self._cache[name] = v
         return v
@@ -217,12 +219,12 @@ class Result:
         model's accounts found by convention (:mod:`acausal.energy`): energy the sources and the boundary
         delivered, lost per ``loss_power``, change of every stored ``energy``; ``print`` it for the table,
         ``.residual`` is the relative residual. ``between=(a, b)`` adds the :meth:`efficiency` from ``a`` to
-        ``b`` (``.efficiency`` = ``(a, b, ratio)``, printed under the table)."""
+        ``b`` (``.efficiency``, a number; ``.efficiency_path = (a, b)``; printed under the table)."""
         from .energy import balance
         b = balance(self, self.model.accounts, *self._window(t0, t1))
         if between is not None:
             a, z = between
-            b.efficiency = (a, z, self.efficiency(a, z, t0, t1))
+            b.efficiency, b.efficiency_path = self.efficiency(a, z, t0, t1), (a, z)
         return b
 
     def efficiency(self, a: str, b: str, t0: float | None = None, t1: float | None = None) -> float:

@@ -167,3 +167,19 @@ def test_a_parameter_set_by_a_rule_shows_the_rule_not_required():
     text = str(PID.describe())
     assert "(ki/kp)" in text and "(-y_max)" in text
     assert [ln.split()[0] for ln in text.splitlines() if "(required)" in ln] == ["y_max"]
+
+
+def test_a_causal_port_reads_by_its_own_name_in_a_result():
+    """Issue 39, item 10: res["ref.y"] reads the output's value (it needed res["ref.y.value"])."""
+    from acausal import Model, compile_model, connect
+    from acausal.library.blocks import Gain, Step
+
+    class Chain(Model):
+        def build(self):
+            self.s, self.g = Step(height=2.0, start_time=0.5), Gain(k=3.0)
+            connect(self.s.y, self.g.u)
+
+    res = compile_model(Chain()).simulate(1.0)
+    assert res["g.y"][-1] == res["g.y.value"][-1] == 6.0
+    with pytest.raises(KeyError, match="no variable 'g.zz'"):
+        res["g.zz"]
