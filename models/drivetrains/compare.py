@@ -242,8 +242,9 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
             sankey(ax, e, scale=scale, labels=labels, loss_names=names,
                    lossless_note=f"output loss 0 J\n({link}\nconservative)" if e["output"] > 0 else "",
                    title=f"{m} ({where}):\n{e['source']:.1f} J from the source, {e['output']:.1f} J to the joint")
+        # wrapped: a title wider than the figure was cut at its edges
         fig.suptitle(textwrap.fill(f"{m}: {spec(m).summary} (arrow widths proportional to J per stride)",
-                                   width=int(16 * len(runs) + 40)), fontsize=10)  # a title wider than the figure was cut
+                                   width=int(16 * len(runs) + 40)), fontsize=10)
         fig.tight_layout()
         path = Path(out_dir) / f"sankey_{m}.png"
         fig.savefig(path, dpi=100)
