@@ -212,7 +212,7 @@ class Result:
         if parts != [what]:  # a component with several ports: the power into it through all of them
             self._integrate_with_states(parts)
             return sum(self._cumulative(p) for p in parts)
-        return self._cumulative(what)
+        return self._cumulative(what).copy()  # the caller's to change; the cached one stays
 
     def energy_balance(self, t0: float | None = None, t1: float | None = None, between: tuple | None = None):
         """The energy balance between output times ``t0`` and ``t1`` (default: the whole result), from the
@@ -344,6 +344,14 @@ class Result:
         self._integrals.update(self._more_integrals(names))
 
     def _cumulative(self, what):
+        """The cumulative integral of ``what`` at the output times (found once per result: the trust check's
+        energy balance and the user's share it)."""
+        key = ("cumulative", what)
+        if key not in self._cache:
+            self._cache[key] = self._integrate(what)
+        return self._cache[key]
+
+    def _integrate(self, what):
         t = self.t
         self._integrate_with_states([what])
         if what in self._integrals:
