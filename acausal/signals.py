@@ -27,7 +27,7 @@ import sympy as sp
 from scipy.interpolate import PPoly, make_interp_spline
 
 from .errors import SignalError
-from .symbols import ConstantSymbol, time
+from .symbols import ConstantSymbol, strict_expr, time
 
 
 @dataclass(frozen=True)
@@ -101,14 +101,8 @@ class ExpressionSignal(Signal):
     """A sympy expression of :data:`acausal.time`, evaluated numerically with exact derivatives."""
 
     def __init__(self, expr, name: str = "expression"):
-        if isinstance(expr, str):  # sympify would evaluate the text as Python code
-            raise SignalError(f"signal {name!r}: got the string {expr!r}; give a sympy expression of acausal.time "
-                              "(text is not parsed: it would be executed as code)")
-        try:
-            self.expr = sp.sympify(expr, strict=True)
-        except sp.SympifyError:
-            raise SignalError(f"signal {name!r}: {expr!r} ({type(expr).__name__}) is not a number or a sympy "
-                              "expression of acausal.time") from None
+        self.expr = strict_expr(expr, f"signal {name!r}", "a number or a sympy expression of acausal.time",
+                                SignalError)
         extra = self.expr.free_symbols - {time}
         if extra:
             raise SignalError(f"signal {name!r}: expression {self.expr} depends on {sorted(map(str, extra))}, "
@@ -337,11 +331,5 @@ def as_signal_expr(value, token: str):
     """
     if isinstance(value, Signal):
         return SignalCall(ConstantSymbol(token, real=True), sp.Integer(0), time)
-    if isinstance(value, str):  # sympify would evaluate the text as Python code
-        raise SignalError(f"input {token!r}: got the string {value!r}; give a number, a sympy expression of "
-                          "acausal.time or a Signal (text is not parsed: it would be executed as code)")
-    try:
-        return sp.sympify(value, strict=True)
-    except sp.SympifyError:
-        raise SignalError(f"input {token!r}: {value!r} ({type(value).__name__}) is not a number, a sympy expression "
-                          "or a Signal") from None
+    return strict_expr(value, f"input {token!r}", "a number, a sympy expression of acausal.time or a Signal",
+                       SignalError)

@@ -67,20 +67,25 @@ def is_constant_symbol(s) -> bool:
     return isinstance(s, ConstantSymbol)
 
 
+def strict_expr(value, who: str, wanted: str, error=ModelError):
+    """``value`` as a sympy expression (numbers and sympy objects as they are), never by parsing text: sympify
+    would run a string as Python code. ``error`` (naming ``who`` and what is ``wanted``) otherwise."""
+    if isinstance(value, str):
+        raise error(f"{who}: give {wanted}; got the string {value!r} (text is not parsed: it would be executed as "
+                    "code)")
+    try:
+        return sp.sympify(value, strict=True)
+    except sp.SympifyError:
+        raise error(f"{who}: {value!r} ({type(value).__name__}) is not {wanted}") from None
+
+
 def der(expr, order: int = 1):
     """Total time derivative of ``expr`` (chain rule over its variables; parameters are constant).
 
     ``der(x)`` for a variable symbol ``x`` is the symbol ``der(x)``. Prescribed signals (sympy functions of
     ``time``) differentiate through sympy; see :mod:`acausal.signals`.
     """
-    if isinstance(expr, str):  # sympify would evaluate the text as Python code
-        raise ModelError(f"der({expr!r}): give a variable or a sympy expression of variables (self.x, not 'x'); "
-                         "text is not parsed: it would be executed as code")
-    try:
-        expr = sp.sympify(expr, strict=True)
-    except sp.SympifyError:
-        raise ModelError(f"der: {expr!r} ({type(expr).__name__}) is not a variable or an expression of variables") \
-            from None
+    expr = strict_expr(expr, f"der({expr!r})", "a variable or a sympy expression of variables (self.x, not 'x')")
     for _ in range(order):
         expr = _der1(expr)
     return expr
