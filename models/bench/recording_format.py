@@ -7,6 +7,7 @@ is ``joint_torque_Nm * d(theta)/dt``. A recording holds several consecutive stri
 import numpy as np
 
 from acausal.identify import Column, Key, RecordingFormat
+from acausal.identify.plausibility import column_range, first, key_range, sample_interval
 
 #: plausibility ranges of an ankle-actuator bench recording: a value outside is a unit slip (ms, mA, mV, degrees,
 #: N mm) or a broken sensor, not physics. The actuator: a 48 V supply, a motor of a few amperes (the paper's
@@ -20,27 +21,14 @@ _UNITS = {"joint_torque_Nm": "N m", "supply_voltage_V": "V", "supply_current_A":
 
 def _plausible(columns: dict, meta: dict) -> str | None:
     """What makes a bench recording physically implausible (see :data:`RANGES`), or None."""
-    t = columns["time_s"]
-    if t.size > 1:
-        dt = float(np.median(np.diff(t)))
-        lo, hi = RANGES["sample interval"]
-        if not lo <= dt <= hi:
-            return (f"column 'time_s': the samples are {dt:.4g} s apart (median); a bench is sampled every "
-                    f"{lo:g}-{hi:g} s: is the time in another unit (ms, us)?")
-    checks = [(n, RANGES["angle"], "rad", "degrees in a column of radians?") for n in
-              ("ankle_angle_rad", "moment_arm_angle_rad", "moment_arm_setpoint_rad")]
-    checks += [(n, RANGES[n], u, "another unit, or a broken sensor?") for n, u in _UNITS.items()]
-    for name, (lo, hi), unit, hint in checks:
-        bad = (columns[name] < lo) | (columns[name] > hi)
-        if bad.any():
-            k = int(np.argmax(bad))
-            return (f"line {k + 2}, column {name!r}: {columns[name][k]:g} {unit}, outside {lo:g} to {hi:g} for the "
-                    f"ankle actuator's bench: {hint}")
-    for key in ("precompression_m", "stride_time_s", "spring_stiffness_N_per_m", "body_mass_kg"):
-        lo, hi = RANGES[key]
-        if key in meta and not lo <= meta[key] <= hi:
-            return f"key {key!r} = {meta[key]:g}: outside {lo:g}-{hi:g} (mm for m, g for kg, N/mm for N/m?)"
-    return None
+    angles = ("ankle_angle_rad", "moment_arm_angle_rad", "moment_arm_setpoint_rad")
+    keys = ("precompression_m", "stride_time_s", "spring_stiffness_N_per_m", "body_mass_kg")
+    return first(
+        sample_interval(columns["time_s"], RANGES["sample interval"], "a bench is sampled"),
+        *(column_range(columns, n, RANGES["angle"], "rad", "degrees in a column of radians?") for n in angles),
+        *(column_range(columns, n, RANGES[n], u, "another unit, or a broken sensor? (the ankle actuator's bench)")
+          for n, u in _UNITS.items()),
+        *(key_range(meta, k, RANGES[k], "mm for m, g for kg, N/mm for N/m?") for k in keys))
 
 
 def recorded_span(meta: dict):

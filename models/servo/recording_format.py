@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from acausal import SampledSignal
+from acausal.identify.plausibility import column_range, first, key_range, line_of, sample_interval
 from acausal.identify.recordings import Column, Key, RecordingFormat
 
 #: the fewest rows a replay is fitted on (a recording is cut into 1-s segments; a servo is polled at 100 Hz or more)
@@ -48,48 +49,28 @@ def lag(t, goal, position, enable) -> float | None:
     return float(lags[int(np.argmax(c))] * dt)
 
 
-def _line(mask) -> int:
-    """The file line (header = 1) of the first row where ``mask`` holds."""
-    return int(np.argmax(mask)) + 2
-
-
 def _plausible(columns: dict, meta: dict) -> str | None:
     """What makes a servo recording physically implausible (see :data:`RANGES`), or None."""
-    t = columns["time_s"]
+    t, enable = columns["time_s"], columns["torque_enable"]
     if t.size < MIN_ROWS:
         return f"only {t.size} rows; a replay is fitted on {MIN_ROWS} at least"
-    dt = float(np.median(np.diff(t)))
-    lo, hi = RANGES["sample interval"]
-    if not lo <= dt <= hi:
-        return (f"column 'time_s': the samples are {dt:.4g} s apart (median); a servo log is polled every "
-                f"{lo:g}-{hi:g} s: is the time in another unit (ms, us)?")
-    enable = columns["torque_enable"]
     off = ~np.isin(enable, (0.0, 1.0))
-    if off.any():
-        return (f"line {_line(off)}, column 'torque_enable': {enable[off][0]:g}; the torque enable is 0 (off) or 1 "
-                "(on)")
-    v = columns["input_voltage_V"]
-    lo, hi = RANGES["input_voltage_V"]
-    bad = (v < lo) | (v > hi)
-    if bad.any():
-        return (f"line {_line(bad)}, column 'input_voltage_V': {v[bad][0]:g} V; a servo's supply is {lo:g}-{hi:g} V "
-                "(a dead supply, a sign slip, or mV)")
-    lo, hi = RANGES["angle"]
-    for name in ("position_rad", "goal_position_rad"):
-        bad = (columns[name] < lo) | (columns[name] > hi)
-        if bad.any():
-            return (f"line {_line(bad)}, column {name!r}: {columns[name][bad][0]:g} rad, more than two turns from "
-                    "zero: degrees or encoder counts in a column of radians?")
+    found = first(
+        sample_interval(t, RANGES["sample interval"], "a servo log is polled"),
+        (f"line {line_of(off)}, column 'torque_enable': {enable[off][0]:g}; the torque enable is 0 (off) or 1 (on)"
+         if off.any() else None),
+        column_range(columns, "input_voltage_V", RANGES["input_voltage_V"], "V",
+                     "a servo's supply (a dead supply, a sign slip, or mV)"),
+        *(column_range(columns, n, RANGES["angle"], "rad", "more than two turns from zero: degrees or encoder "
+                       "counts in a column of radians?") for n in ("position_rad", "goal_position_rad")))
+    if found:
+        return found
     delay = lag(t, columns["goal_position_rad"], columns["position_rad"], enable)
-    if delay is not None and delay < -max(MAX_LEAD, 2 * dt):
+    if delay is not None and delay < -max(MAX_LEAD, 2 * float(np.median(np.diff(t)))):
         return (f"columns 'position_rad' and 'goal_position_rad': the position leads the goal by {-delay:.3g} s; a "
                 "servo follows its goal, it cannot lead it: are the two columns swapped?")
-    for key in ("mass_kg", "arm_mass_kg", "arm_length_m"):
-        lo, hi = RANGES[key]
-        if key in meta and not lo <= meta[key] <= hi:
-            return (f"key {key!r} = {meta[key]:g}: outside {lo:g}-{hi:g} for a pendulum on a servo (grams or mm "
-                    "where SI units are declared, or a sign slip)")
-    return None
+    return first(*(key_range(meta, k, RANGES[k], "a pendulum on a servo: grams or mm where SI units are declared, "
+                             "or a sign slip") for k in ("mass_kg", "arm_mass_kg", "arm_length_m")))
 
 
 SERVO_FORMAT = RecordingFormat(
