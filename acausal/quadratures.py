@@ -23,9 +23,8 @@ class Quadratures:
         exprs = {n: integrand_expr(cm, n) for n in names}
         self.names = [n for n, e in exprs.items() if e is not None]
         self.exprs = [exprs[n] for n in self.names]
-        params = set(cm.param_names)
-        self.needed = sorted({str(s) for e in self.exprs for s in e.free_symbols
-                              if str(s) in set(cm.unknown_names) and str(s) not in params})
+        unknowns = set(cm.unknown_names)
+        self.needed = sorted({str(s) for e in self.exprs for s in e.free_symbols if str(s) in unknowns})
         self._values = cm.generator.values_function(self.needed) if self.needed else None
 
     def rhs(self, t, x, p, d, u) -> list:

@@ -64,7 +64,7 @@ def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
     res.trust = []
     if trust == "off":
         return
-    findings = nonfinite(res) or poles(res)
+    findings = _once(res, ("nonfinite",), lambda: nonfinite(res)) or _once(res, ("poles",), lambda: poles(res))
     if not findings:  # a NaN, an infinity or a pole makes the other checks meaningless
         findings = conditioning(res, rtol, atol)
         if dense_output:
@@ -287,26 +287,23 @@ def _solved(cm, name: str):
 def _exchanged(res, stored) -> list:
     """The energy moved between the forms inside each stored account: the largest swing of one additive term of
     its solved equation (a pendulum's kinetic and potential energy trade 0.86 J while their sum, the account,
-    moves by what the integrator's error adds to it). The terms are compiled once per model."""
+    moves by what the integrator's error adds to it). The terms are found once per model and evaluated by
+    :meth:`~acausal.compiler.CompiledModel.eval_expr`."""
     import sympy as sp
 
     cm = res.model
     terms = cm.derived.get("trust: energy terms")
     if terms is None:
-        terms = []
-        for name in stored:
-            expr, _ = _solved(cm, name)
-            if isinstance(expr, sp.Add):
-                for term in expr.args:
-                    symbols = sorted(term.free_symbols, key=str)
-                    if symbols:
-                        terms.append(([str(x) for x in symbols], sp.lambdify(symbols, term, "numpy", dummify=True)))
+        terms = [term for name in stored for expr in [_solved(cm, name)[0]] if isinstance(expr, sp.Add)
+                 for term in expr.args if term.free_symbols]
         cm.derived["trust: energy terms"] = terms
     out = []
-    for names, f in terms:
+    for term in terms:
         try:
-            v = np.asarray(f(*(np.asarray(res[n], dtype=float) for n in names)), dtype=float)
-        except (KeyError, ValueError, TypeError):  # a symbol the result does not carry: no scale from this term
+            values = {str(x): res[str(x)] for x in term.free_symbols
+                      if not cm.has_parameter(str(x)) and str(x) != "time"}
+            v = np.asarray(cm.eval_expr(term, values, res.params, None, res.t), dtype=float)
+        except (KeyError, AcausalError, ValueError, TypeError):  # a symbol the result does not carry: no scale
             continue
         if v.size and np.all(np.isfinite(v)):
             out.append(float(np.max(v) - np.min(v)))
@@ -320,18 +317,23 @@ def integration_fault(res, rtol) -> bool:
     then runs again with the energies as states (:mod:`acausal.quadratures`)."""
     if getattr(res, "scipy_method", None) is None or res._integrals:
         return False
-    if nonfinite(res) or poles(res):
+    if _once(res, ("nonfinite",), lambda: nonfinite(res)) or _once(res, ("poles",), lambda: poles(res)):
         return False
     return bool(energy_balance(res, rtol)) and not wrong_accounts(res)
+
+
+def _once(res, key, find) -> list:
+    """``find()``'s findings on ``res``, found once per result (the re-run decision and the check share them)."""
+    key = ("trust:",) + key
+    if key not in res._cache:
+        res._cache[key] = find()
+    return res._cache[key]
 
 
 def energy_balance(res, rtol) -> list:
     """The energy balance residual relative to the largest energy that moved (through an account, or between the
     forms inside one: :func:`_exchanged`), if over :func:`balance_limit` (found once per result and tolerance)."""
-    key = ("trust: balance", float(np.max(rtol)))
-    if key not in res._cache:
-        res._cache[key] = _energy_balance(res, rtol)
-    return res._cache[key]
+    return _once(res, ("balance", float(np.max(rtol))), lambda: _energy_balance(res, rtol))
 
 
 def _energy_balance(res, rtol) -> list:

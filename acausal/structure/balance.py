@@ -109,13 +109,13 @@ def local_balance(component) -> tuple:
     counts them: its own variables, and the potentials of its physical ports and the values of its outputs (its
     ports' flows are determined by the connections, its inputs' values by what drives them). A component whose
     two counts differ makes every model it is used in over- or under-determined."""
-    from ..components import Connector, Flow, Potential, Variable
+    from ..components import Connector, Potential, Variable
     from ..connectors import RealInput
 
     own = sum(1 for d in component.declarations().values() if isinstance(d, Variable))
     for port in component._children.values():
         if isinstance(port, Connector) and not isinstance(port, RealInput):
-            own += sum(1 for d in port.declarations().values() if isinstance(d, Potential) and not isinstance(d, Flow))
+            own += sum(1 for d in port.declarations().values() if isinstance(d, Potential))
     return len(component.equations()), own
 
 
