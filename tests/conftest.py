@@ -1,7 +1,11 @@
-"""Test configuration: a non-interactive matplotlib backend, no silent pass on an empty collection, and
+"""Test configuration: a non-interactive matplotlib backend, no silent pass on an empty collection,
 ``--scipy-path`` to run tests with the compiled simulation path switched off (the test matrix of issue 16:
-``tests/test_compiled.py`` runs the core tests that way)."""
+``tests/test_compiled.py`` runs the core tests that way), and ``--whole-jobs`` for the benchmarks of whole
+minute-scale commands (marked ``whole_job``: ``acausal paper`` on its full grids, ``acausal diagnose`` on 36
+recordings). Those time a command against its goal and take four minutes of both cores between them; the
+README's test command leaves them out (each says so as a skip), its speed section runs them."""
 import matplotlib
+import pytest
 
 matplotlib.use("Agg")
 
@@ -9,6 +13,18 @@ matplotlib.use("Agg")
 def pytest_addoption(parser):
     parser.addoption("--scipy-path", action="store_true", default=False,
                      help="switch the compiled simulation path off: every run takes the scipy path")
+    parser.addoption("--whole-jobs", action="store_true", default=False,
+                     help="also run the benchmarks of whole minute-scale commands (marked whole_job)")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--whole-jobs"):
+        return
+    skip = pytest.mark.skip(reason="a whole minute-scale command, timed against its goal: run with --whole-jobs "
+                                   "(README, section Speed)")
+    for item in items:
+        if "whole_job" in item.keywords:
+            item.add_marker(skip)
 
 
 def pytest_configure(config):

@@ -7,17 +7,29 @@ import pytest
 
 from acausal.cli import EXAMPLES, main
 
+from .paper_hashseed import SEEDS, compare_csvs, quick_runs_under_hash_seeds
+
 FIGURES = ["table1_sankey", "fig07_direct_drive", "fig08_power_chain", "fig09_driver_loss", "fig10_motor_loss",
            "fig11_gearing_loss", "fig12_output_loss", "fig13_tracking", "fig15_efficiency", "table2_presets"]
 TABLES = ["table1", "fig07_summary", "table2", "protocol"]
 
 
 @pytest.fixture(scope="module")
-def out(tmp_path_factory):
-    d = tmp_path_factory.mktemp("paper")
-    assert main(["paper", "--out", str(d), "--quick", "--no-progress"]) == 0
-    return d
+def runs(tmp_path_factory):
+    """`acausal paper --quick` in two fresh processes with different hash seeds, side by side (one worker each):
+    the report tests read the first, the hash-seed test compares the two."""
+    return quick_runs_under_hash_seeds(tmp_path_factory.mktemp("paper"))
 
+
+@pytest.fixture(scope="module")
+def out(runs):
+    return runs[SEEDS[0]]
+
+
+
+def test_paper_csvs_are_byte_identical_across_hash_seeds(runs):
+    """Issue 20, item 7: see ``tests/paper_hashseed.py``."""
+    compare_csvs(runs)
 
 def test_report_has_table1_next_to_the_paper(out):
     text = (out / "report.md").read_text()

@@ -10,7 +10,12 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from acausal.models.bench.virtual import default_conditions, run_bench
+
+#: minute-scale: run with --whole-jobs (tests/conftest.py)
+pytestmark = pytest.mark.whole_job
 
 
 def test_acausal_diagnose_36_recordings(benchmark, tmp_path):

@@ -6,7 +6,12 @@ existence and every condition's energy balance within 1e-6.
 """
 import csv
 
+import pytest
+
 from acausal.cli import main
+
+#: minute-scale: run with --whole-jobs (tests/conftest.py)
+pytestmark = pytest.mark.whole_job
 
 
 def test_acausal_paper_end_to_end(benchmark, tmp_path):

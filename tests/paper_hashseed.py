@@ -3,18 +3,35 @@ a dict of symbols leaks into the generated code, the order of floating-point ope
 
 Two fresh processes with different hash seeds run ``acausal paper --quick`` (its smallest option) side by side, one
 worker each, so the pair takes about as long as one run on two cores: about 55 s of wall time on an idle two-core
-machine (each run needs about 53 s of CPU), 91 s measured beside other work. Every CSV they write, the bench
-recordings and the diagnosis folder's included, must be byte-identical. The quick grid runs the same code as the full one (fewer
-conditions, coarser output grid); two full runs (seeds 0 and 12345) were also compared when this test was written:
-identical CSVs, only the wall time in report.md differs.
+machine (each run needs about 53 s of CPU). Every CSV they write, the bench recordings and the diagnosis folder's
+included, must be byte-identical. The quick grid runs the same code as the full one (fewer conditions, coarser output
+grid); two full runs (seeds 0 and 12345) were also compared when this test was written: identical CSVs, only the wall
+time in report.md differs. The first run's folder is also the one ``tests/test_examples_cli.py`` reads its report
+from, so the suite pays for two quick runs, not three.
 """
 from __future__ import annotations
 
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 SEEDS = ("3", "31337")
+
+
+def quick_runs_under_hash_seeds(root: Path) -> dict[str, Path]:
+    """Run ``acausal paper --quick`` once per seed of :data:`SEEDS`, side by side; return each run's folder."""
+    procs = {}
+    for seed in SEEDS:
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        out = root / f"seed{seed}"
+        procs[seed] = (out, subprocess.Popen([sys.executable, "-m", "acausal.cli", "paper", "--quick", "--jobs", "1",
+                                              "--no-progress", "--out", str(out)], env=env, stdout=subprocess.PIPE,
+                                             stderr=subprocess.PIPE, text=True))
+    for seed, (out, proc) in procs.items():
+        _, stderr = proc.communicate(timeout=900)
+        assert proc.returncode == 0, f"PYTHONHASHSEED={seed}: exit {proc.returncode}\n{stderr[-3000:]}"
+    return {seed: out for seed, (out, _) in procs.items()}
 
 
 def _first_difference(a: bytes, b: bytes) -> str:
@@ -25,19 +42,10 @@ def _first_difference(a: bytes, b: bytes) -> str:
     return f"{len(la)} lines against {len(lb)}"
 
 
-def test_paper_csvs_are_byte_identical_across_hash_seeds(tmp_path):
-    procs = {}
-    for seed in SEEDS:
-        env = {**os.environ, "PYTHONHASHSEED": seed}
-        out = tmp_path / f"seed{seed}"
-        procs[seed] = (out, subprocess.Popen([sys.executable, "-m", "acausal.cli", "paper", "--quick", "--jobs", "1",
-                                              "--no-progress", "--out", str(out)], env=env, stdout=subprocess.PIPE,
-                                             stderr=subprocess.PIPE, text=True))
-    csvs = {}
-    for seed, (out, proc) in procs.items():
-        stdout, stderr = proc.communicate(timeout=600)
-        assert proc.returncode == 0, f"PYTHONHASHSEED={seed}: exit {proc.returncode}\n{stderr[-3000:]}"
-        csvs[seed] = {p.relative_to(out).as_posix(): p.read_bytes() for p in sorted(out.rglob("*.csv"))}
+def compare_csvs(runs: dict[str, Path]) -> None:
+    """Assert that every CSV of the runs' folders is byte-identical between the seeds."""
+    csvs = {seed: {p.relative_to(out).as_posix(): p.read_bytes() for p in sorted(out.rglob("*.csv"))}
+            for seed, out in runs.items()}
     a, b = (csvs[s] for s in SEEDS)
     assert len(a) >= 20 and "protocol.csv" in a and any(name.startswith("bench_data/") for name in a), sorted(a)
     assert sorted(a) == sorted(b)
