@@ -59,8 +59,9 @@ def balance_limit(rtol: float) -> float:
     return max(1000.0 * float(np.max(rtol)), 1e-5)
 
 
-def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
-    """Run the checks on ``res`` and act on ``trust``; the findings go to ``res.trust``."""
+def check(res, rtol, atol, trust: str, dense_output: bool, retry=None) -> None:
+    """Run the checks on ``res`` and act on ``trust``; the findings go to ``res.trust``. ``retry``: see
+    :func:`energy_balance`."""
     res.trust = []
     if trust == "off":
         return
@@ -68,7 +69,7 @@ def check(res, rtol, atol, trust: str, dense_output: bool) -> None:
     if not findings:  # a NaN, an infinity or a pole makes the other checks meaningless
         findings = conditioning(res, rtol, atol)
         if dense_output:
-            findings += energy_balance(res, rtol)
+            findings += energy_balance(res, rtol, retry)
     res.trust = findings
     if not findings:
         return
@@ -330,42 +331,79 @@ def _once(res, key, find) -> list:
     return res._cache[key]
 
 
-def energy_balance(res, rtol) -> list:
+def energy_balance(res, rtol, retry=None) -> list:
     """The energy balance residual relative to the largest energy that moved (through an account, or between the
-    forms inside one: :func:`_exchanged`), if over :func:`balance_limit` (found once per result and tolerance)."""
-    return _once(res, ("balance", float(np.max(rtol))), lambda: _energy_balance(res, rtol))
+    forms inside one: :func:`_exchanged`), if over :func:`balance_limit` (found once per result and tolerance).
+    With ``retry`` (``retry(k)`` runs the model again with both tolerances divided by ``k``, unchecked), a residual
+    that no account explains is told apart by runs :data:`TIGHTER` times tighter: closed by one (within its own
+    :func:`balance_limit`), the tolerance is too loose for this balance and the message gives that rtol; open in
+    all, the model is stiff for the integrator."""
+    key = ("balance", float(np.max(rtol)), retry is not None)
+    return _once(res, key, lambda: _energy_balance(res, rtol, retry))
 
 
-def _energy_balance(res, rtol) -> list:
+#: how much tighter (both tolerances divided by each in turn) the runs are that tell a loose tolerance from a stiff
+#: model: closed by one of them (within that run's own limit), the tolerance was too loose
+TIGHTER = (100.0, 10_000.0)
+
+
+def _residual(res) -> tuple | None:
+    """(unaccounted energy [J], the largest energy that moved [J], their ratio), or None: no balance to check."""
     acc = res.model.accounts
     if acc is None or not (acc.losses or acc.stored):
-        return []
+        return None
     b = res.energy_balance()
     terms = list(b.sources.values()) + list(b.boundary.values()) + list(b.losses.values())
     swing = [float(np.nanmax(res[n]) - np.nanmin(res[n])) for n in acc.stored]
     sources = [float(np.nanmax(np.abs(res.energy(n)))) for n in acc.sources]
     scale = max([abs(v) for v in terms] + swing + sources + _exchanged(res, acc.stored) + [0.0])
     if scale < ENERGY_FLOOR or not np.isfinite(scale):
-        return []
+        return None
     total = sum(b.sources.values()) + sum(b.boundary.values()) - sum(b.losses.values()) - sum(b.stored.values())
-    rel = abs(total) / scale
+    return total, scale, abs(total) / scale
+
+
+def _energy_balance(res, rtol, retry) -> list:
+    found = _residual(res)
     limit = balance_limit(rtol)
-    if rel <= limit:
+    if found is None or found[2] <= limit:
         return []
+    total, scale, rel = found
     wrong = wrong_accounts(res)
     if wrong:
         hint = ("an account is wrong: " + "; ".join(wrong) + ": check the sign and the factor of its loss_power, "
                 "energy or source_power equation (or a port it leaves out)")
-    elif "compiled path" in (res.solver or ""):
-        hint = ("every component's account holds at each instant, so the residual is the integration's: the "
-                "integrator accepted steps it should not have (a stiff model): tighten rtol/atol")
     else:
-        hint = ("every component's account holds at each instant, so the residual is the integration's: the scipy "
-                "path integrates energies on its steps' interpolants, which a stiff model (a switch through a tiny "
-                "resistance) leaves uncertain: the compiled path (method='auto', with CasADi) integrates them "
-                "under the integrator's error control; or tighten rtol/atol")
+        hint = "every component's account holds at each instant, so the residual is the integration's: " + \
+            _integration_cause(res, rtol, limit, retry)
     return [f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
             f"the limit at rtol {float(np.max(rtol)):g}): {hint}"]
+
+
+def _integration_cause(res, rtol, limit, retry) -> str:
+    """Too loose a tolerance, or a model stiff for the integrator: told apart by a tighter run when ``retry``."""
+    if "compiled path" in (res.solver or "") or res._integrals:  # energies integrated under the error control
+        stiff = "the integrator accepted steps it should not have (a stiff model)"
+    else:
+        stiff = ("the scipy path integrates energies on its steps' interpolants, which a stiff model (a switch "
+                 "through a tiny resistance) leaves uncertain: the compiled path (method='auto', with CasADi) "
+                 "integrates them under the integrator's error control")
+    if retry is None:
+        return stiff + "; or tighten rtol/atol"
+    tried = []
+    for k in TIGHTER:
+        tight = float(np.max(rtol)) / k
+        try:
+            found = _residual(retry(k))
+        except AcausalError as e:
+            tried.append(f"a run at rtol {tight:g} failed ({e})")
+            break
+        left = 0.0 if found is None else found[2]
+        if left <= balance_limit(tight):
+            return (f"the tolerance is too loose for this balance: a run at rtol {tight:g} (atol divided by {k:g} "
+                    f"too) leaves {left:.2g}, within its limit {balance_limit(tight):.2g}: pass rtol={tight:g}")
+        tried.append(f"at rtol {tight:g} {left:.2g}")
+    return f"{stiff} (a tighter tolerance does not close it: {', '.join(tried)})"
 
 
 #: a component's power balance off by more than this fraction of its largest term at some output time is wrong

@@ -62,6 +62,8 @@ def test_confusable_pair_comes_with_the_evidence_that_separated_it(tmp_path_fact
     text = (out / "report.md").read_text()
     assert "**Verdict: `gear_coulomb_friction`**" in text and "N m at the gear output" in text
     assert "J of supply energy per stride" in text and "detection limits" in text and "Drift over the session" in text
+    # the drift's parameters carry their units (issue 39: the drift plot had none)
+    assert d.drift["units"]["motor.R"] == "Ohm" and "`motor.R` [Ohm]" in text and "| `motor.J` | kg.m2 |" in text
     assert pair["evidence"] in text
     for png in ("diagnosis_residual_time.png", "diagnosis_drift.png"):
         assert (out / png).stat().st_size > 10_000 and png in text

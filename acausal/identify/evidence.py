@@ -149,7 +149,7 @@ def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) 
     per-recording values are kept in; ``order``: ``(label, x)`` with ``x`` the recordings' positions in the
     session (default: their order).
     Returns ``{"axis", "recordings": [{"experiment", "x", params...}], "trends": {param: {...}}, "drifting":
-    [param...], "explained_by": {param: [candidate ids]}}``."""
+    [param...], "explained_by": {param: [candidate ids]}, "units": {param: unit}}``."""
     keep = [i for i, n in enumerate(fit.cal.names) if PER_EXPERIMENT not in n]  # one recording's own: not a trend
     names = [fit.cal.names[i] for i in keep]
     exps = list(fit.exps)
@@ -171,7 +171,8 @@ def drift(problem, fit, scales: dict, bounds: dict, order=None, steps: int = 2) 
             drifting.append(n)
     causes = getattr(problem, "drift_causes", {}) or {}
     return {"axis": label, "recordings": rows, "trends": trends, "drifting": drifting,
-            "explained_by": {n: list(causes.get(n, ())) for n in drifting}}
+            "explained_by": {n: list(causes.get(n, ())) for n in drifting},
+            "units": {n: problem.unit(n) if hasattr(problem, "unit") else "" for n in names}}
 
 
 def _prior(cov, n_exps):

@@ -109,6 +109,13 @@ class Problem(ABC):
         (the verdict's ``heldout`` block; default: the first signal)."""
         return {"signal": self.signals[0], "unit": "", "split": "held-out samples of each experiment"}
 
+    def unit(self, name: str) -> str:
+        """The SI unit of a fitted parameter (for tables and axes); default: a candidate's own unit, else ""."""
+        for c in self.candidates.values():
+            if c.parameter == name:
+                return c.unit
+        return ""
+
     def confirm(self, candidate: str, exps) -> str:
         """What data would confirm ``candidate`` as the cause of a drift it explains but could not be named by
         (a sentence for the verdict)."""

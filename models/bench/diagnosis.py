@@ -109,6 +109,10 @@ class AnkleProblem(Problem):
     def period(self, exp) -> float:
         return float(exp.info["meta"]["stride_time_s"])
 
+    def unit(self, name: str) -> str:
+        found = replay_model(()).flat.parameters.get(name)
+        return found.unit if found is not None else super().unit(name)
+
     def session_order(self, exps):
         """Elapsed session time at each recording's start when every recording says (JSON ``session_time_s``);
         else None (the recordings' order)."""

@@ -63,11 +63,11 @@ def drift_lines(d, figure: Path | None = None) -> list:
           f"one recording does not determine stay at the pooled fit), against {dr['axis']}; a trend counts as drift "
           "when its slope is significant (p <= 0.01, Student t on the scatter about the line) and it changes the "
           "parameter by 1 % or more over the session.", "",
-          md_table(["recording", dr["axis"], *[f"`{n}`" for n in names]],
+          md_table(["recording", dr["axis"], *[f"`{n}`" + _unit(dr, n, " [{}]") for n in names]],
                    [[r["experiment"], f"{r['x']:.4g}", *[f"{r[n]:.4g}" for n in names]] for r in dr["recordings"]]),
           "",
-          md_table(["parameter", "first", "last", "change over the session", "t", "p", "drift"],
-                   [[f"`{n}`", f"{tr['first']:.4g}", f"{tr['last']:.4g}", f"{tr['change']:+.3g}",
+          md_table(["parameter", "unit", "first", "last", "change over the session", "t", "p", "drift"],
+                   [[f"`{n}`", _unit(dr, n, "{}") or "-", f"{tr['first']:.4g}", f"{tr['last']:.4g}", f"{tr['change']:+.3g}",
                      "-" if tr["t"] is None else f"{tr['t']:.1f}", "-" if tr["p"] is None else f"{tr['p']:.2g}",
                      "**yes**" if n in dr["drifting"] else "no"] for n, tr in dr["trends"].items()]), ""]
     for n in dr["drifting"]:
@@ -80,6 +80,12 @@ def drift_lines(d, figure: Path | None = None) -> list:
     if figure is not None:
         md += [f"![per-recording baseline]({Path(figure).name})", ""]
     return md
+
+
+def _unit(dr: dict, name: str, form: str) -> str:
+    """``form`` filled with the drift's unit of ``name``, or "" where it has none (a ratio, or unknown)."""
+    u = (dr.get("units") or {}).get(name, "")
+    return form.format(u) if u and u != "1" else ""
 
 
 def drift_figure(path, d, shows: str = "") -> Path | None:
@@ -99,8 +105,9 @@ def drift_figure(path, d, shows: str = "") -> Path | None:
         ax.axhline(d.final.values[n], color="k", lw=0.6, ls="--")
         ax.set_title(f"{n}" + (" (drifts)" if n in dr["drifting"] else ""), fontsize=8)
         ax.set_xlabel(dr["axis"], fontsize=8)
-    axes[0][0].set_ylabel("fitted on one recording")
-    fig.suptitle("Drift check: " + (", ".join(dr["drifting"]) + " drift" if dr["drifting"] else "no drift"),
+        ax.set_ylabel(_unit(dr, n, "{}") or "fitted on one recording", fontsize=8)
+    fig.suptitle("Drift check, each parameter fitted on one recording (dashed: the pooled fit): "
+                 + (", ".join(dr["drifting"]) + " drift" if dr["drifting"] else "no drift"),
                  fontsize=9)
     return save_figure(fig, path, shows)
 

@@ -357,6 +357,10 @@ class ServoProblem(Problem):
     def period(self, exp) -> float:
         return float(exp.t[-1] - exp.t[0]) * (1 + 1e-9)
 
+    def unit(self, name: str) -> str:
+        found = compiled(*model_key(())).flat.parameters.get(name)
+        return found.unit if found is not None else super().unit(name)
+
     def noise_scales(self, exps) -> dict:
         return {POSITION: self.step / np.sqrt(12.0)}
 
