@@ -23,7 +23,8 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     ``threads``: threads for the compiled path (default: the number of cores)."""
     from .compiled import available
     from .result import Result
-    from .simulate import COMPILED, _check_run, _choose_path, initialize, simulate
+    from .simulate import simulate
+    from .simulation import COMPILED, check_run, choose_path, initialize
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
         raise ModelError("simulate_many: params must be a list of parameter dicts (one per run)")
@@ -32,7 +33,7 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         return []
     kwargs = dict(t_start=t_start, inputs=inputs, starts=starts, rtol=rtol, atol=atol, t_eval=t_eval,
                   n_points=n_points, max_step=max_step, first_step=first_step, dense_output=dense_output)
-    t_start, t_end, t_out = _check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points)
+    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points)
     ps = [cm.param_vector(s) for s in sets]
     us = [cm.input_tuple(inputs, p) for p in ps]
     batched = False
@@ -41,11 +42,11 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         try:
             same_inputs = len({Signals.layout(cm, u) for u in us}) == 1
         except Unsupported:
-            same_inputs = True  # _choose_path below names the input
+            same_inputs = True  # choose_path below names the input
         if not same_inputs and method == COMPILED:
             raise ModelError("simulate_many(method='CVODES'): the parameter sets give inputs of different shapes "
                              "(parametric signals); run them one by one")
-        batched = same_inputs and _choose_path(cm, method, us[0], rtol, atol)[0] == COMPILED
+        batched = same_inputs and choose_path(cm, method, us[0], rtol, atol)[0] == COMPILED
     if not batched:  # one run per set (a model with events restarts each run at its own crossings)
         return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
     d = cm.discrete_start()

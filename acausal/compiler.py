@@ -155,11 +155,11 @@ class CompiledModel:
     def simulation_path(self, inputs: dict | None = None) -> str:
         """Which path :meth:`simulate` takes by default for a run with ``inputs`` (the model's own when None), and
         why: ``"compiled (CasADi CVODES)"`` or ``"scipy LSODA: <reason>"``."""
-        from .simulate import _choose_path
+        from .simulation import choose_path
         u = self.input_tuple(inputs)
         if not self.state_names:
             return "algebraic (no states: evaluated at the output times)"
-        method, why = _choose_path(self, "auto", u, 1e-6, 1e-9)
+        method, why = choose_path(self, "auto", u, 1e-6, 1e-9)
         return f"compiled (CasADi {self.compiled_path.integrator_name(u)})" if not why else f"scipy {method}: {why}"
 
     # ------------------------------------------------------------------ names and values
@@ -315,7 +315,7 @@ class CompiledModel:
             if k not in self._param_index:
                 raise self.unknown_name_error(k, "parameter", self.param_names)
             if k in self._bound:
-                raise ModelError(self._bound_message(k))
+                raise ModelError(self.bound_message(k))
         values: dict = {}
         batch = False
         for name, info, binding, default in self._param_plan:
@@ -337,7 +337,19 @@ class CompiledModel:
             self._defaults = vector.copy()
         return vector
 
-    def _bound_message(self, name: str) -> str:
+    @property
+    def bindings(self) -> dict:
+        """Bound parameters (``Resistor(R=2 * self.R0)``): name -> sympy expression of the others (a copy)."""
+        return dict(self._bound)
+
+    @property
+    def parameter_plan(self) -> tuple:
+        """``(name, info, binding or None, default)`` per parameter, a bound one after those it is bound to."""
+        return tuple(self._param_plan)
+
+    def bound_message(self, name: str) -> str:
+        """Why a bound parameter cannot be overridden alone, and what to set instead (the error
+        :meth:`param_vector` raises; an exported FMU says the same)."""
         binding = self._bound[name]
         free = sorted(str(s) for s in getattr(binding, "free_symbols", ()))
         owner = self.flat.parameters[name].owner if name in self.flat.parameters else ""

@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from .errors import ModelError, SimulationError
 from .modes import algebraic_modes
-from .simulate import check_tolerances, initialize
+from .simulation import check_tolerances, initialize
 from .symbols import der_name, var_symbol
 
 
@@ -82,8 +82,8 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
         if method == "RK4":
             X, S = _fixed_step(cm, t, t_start, p, d, u, starts, wrt, bindings, substeps)
         elif method in ("auto", "CVODES"):
-            from .simulate import COMPILED, ROBUST, _choose_path
-            method, _ = _choose_path(cm, method, u, rtol, atol)
+            from .simulation import COMPILED, ROBUST, choose_path
+            method, _ = choose_path(cm, method, u, rtol, atol)
             if method == COMPILED:
                 x0 = initialize(cm, t_start, p, d, u, starts)
                 try:

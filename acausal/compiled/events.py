@@ -52,7 +52,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     runs the same integration again for a name it is asked the energy of that is not among them."""
     from ..energy import account_integrals
     from ..result import Result
-    from ..simulate import initialize
+    from ..simulation.initial import initialize
 
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)

@@ -269,6 +269,7 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     the FMI declarations and the runtime (``templates/``)."""
     lay = layout_of(cm)
     off = lay.offsets
+    bindings = cm.bindings
     signals, described = input_forms(cm, params, inputs)
     names = {n: f"r[{k}]" for n, k in lay.index.items()}
     names[time.name] = "t"
@@ -323,7 +324,7 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
             _array("char *const", "origin_names", origins, _c_string),
             _array("int", "event_origin", [origins.index(ev.origin) for ev in cm.flat.events]),
             _array("char *const", "event_zero", [str(z) for z in cm.event_zeros], _c_string),
-            _array("char *const", "bound_message", [cm._bound_message(n) if n in cm._bound else None
+            _array("char *const", "bound_message", [cm.bound_message(n) if n in bindings else None
                                                      for n in lay.params],
                    lambda m: "NULL" if m is None else _c_string(m))]
 
@@ -365,7 +366,7 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
 
     # bound parameters
     em = _Emitter(printer, names, "_b")
-    for name, _, binding, _ in cm._param_plan:
+    for name, _, binding, _ in cm.parameter_plan:
         if binding is not None:
             em.assign(f"r[{lay.index[name]}]", binding)
     parts.append("static void model_bound_parameters(Inst *m) {\n    double *r = m->r;\n    (void)r;\n"

@@ -64,6 +64,7 @@ def variables(cm, layout, start, tabulated, adjusted: set) -> list:
     Real element's attributes."""
     out = []
     off = layout.offsets
+    bindings = cm.bindings
     notes = {}
     for t in tabulated.values():
         for pn, value in t.parameters.items():
@@ -73,9 +74,9 @@ def variables(cm, layout, start, tabulated, adjusted: set) -> list:
     for k, name in enumerate(layout.params):
         info = cm.flat.parameters[name]
         desc = [info.doc] if info.doc else []
-        bound = name in cm._bound
+        bound = name in bindings
         if bound:
-            desc.append(f"= {cm._bound[name]}")
+            desc.append(f"= {bindings[name]}")
         desc += notes.get(name, [])
         out.append(dict(name=name, causality="calculatedParameter" if bound else "parameter", variability="fixed",
                         initial="calculated" if bound else "exact", description="; ".join(desc),
@@ -158,10 +159,11 @@ def documentation(cm, layout, start, tabulated, *, description: str, doc: str, i
                   adjusted: set) -> str:
     """``documentation/index.html``: what the model is, its parameters, inputs, initialisation and events."""
     esc = html.escape
+    bindings = cm.bindings
     rows = []
     for k, name in enumerate(layout.params):
         info = cm.flat.parameters[name]
-        value = f"= {cm._bound[name]}" if name in cm._bound else f"{start[k]:.6g}"
+        value = f"= {bindings[name]}" if name in bindings else f"{start[k]:.6g}"
         bounds = ", ".join(b for b in (None if info.min is None else f"min {info.min:g}",
                                        None if info.max is None else f"max {info.max:g}") if b)
         rows.append(f"<tr><td><code>{esc(name)}</code></td><td>{esc(value)}</td><td>{esc(info.unit)}</td>"

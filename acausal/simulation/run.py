@@ -1,0 +1,118 @@
+"""A run, checked and frozen: what every backend integrates (:class:`Run`), and :func:`prepare`, which checks a
+``simulate()`` call's settings, naming the one at fault, and builds it."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..errors import ModelError
+from .choose import COMPILED
+from .initial import initialize, number
+from .scipy_driver import METHODS
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """One simulation of a compiled model, ready for a backend (:mod:`acausal.simulation`): the model ``cm``, the
+    span ``t_start``..``t_end`` [s] and output times ``t_out``, the parameter vector ``p``, the discrete start
+    ``d``, the inputs ``u`` (:meth:`~acausal.compiler.CompiledModel.input_tuple`), the consistent start ``x0``
+    (:func:`~.initial.initialize`), and the settings of :func:`acausal.simulate.simulate` (``method`` as asked:
+    ``"auto"``, ``"CVODES"`` or a scipy integrator). A backend copies what it changes."""
+
+    cm: object
+    t_start: float
+    t_end: float
+    t_out: np.ndarray
+    p: np.ndarray
+    d: np.ndarray
+    u: tuple
+    x0: np.ndarray
+    method: str
+    rtol: object
+    atol: object
+    max_step: float
+    first_step: float | None
+    max_events: int
+    dense_output: bool
+    max_steps: int | None
+    starts: dict | None
+
+    def tighter(self, k: float) -> "Run":
+        """The same run with both tolerances divided by ``k``."""
+        def div(tol):
+            v = np.asarray(tol, dtype=float) / k
+            return float(v) if v.ndim == 0 else v
+        return dataclasses.replace(self, rtol=div(self.rtol), atol=div(self.atol))
+
+
+def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,
+            first_step, max_events, dense_output, max_steps) -> Run:
+    """Check the settings of :func:`acausal.simulate.simulate` (each error names its setting) and build the
+    :class:`Run`: the parameter vector, the inputs, the discrete start and the consistent initial states."""
+    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
+                                      n_points, max_steps)
+    p = cm.param_vector(params)
+    if p.dtype == object:  # an array of values: a batch of runs
+        batch = [name for name, value in (params or {}).items() if np.ndim(value) > 0]
+        raise ModelError(f"simulate runs one parameter set, but {', '.join(map(repr, batch))} "
+                         f"{'is an array' if len(batch) == 1 else 'are arrays'} of values: give numbers, or run the "
+                         f"sets with sim.simulate_many(t_end, [{{...}}, ...]) or acausal.sweep.sweep")
+    u = cm.input_tuple(inputs, p)
+    d = cm.discrete_start()
+    x0 = initialize(cm, t_start, p, d, u, starts)  # without states too: fixed starts must still hold
+    return Run(cm, t_start, t_end, t_out, p, d, u, x0, method, rtol, atol, max_step, first_step, max_events,
+               dense_output, max_steps, starts)
+
+
+def check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points,
+               max_steps=None):
+    """The checked run settings of :func:`simulate`: ``(t_start, t_end, output times)``; a ModelError naming the
+    setting at fault otherwise."""
+    if method not in METHODS and method not in ("auto", COMPILED):
+        raise ModelError(f"unknown integration method {method!r}; choose 'auto', {COMPILED!r} or one of "
+                         f"{sorted(METHODS)}")
+    t_start, t_end = number(t_start, "t_start"), number(t_end, "t_end")
+    for what, value in (("t_start", t_start), ("t_end", t_end)):
+        if not math.isfinite(value):  # an infinite span never ends (and has no output grid)
+            raise ModelError(f"simulate: {what} must be a finite time, got {value}")
+    if not t_end > t_start:
+        raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
+    check_tolerances(rtol, atol, "simulate")
+    for what, step in (("max_step", max_step), ("first_step", first_step)):
+        if step is not None and not number(step, what) > 0:
+            raise ModelError(f"simulate: {what} must be positive, got {step}")
+    if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or max_steps < 1):
+        raise ModelError(f"simulate: max_steps must be a positive integer, got {max_steps!r}")
+    if not isinstance(max_events, (int, np.integer)) or max_events < 0:
+        raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
+    if t_eval is None:
+        if not isinstance(n_points, (int, np.integer)) or n_points < 1:
+            raise ModelError(f"simulate: n_points must be a positive integer, got {n_points!r}")
+        return t_start, t_end, np.linspace(t_start, t_end, n_points)  # increasing, from t_start to t_end
+    try:
+        t_out = np.asarray(t_eval, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError("simulate: t_eval must be an array of times") from None
+    if t_out.ndim != 1:
+        raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
+    if not np.all(np.isfinite(t_out)):
+        k = int(np.argmax(~np.isfinite(t_out)))
+        raise ModelError(f"simulate: t_eval[{k}] is {t_out[k]}; output times must be finite numbers")
+    if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
+        raise ModelError("t_eval must be increasing and within [t_start, t_end]")
+    return t_start, t_end, t_out
+
+
+def check_tolerances(rtol, atol, who: str) -> None:
+    """The integrator's relative and absolute tolerances: ``rtol`` positive, ``atol`` not negative (numbers,
+    or one per state); a ModelError naming ``who`` otherwise."""
+    if type(rtol) is float and type(atol) is float and rtol > 0 and atol >= 0:  # the usual case, without numpy
+        return
+    try:
+        ok = bool(np.all(np.asarray(rtol, dtype=float) > 0) and np.all(np.asarray(atol, dtype=float) >= 0))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ModelError(f"{who}: rtol must be positive and atol not negative, got rtol = {rtol!r}, atol = {atol!r}")
