@@ -62,6 +62,8 @@ class Parameter(_Declaration):
     <acausal.compiler.CompiledModel.report>` and :meth:`~acausal.compiler.CompiledModel.device_defaults`.
     """
 
+    listed_as = "parameter"  # the section of describe() that lists it (acausal.describe)
+
     def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
                  max: float | None = None, device: str = "", nonzero: bool = False, derived: str = ""):
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
@@ -92,6 +94,8 @@ class Variable(_Declaration):
     ``state_select`` ("never", "avoid", "default", "prefer", "always") guides which variables index reduction
     keeps as states, as in Modelica.
     """
+
+    listed_as = "variable"
 
     kind = "variable"
 
@@ -139,6 +143,8 @@ class Flow(Variable):
 class Discrete(_Declaration):
     """A piecewise-constant mode variable, changed only by :class:`Event` assignments."""
 
+    listed_as = "variable"
+
     def __init__(self, start: float = 0.0, doc: str = ""):
         self.start, self.doc = start, doc
 
@@ -152,6 +158,8 @@ class Input(_Declaration):
     """A prescribed signal: a number, a sympy expression of :data:`acausal.time`, or a numeric
     :class:`~acausal.signals.Signal`. In equations ``self.u`` is the signal as a sympy expression; index
     reduction differentiates it as often as the structure needs."""
+
+    listed_as = "input"
 
     def __init__(self, default=None, unit: str = "1", doc: str = ""):
         self.default, self.unit, self.doc = default, unit, doc
@@ -396,6 +404,9 @@ class Connector(Component):
     (default for causal inputs).
     """
 
+    listed_as = "port"
+    drives = False  # a causal output (connectors.RealOutput) drives what it is connected to; connect() checks one
+
     domain = "abstract"
     required_default = False
 
@@ -438,8 +449,7 @@ def connect(*ports: Connector):
         if owner is not model and (owner is None or owner._parent is not model):
             raise ConnectError(f"{model._describe()}: port {p.path!r} is neither a port of this model nor of one of "
                                "its direct sub-components")
-    from .connectors import RealOutput
-    driving = [p for p in ports if isinstance(p, RealOutput) and p._parent is not model]
+    driving = [p for p in ports if p.drives and p._parent is not model]
     if len(driving) > 1:
         raise ConnectError(f"{model._describe()}: connect({', '.join(repr(p.path) for p in ports)}) joins "
                            f"{len(driving)} outputs ({', '.join(repr(p.path) for p in driving)}); one output drives "

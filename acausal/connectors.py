@@ -52,4 +52,5 @@ class RealOutput(Connector):
     """Causal signal output (``value``)."""
 
     domain = "signal"
+    drives = True
     value = Potential(doc="signal value")

@@ -42,7 +42,6 @@ def _table(rows, indent="    ") -> list:
 def describe_component(cls, obj=None) -> Listing:
     """The parameter table (value or default, unit, bounds, doc, the device a datasheet default belongs to),
     the ports and the variables of a component class, or of an instance with the values it was given."""
-    from .components import Connector, Discrete, Input, Parameter, Variable
     decl = cls.declarations()
     where = f"{cls.__module__}.{cls.__qualname__}"
     head = f"{cls.__name__} ({where})" if obj is None or not obj._path else f"{cls.__name__} {obj._path!r} ({where})"
@@ -50,7 +49,7 @@ def describe_component(cls, obj=None) -> Listing:
     doc = " ".join(x.strip() for x in (cls.__doc__ or "").strip().split("\n\n")[0].split("\n")).rstrip(":")
     if doc and not doc.startswith("Parameters"):
         lines.append("  " + doc + ("." if not doc.endswith(".") else ""))
-    pars = [(k, d) for k, d in decl.items() if isinstance(d, Parameter)]
+    pars = _listed(decl, "parameter")
     if pars:
         lines.append("  parameters (name = value, unit, bounds, doc):")
         rows = []
@@ -60,23 +59,29 @@ def describe_component(cls, obj=None) -> Listing:
             text = ("" if given or not d.device else f"[default of {d.device}] ") + d.doc
             rows.append((k, "=", _number(value) if value is not None else _unset(d), d.unit, _bounds(d), text))
         lines += _table(rows)
-    ports = [(k, d) for k, d in decl.items() if isinstance(d, Connector)]
+    ports = _listed(decl, "port")
     if obj is not None:
-        ports += [(k, v) for k, v in obj._children.items() if isinstance(v, Connector) and k not in decl]
+        ports += [(k, v) for k, v in _listed(obj._children, "port") if k not in decl]
     if ports:
         lines.append("  ports:")
         lines += _table([(k, type(d).__name__, f"({d.domain})", d.doc) for k, d in ports])
-    inputs = [(k, d) for k, d in decl.items() if isinstance(d, Input)]
+    inputs = _listed(decl, "input")
     if inputs:
         lines.append("  inputs (prescribed signals):")
         lines += _table([(k, d.unit, d.doc) for k, d in inputs])
-    var = [(k, d) for k, d in decl.items() if isinstance(d, (Variable, Discrete))]
+    var = _listed(decl, "variable")
     if var:
         lines.append("  variables (name, unit, start, doc):")
         lines += _table([(k, getattr(d, "unit", "mode"),
                           f"start {_number(d.start)}" + (" fixed" if getattr(d, "fixed", False) else ""), d.doc)
                          for k, d in var])
     return Listing("\n".join(lines))
+
+
+def _listed(declarations: dict, section: str) -> list:
+    """``(name, declaration)`` of the declarations a section lists (their class's ``listed_as``:
+    :mod:`acausal.components`)."""
+    return [(k, d) for k, d in declarations.items() if getattr(d, "listed_as", None) == section]
 
 
 def _unset(d) -> str:
@@ -86,12 +91,11 @@ def _unset(d) -> str:
 
 def doc_table(cls) -> str:
     """The parameter table appended to a component class's docstring (what ``help()`` shows)."""
-    from .components import Connector, Parameter
     rows = [(k, "=", _number(d.default) if d.default is not None else _unset(d), d.unit, _bounds(d),
              (f"[default of {d.device}] " if d.device else "") + d.doc)
-            for k, d in cls.declarations().items() if isinstance(d, Parameter)]
+            for k, d in _listed(cls.declarations(), "parameter")]
     lines = ["Parameters (name = default, unit, bounds, doc):"] + _table(rows)
-    ports = [(k, d) for k, d in cls.declarations().items() if isinstance(d, Connector)]
+    ports = _listed(cls.declarations(), "port")
     if ports:
         lines += ["Ports:"] + _table([(k, type(d).__name__, f"({d.domain})", d.doc) for k, d in ports])
     return "\n".join(lines)

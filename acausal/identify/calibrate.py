@@ -291,6 +291,26 @@ def jacobian_matrix(experiments, values, names, signals, weights=None, scales=No
     return np.concatenate(parts)
 
 
+def jacobian(experiments, values, names, signals, scales, mask="train") -> np.ndarray:
+    """Derivative of the unweighted :func:`residual_vector` with respect to ``names``: exact (the experiments'
+    ``sensitivity`` functions, :func:`jacobian_matrix`) when every experiment has one, else by forward differences
+    (relative step 1e-6, taken inwards where a parameter sits on an upper bound)."""
+    ones = {s: 1.0 for s in signals}
+    if all(e.sensitivity is not None for e in experiments):
+        return jacobian_matrix(experiments, values, names, signals, ones, scales, mask)
+    r0 = residual_vector(experiments, values, signals, ones, scales, mask)
+    cols = []
+    for n in names:
+        h = 1e-6 * max(abs(values[n]), 1e-9)
+        try:
+            r1 = residual_vector(experiments, {**values, n: values[n] + h}, signals, ones, scales, mask)
+        except AcausalError:  # at an upper bound (e.g. an efficiency of 1): step inwards
+            h = -h
+            r1 = residual_vector(experiments, {**values, n: values[n] + h}, signals, ones, scales, mask)
+        cols.append((r1 - r0) / h)
+    return np.stack(cols, axis=1)
+
+
 def rmse_table(experiments, values: dict, signals, mask: str = "test") -> dict:
     """RMSE per (experiment, signal) of the predictions with ``values`` on the ``mask`` samples."""
     out = {}

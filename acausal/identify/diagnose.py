@@ -62,7 +62,7 @@ import numpy as np
 from scipy.stats import binom
 
 from ..errors import AcausalError, DataError
-from .calibrate import Free, calibrate, jacobian_matrix, residual_vector
+from .calibrate import Free, calibrate, jacobian, residual_vector
 from .evidence import _cos, confusable, detection_limits, drift
 from .analysis import residual_analysis  # noqa: F401  (part of this module's interface)
 from .residuals import leave_one_group_out
@@ -124,30 +124,13 @@ def _assess(problem, effects, cal, exps, scales) -> Fit:
     r = np.concatenate(train)
     rt = np.concatenate(test)
     labels, group = np.unique(np.concatenate(groups), axis=0, return_inverse=True)
-    loso = leave_one_group_out(_jacobian(exps, values, cal.names, signals, scales), r, group.ravel())
+    loso = leave_one_group_out(jacobian(exps, values, cal.names, signals, scales), r, group.ravel())
     mse = np.bincount(group.ravel(), loso**2) / np.bincount(group.ravel())
     stride_mse = {(exps[k].name, int(st)): float(v) for (k, st), v in zip(labels, mse)}
     test_rmse = {s: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for s, v in test_raw.items()}
     test_mae = {s: float(np.mean(np.abs(np.concatenate(v)))) for s, v in test_raw.items()}
     return Fit(effects, cal, exps, values, float(r @ r), r.size, float(np.mean(rt**2)), test_rmse, stride_mse,
                test_mae)
-
-
-def _jacobian(exps, values, names, signals, scales, mask="train"):
-    ones = {s: 1.0 for s in signals}
-    if all(e.sensitivity is not None for e in exps):
-        return jacobian_matrix(exps, values, names, signals, ones, scales, mask)
-    r0 = residual_vector(exps, values, signals, ones, scales, mask)
-    cols = []
-    for n in names:
-        h = 1e-6 * max(abs(values[n]), 1e-9)
-        try:
-            r1 = residual_vector(exps, {**values, n: values[n] + h}, signals, ones, scales, mask)
-        except AcausalError:  # at an upper bound (e.g. an efficiency of 1): step inwards
-            h = -h
-            r1 = residual_vector(exps, {**values, n: values[n] + h}, signals, ones, scales, mask)
-        cols.append((r1 - r0) / h)
-    return np.stack(cols, axis=1)
 
 
 def score(before: Fit, after: Fit, candidate: Candidate, thresholds: Thresholds) -> CandidateScore:
@@ -189,7 +172,7 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | 
     ones = {s: 1.0 for s in signals}
     out = {None: residual_vector(base.exps, base.values, signals, ones, scales, "train")}
     base_names = list(base.cal.names)
-    B = _jacobian(base.exps, base.values, base_names, signals, scales)
+    B = jacobian(base.exps, base.values, base_names, signals, scales)
     for cid in ids:
         c = problem.candidates[cid]
         exps = problem.experiments(tuple(base.effects) + (cid,))
@@ -197,7 +180,7 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | 
         f = None
         if c.probe is None:
             try:
-                f = _jacobian(exps, values, [c.parameter], signals, scales)[:, 0]
+                f = jacobian(exps, values, [c.parameter], signals, scales)[:, 0]
             except AcausalError:  # no derivative at zero after all (a hard limit not declared one): its secant
                 pass
         if f is None:  # a hard limit: the secant from zero to the probe (or to its typical magnitude)

@@ -36,7 +36,7 @@ from scipy import stats
 from scipy.stats import binom
 
 from ..errors import AcausalError
-from .calibrate import residual_vector
+from .calibrate import jacobian, residual_vector
 
 #: a trend must change the parameter over the session by at least this fraction of its value to count as drift
 DRIFT_MIN = 0.01
@@ -192,7 +192,6 @@ def _refit_alone(problem, e, values, names, scales, bounds, steps, prior=None) -
     ``prior``: the precision :func:`_prior` of one recording's share of the pooled fit; combinations the recording
     hardly determines then stay near the pooled values (a maximum a posteriori step), as they do without it by
     the truncation :data:`RCOND`."""
-    from .diagnose import _jacobian  # the engine's exact-or-differenced Jacobian
 
     inner = e.train | e.test
     view = _View(e.solo() if e.solo is not None else e, inner)
@@ -200,7 +199,7 @@ def _refit_alone(problem, e, values, names, scales, bounds, steps, prior=None) -
     ones = {s: 1.0 for s in problem.signals}
     r = residual_vector([view], v, problem.signals, ones, scales)
     for _ in range(steps):
-        J = _jacobian([view], v, names, problem.signals, scales)
+        J = jacobian([view], v, names, problem.signals, scales)
         scale = np.array([max(abs(v[n]), 1e-12) for n in names])
         Js = J * scale
         if prior is not None:  # min |r + J dv|^2 + (v + dv - v0)^T P (v + dv - v0), in scaled units
