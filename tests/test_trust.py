@@ -232,13 +232,14 @@ def test_a_gear_of_ratio_zero_is_refused_before_the_run():
         compile_model(Locked()).simulate(1.0)
 
 
-@pytest.mark.parametrize("factor", [0.5, -1.0], ids=["half loss", "wrong-sign loss"])
+@pytest.mark.parametrize("factor", [0.5, -1.0, 0.0], ids=["half loss", "wrong-sign loss", "missing loss"])
 @pytest.mark.parametrize("method", ["auto", "LSODA"])
 def test_a_wrong_loss_account_is_caught_and_named_even_without_a_source(factor, method):
-    """A capacitor discharging through a resistor whose loss_power is half of v i, or of the wrong sign: the
-    model has no source and no boundary (the balance used to go unchecked there); the run is refused, and the
-    message says an account is wrong and names the resistor (its own power balance fails at every instant),
-    not stiffness."""
+    """A capacitor discharging through a resistor whose loss_power is half of v i, of the wrong sign, or left at
+    zero (a component with no account at all is a boundary by convention, energy leaving the model, and the
+    balance shows it as such): the model has no source and no boundary (the balance used to go unchecked there);
+    the run is refused, and the message says an account is wrong and names the resistor (its own power balance
+    fails at every instant), not stiffness."""
     from acausal import Eq, Parameter, Variable
     from acausal.library.electrical import Capacitor
     from acausal.partials import OnePort
