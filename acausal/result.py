@@ -256,8 +256,19 @@ class Result:
                 or f"{name}.Q_flow" in known:
             return [name]
         ports = [p for p in cm.flat.components if p.startswith(name + ".") and "." not in p[len(name) + 1:]
-                 and ({f"{p}.v", f"{p}.i"} <= known or {f"{p}.phi", f"{p}.tau"} <= known or f"{p}.Q_flow" in known)]
+                 and ({f"{p}.v", f"{p}.i"} <= known or {f"{p}.phi", f"{p}.tau"} <= known or f"{p}.Q_flow" in known)
+                 and self._is_port(p)]
         return ports or [name]
+
+    def _is_port(self, path: str) -> bool:
+        """Whether the component at ``path`` is a connector (its current, torque or heat flow a connector's
+        ``Flow``), not a part inside a composite whose one-port ``v``/``i`` only look like a pin's."""
+        flat = self.model.flat
+        for flow in ("i", "tau", "Q_flow"):
+            info = flat.variables.get(f"{path}.{flow}") or flat.alias_info.get(f"{path}.{flow}")
+            if info is not None:
+                return getattr(info, "kind", "") == "flow"
+        return False
 
     def _known_names(self) -> set:
         """The names this result answers, as a set (built once)."""

@@ -311,3 +311,16 @@ def test_a_variable_through_a_pole_is_refused_naming_its_divisor():
     with pytest.raises(UntrustedResult, match=r"through a pole: f.y \(its divisor f.x changes sign between t = "
                                               r"(0.996|1) and (1|1.004) s\)"):
         compile_model(Through()).simulate(2.0)
+
+
+def test_a_composite_components_inner_parts_are_not_taken_for_its_ports():
+    """A machine composed of a resistor, an inductor and an EMF keeps its own account (copper loss, stored
+    energy): its power balance takes its pins and its flange, not its inner one-ports (whose v and i look like a
+    pin's). Before, every such composite (also the library's rectifier) was named as a wrong account whenever
+    its balance was checked."""
+    from acausal.trust import wrong_accounts
+    from .test_msl_conformance import DCPMStart
+
+    res = compile_model(DCPMStart()).simulate(2.0, method="BDF")
+    assert res._through("dcpm") == ["dcpm.flange", "dcpm.pin_an", "dcpm.pin_ap"]
+    assert wrong_accounts(res) == [] and res.trust == []
