@@ -118,6 +118,29 @@ class SignalVoltage(OnePort):
         return [*super().equations(), Eq(self.v, self.u.value)]
 
 
+class SineVoltageVariableFrequencyAndAmplitude(OnePort):
+    """Sine voltage source whose amplitude ``V`` and frequency ``f`` are causal inputs (MSL
+    ``Analog.Sources.SineVoltageVariableFrequencyAndAmplitude``); p is the + terminal. The phase is integrated
+    from the frequency, so a frequency that changes moves the wave on without a jump::
+
+        v = offset + V sin(phi)          der(phi) = 2 pi f
+
+    ``phi`` is a state starting at 0 (MSL's start value); ``phi=Start(x)`` starts the wave at phase ``x``.
+    ``source_power = -v i`` is the power the source delivers to the circuit. Default: ``offset`` = 0 (MSL's).
+    MSL's options to replace ``V`` or ``f`` by a constant are not here: connect a constant signal instead.
+    """
+
+    offset = Parameter(0.0, unit="V", doc="offset of the sine wave")
+    V = RealInput(doc="amplitude [V]")
+    f = RealInput(doc="frequency [Hz]")
+    phi = Variable(start=0.0, fixed=True, unit="rad", doc="phase of the sine wave")
+    source_power = Variable(unit="W", doc="power delivered to the circuit, -v*i")
+
+    def equations(self):
+        return [*super().equations(), Eq(der(self.phi), 2 * sp.pi * self.f.value),
+                Eq(self.v, self.offset + self.V.value * sp.sin(self.phi)), Eq(self.source_power, -self.v * self.i)]
+
+
 class ConstantCurrent(OnePort):
     """Ideal constant current source: ``i = I`` flows from p to n through the source."""
 

@@ -24,8 +24,9 @@ event-by-event integration; and once more with its AC switched off by a Step and
 than its commutations last, the test of issue 21 that no event is lost when the integrator makes long steps.
 
 No Modelica code is copied: the examples are rebuilt with ``acausal.library`` components; where the MSL has a
-component this library does not (the DC machine, the Graetz bridge, the variable-frequency source), it is composed
-from library parts and the test's docstring says how.
+component this library does not (the Graetz bridge), it is composed from library parts, and where the example is
+rebuilt otherwise than with the MSL's component (SeriesResonance's variable-frequency source, written as its closed
+form), the test's docstring says how.
 
 Tolerances, in general: the library integrates with rtol 1e-6. Stateless examples are solved exactly at each
 output (tolerance: round-off). Oscillating linear systems leave a phase error of about rtol per radian their mode
@@ -47,7 +48,8 @@ from scipy.linalg import expm
 
 from acausal import Model, Start, compile_model, connect
 from acausal.library.blocks import Ramp, Sine, Step
-from acausal.library.electrical import EMF, Ground, Inductor, Resistor, SignalVoltage
+from acausal.library.electrical import Ground, SignalVoltage
+from acausal.library.machines import DCPermanentMagnet
 from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, SignalTorque, Spring
 from .msl_support import BALANCE_TOL, METHODS, check_energy, phase_tol
 
@@ -145,32 +147,26 @@ class DCPMStart(Model):
     starts a permanent-magnet DC machine with a load inertia of 0.15 kg m2; at 1.5 s a load torque of 63.66 N m
     (the nominal torque) steps on.
 
-    The library has no ``DC_PermanentMagnet``: the machine is composed, as the MSL model is inside, of the armature
-    resistance ``Ra`` (Resistor), inductance ``La`` (Inductor, fixed at 0 A), the ideal converter (EMF with
-    k = (VaNominal - Ra IaNominal) / wNominal, the MSL's turns ratio) and the rotor inertia ``Jr`` (Inertia, at rest
-    at 0 rad). With the default machine record every other loss (friction, core, stray load, brushes) is zero and
-    the stator is fixed (``useSupport=false``), so nothing else is left out. The MSL ``TorqueStep(stepTorque=-TLoad)``
-    is a Step block into a SignalTorque."""
+    The machine is the library's ``DCPermanentMagnet`` (MSL ``DC_PermanentMagnet``) at its defaults, which are the
+    record ``DcPermanentMagnetData``'s, with MSL's ``useSupport=false`` and ``TaOperational`` = 20 degC and, as in
+    the example, ``phiMechanical``, ``wMechanical`` and ``ia`` fixed at 0. With the default record every loss the
+    library's machine leaves out (friction, core, stray load, brushes) is zero in MSL's too; the same machine
+    composed of Resistor, Inductor, EMF and Inertia gives the same trajectories (``tests/test_machines.py``). The
+    MSL ``TorqueStep(stepTorque=-TLoad)`` is a Step block into a SignalTorque."""
 
     def build(self):
         P = DCPM
         self.ramp = Ramp(height=P["Va"], duration=P["tRamp"], start_time=P["tStart"])
         self.signalVoltage = SignalVoltage()
         self.ground = Ground()
-        self.ra = Resistor(R=P["Ra"])
-        self.la = Inductor(L=P["La"], i=Start(0.0))
-        self.emf = EMF(k=P["k"])
-        self.rotor = Inertia(J=P["Jr"], phi=Start(0.0), w=Start(0.0))
+        self.dcpm = DCPermanentMagnet(phiMechanical=Start(0.0), wMechanical=Start(0.0), ia=Start(0.0))
         self.loadInertia = Inertia(J=P["JLoad"])
         self.loadStep = Step(height=-P["TLoad"], start_time=P["tStep"])
         self.loadTorque = SignalTorque()
         connect(self.ramp.y, self.signalVoltage.u)
-        connect(self.signalVoltage.p, self.ra.p)
-        connect(self.ra.n, self.la.p)
-        connect(self.la.n, self.emf.p)
-        connect(self.emf.n, self.signalVoltage.n, self.ground.p)
-        connect(self.emf.flange, self.rotor.flange_a)
-        connect(self.rotor.flange_b, self.loadInertia.flange_a)
+        connect(self.signalVoltage.p, self.dcpm.pin_ap)
+        connect(self.dcpm.pin_an, self.signalVoltage.n, self.ground.p)
+        connect(self.dcpm.flange, self.loadInertia.flange_a)
         connect(self.loadStep.y, self.loadTorque.u)
         connect(self.loadTorque.flange, self.loadInertia.flange_b)
 
@@ -229,11 +225,11 @@ def test_dcpm_start_follows_the_linear_machine(dcpm_sim, method):
     accelerating the inertias), after it the current settles at TLoad / k, the nominal 100 A."""
     res = dcpm_sim.simulate(2.0, method=method)
     ia, w, phi = dcpm_reference(res.t)
-    for name, ref in (("la.i", ia), ("rotor.w", w), ("rotor.phi", phi)):
+    for name, ref in (("dcpm.ia", ia), ("dcpm.wMechanical", w), ("dcpm.phiMechanical", phi)):
         assert np.max(np.abs(res[name] - ref)) < DCPM_TOL * np.max(np.abs(ref)), name
-    assert np.allclose(res["loadInertia.w"], res["rotor.w"], rtol=1e-12, atol=1e-12)
+    assert np.allclose(res["loadInertia.w"], res["dcpm.wMechanical"], rtol=1e-12, atol=1e-12)
     k = DCPM["k"]
     before = np.searchsorted(res.t, DCPM["tStep"]) - 1
-    assert res["rotor.w"][before] == pytest.approx(DCPM["Va"] / k, rel=1e-2)
-    assert res["la.i"][-1] == pytest.approx(DCPM["TLoad"] / k, rel=1e-2)
+    assert res["dcpm.wMechanical"][before] == pytest.approx(DCPM["Va"] / k, rel=1e-2)
+    assert res["dcpm.ia"][-1] == pytest.approx(DCPM["TLoad"] / k, rel=1e-2)
     check_energy(res, dcpm_sim)

@@ -44,7 +44,7 @@ def _examples():
 
     return [
         ("First", C.First, 0.2, ["inertia1.w", "inertia2.phi", "inertia3.w"]),
-        ("DCPM_Start", C.DCPMStart, 2.0, ["la.i", "rotor.w"]),
+        ("DCPM_Start", C.DCPMStart, 2.0, ["dcpm.ia", "dcpm.wMechanical"]),
         ("CharacteristicIdealDiodes", E.CharacteristicIdealDiodes, 1.0,
          ["Ideal.i", "With_Ron_Goff.i", "With_Ron_Goff_Vknee.i", "With_Ron_Goff_Vknee.off"]),
         ("Rectifier", R.Rectifier, 0.02, ["Capacitor1.v", "Inductor1.i", "Inductor2.i", "D3.off"]),
