@@ -3,7 +3,10 @@ measured in the same run:
 
 * the Eq. 4 ankle actuator in closed loop (5 states, the gait spline and the planned moment-arm spline as inputs),
   6 s of gait: the default ``simulate()`` vs scipy's BDF (the previous default);
-* the same model's exact sensitivities of the motor current and speed to three parameters over 2 s.
+* the same model's exact sensitivities of the motor current and speed to three parameters over 2 s;
+* the whole chain in closed loop (issue 38: ``AnkleActuator(mode="closed_loop")``: rectifier, EPOS2 driver, motor,
+  lossy gears, MACCEPA; 6 s of gait at 2 s/stride, 3001 outputs), the default ``simulate()``, in units of the
+  hand-written 1-s scipy LSODA run of ``handwritten.py`` (goal: at most 50 of them).
 
 Ratios go to ``extra_info`` and the README; the assertions are loose regression guards on ratios only.
 """
@@ -73,3 +76,20 @@ def test_lossy_gear_drive_on_idas_vs_scipy(benchmark):
     benchmark.pedantic(lambda: cm.simulate(0.3, **run), rounds=5, iterations=1)
     ratio = _report(benchmark, "drive with a lossy gear, 0.3 s", t_ref)
     assert ratio is None or ratio < 0.5
+
+
+def test_whole_chain_closed_loop_ankle_in_hand_written_runs(benchmark):
+    from .handwritten import simulate as hand_written
+    cm = compile_model(AnkleActuator(mode="closed_loop"))
+    run = dict(n_points=3001)
+    res = cm.simulate(6.0, **run)
+    assert res.trust == [] and abs(res.energy_balance().residual) < 1e-6
+    t_hand = best_of(hand_written, 20)
+    benchmark.pedantic(lambda: cm.simulate(6.0, **run), rounds=3, iterations=1)
+    if benchmark.disabled or benchmark.stats is None:
+        return
+    t = benchmark.stats.stats.min
+    benchmark.extra_info.update(hand_s=t_hand, hand_runs=t / t_hand, goal_hand_runs=50)
+    print(f"\nwhole chain, closed loop, 6 s: {t * 1e3:.0f} ms = {t / t_hand:.0f} hand-written 1-s runs "
+          f"({t_hand * 1e3:.2f} ms each; goal <= 50)")
+    assert t / t_hand < 1500  # regression guard only (measured about 300)
