@@ -46,6 +46,19 @@ def test_mean_and_rms_of_each_period(method):
     assert np.allclose(times, (np.arange(periods) + 1) * T, atol=1e-12)
 
 
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_a_sample_at_t_end_shows_in_the_value_at_t_end(method):
+    """Issue 38, item 6: the run ends on a sample (3 periods); the value at t_end is the one after that event, the
+    final value a Modelica tool reports (the mean of the third period), not the left limit (the second's). An
+    output at an earlier sample keeps the value before it."""
+    cm = compile_model(Signals())
+    T = 1 / F
+    res = cm.simulate(3 * T, n_points=7, method=method, rtol=1e-9, atol=1e-12)
+    assert res["mean.y.value"][-1] == pytest.approx(closed_forms(2)[0], rel=1e-6)
+    assert res["rms.y.value"][-1] == pytest.approx(closed_forms(2)[1], rel=1e-6)
+    assert res["mean.y.value"][4] == pytest.approx(closed_forms(0)[0], rel=1e-6)  # t = 2 T: before that sample
+
 class Sine(Model):
     """u = 1 + 2 sin(2 pi 50 t) into an RMS over 1/50 s."""
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..modes import apply_hits, crossings, handle_event, restarts, settle_modes
+from ..simulation.scipy_driver import after_end
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -128,6 +129,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + q_e[name][0] for name in names}
         k_out += upto
         x_e, d, off = handle_event(cm, events, hits, t_e, x_e, p, d, d_new, u, max_events)
+        after_end(t_out, t_e, X, D, x_e, d)
         t, x = t_e, x_e
         window, halvings = 1, 0  # events come in groups: start close after one
     def later(more):  # the same run again, those integrated with the states

@@ -117,6 +117,7 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
                     k_out = k_end
             if hit:
                 x_e, d, off = handle_event(cm, events, hit, t_e, x_e, p, d, d_new, u, max_events)
+                after_end(t_out, t_e, X, D, x_e, d)
                 t, x = t_e, (np.concatenate([x_e, np.asarray(full(t_e))[n:]]) if nq else x_e)
                 restarted = True
                 break
@@ -132,6 +133,16 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
     res = Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label, integrals=integrals)
     res.scipy_method = method
     return res
+
+
+def after_end(t_out, t_e, X, D, x_e, d) -> None:
+    """An event at the last output time (``t_end``): the outputs there take the values after it, the final value a
+    Modelica tool reports (a sample at ``t_end`` that resets a Mean block shows the new mean). An output at an
+    earlier event keeps the value before it."""
+    if t_out.size and t_e >= t_out[-1]:
+        at = t_out >= t_e
+        X[:, at] = np.asarray(x_e, dtype=float)[:, None]
+        D[:, at] = np.asarray(d, dtype=float)[:, None]
 
 
 def _too_many_steps(cm, method, limit, t_prev, t_new, t_start, t_end) -> SimulationError:
