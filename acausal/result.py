@@ -8,6 +8,7 @@ import sympy as sp
 from scipy.integrate import cumulative_simpson
 
 from .errors import ModelError, UnknownNameError
+from .interpolants import states_at
 from .signals import SignalCall
 from .symbols import der_name, split_der
 
@@ -328,12 +329,10 @@ class Result:
         Xn = np.zeros((nx,) + tn.shape)
         if segs:
             which = np.clip(np.searchsorted(starts, a, side="right") - 1, 0, len(segs) - 1)
+            Xn = states_at(segs, which, tn, nx)
             Dn = np.zeros((len(cm.discrete_names),) + tn.shape)
-            for k in np.unique(which):
-                m = which == k
-                t0, t1, sol, d = segs[k]
-                Xn[:, m, :] = sol(tn[m].ravel()).reshape((nx,) + tn[m].shape)
-                Dn[:, m, :] = np.asarray(d)[:, None, None]
+            if Dn.size:
+                Dn[:] = np.asarray([segs[k][3] for k in which], dtype=float).T[:, :, None]
         else:
             Dn = self.modes if np.ndim(self.modes) == 1 else \
                 np.repeat(self.modes[:, np.searchsorted(t, a, side="right") - 1][:, :, None], 5, axis=2)

@@ -1,0 +1,71 @@
+"""The states at many times inside many solver steps at once: the energy integrals of a scipy-path result evaluate
+every step's dense interpolant at its Gauss nodes (:meth:`Result._quadrature_nodes
+<acausal.result.Result>`), a few hundred steps of a few nodes each. Calling each step's interpolant from Python
+cost more than the run itself; LSODA's and BDF's interpolants (the two scipy integrators the project uses by
+default) are polynomials whose coefficients are stacked here and evaluated in one array operation. Any other
+interpolant is called step by step."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate._ivp.bdf import BdfDenseOutput
+from scipy.integrate._ivp.lsoda import LsodaDenseOutput
+
+from .quadratures import StatesOnly
+
+
+def states_at(segments, which, tn, nx: int) -> np.ndarray:
+    """The states (``nx`` rows) at ``tn`` (pieces x nodes): piece ``i`` lies in step ``segments[which[i]]``, a
+    ``(t0, t1, interpolant, modes)`` of the scipy driver. Returns ``nx x pieces x nodes``."""
+    Xn = np.zeros((nx,) + tn.shape)
+    groups: dict = {}
+    for k in np.unique(which):
+        sol = segments[k][2]
+        inner = sol.sol if isinstance(sol, StatesOnly) else sol
+        groups.setdefault(type(inner), []).append(k)
+    for kind, steps in groups.items():
+        steps = np.asarray(steps)
+        pieces = np.flatnonzero(np.isin(which, steps))
+        at = np.searchsorted(steps, which[pieces])  # each piece's step, as a row of the stacked coefficients
+        inner = [_inner(segments[k][2]) for k in steps]
+        if kind is LsodaDenseOutput:
+            Xn[:, pieces, :] = _lsoda(inner, at, tn[pieces], nx)
+        elif kind is BdfDenseOutput:
+            Xn[:, pieces, :] = _bdf(inner, at, tn[pieces], nx)
+        else:
+            for k in steps:
+                m = which == k
+                Xn[:, m, :] = np.asarray(segments[k][2](tn[m].ravel())).reshape((nx,) + tn[m].shape)
+    return Xn
+
+
+def _inner(sol):
+    return sol.sol if isinstance(sol, StatesOnly) else sol
+
+
+def _lsoda(sols, at, t, nx):
+    """LSODA's Nordsieck form: y(t) = sum_j yh[:, j] ((t - t_n) / h)^j."""
+    sizes = np.array([s.p.size for s in sols])
+    J = int(sizes.max())
+    YH = np.zeros((len(sols), nx, J))
+    for size in np.unique(sizes):  # steps of one order stacked at once
+        rows = np.flatnonzero(sizes == size)
+        YH[rows, :, :size] = np.stack([sols[r].yh[:nx] for r in rows])
+    T, H = np.array([s.t for s in sols]), np.array([s.h for s in sols])
+    x = (t - T[at][:, None]) / H[at][:, None]
+    P = x[..., None] ** np.arange(J)
+    return np.einsum("knj,kgj->nkg", YH[at], P)
+
+
+def _bdf(sols, at, t, nx):
+    """BDF's divided-difference form: y(t) = D_0 + sum_j D_(j+1) prod_(i<=j) (t - t_i) / ((i + 1) h)."""
+    J = max(s.order for s in sols)
+    D0 = np.zeros((len(sols), nx))
+    D = np.zeros((len(sols), J, nx))
+    shift, denom = np.zeros((len(sols), J)), np.ones((len(sols), J))
+    for r, s in enumerate(sols):
+        D0[r] = s.D[0][:nx]
+        D[r, :s.order] = s.D[1:s.order + 1, :nx]
+        shift[r, :s.order], denom[r, :s.order] = s.t_shift, s.denom
+    x = (t[:, :, None] - shift[at][:, None, :]) / denom[at][:, None, :]
+    p = np.cumprod(x, axis=2)
+    return np.einsum("kjn,kgj->nkg", D[at], p) + D0[at].T[:, :, None]
