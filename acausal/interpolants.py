@@ -52,8 +52,10 @@ def _lsoda(sols, at, t, nx):
         YH[rows, :, :size] = np.stack([sols[r].yh[:nx] for r in rows])
     T, H = np.array([s.t for s in sols]), np.array([s.h for s in sols])
     x = (t - T[at][:, None]) / H[at][:, None]
-    P = x[..., None] ** np.arange(J)
-    return np.einsum("knj,kgj->nkg", YH[at], P)
+    P = np.ones(x.shape + (J,))
+    if J > 1:
+        P[..., 1:] = np.cumprod(np.broadcast_to(x[..., None], x.shape + (J - 1,)), axis=-1)
+    return np.matmul(YH[at], P.transpose(0, 2, 1)).transpose(1, 0, 2)
 
 
 def _bdf(sols, at, t, nx):
@@ -68,4 +70,4 @@ def _bdf(sols, at, t, nx):
         shift[r, :s.order], denom[r, :s.order] = s.t_shift, s.denom
     x = (t[:, :, None] - shift[at][:, None, :]) / denom[at][:, None, :]
     p = np.cumprod(x, axis=2)
-    return np.einsum("kjn,kgj->nkg", D[at], p) + D0[at].T[:, :, None]
+    return np.matmul(p, D[at]).transpose(2, 0, 1) + D0[at].T[:, :, None]
