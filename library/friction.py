@@ -226,3 +226,39 @@ class Brake(PartialElementaryTwoFlangesAndSupport2, _DryFriction):
 
     def events(self):
         return self.friction_events(self.w)
+
+
+class StickSlipBearingFriction(PartialElementaryTwoFlangesAndSupport2, PartialFriction):
+    """Bearing friction with stiction (MSL ``Rotational.Components.BearingFriction``): a rigid shaft whose friction
+    torque ``tau = flange_a.tau + flange_b.tau`` acts against the support, opposing ``w = der(flange_a.phi - support
+    angle)``. Sliding it is MSL's ``tau_pos`` table as a line, ``tau = tau0 + d |w|`` against the motion
+    (``tau_pos = [0, tau0; 1, tau0 + d]``); stuck, the shaft stands still relative to the support while the
+    holding torque stays within ``peak tau0`` (the modes of :class:`~acausal.partials.PartialFriction`, shared with
+    other friction elements stuck on the same shaft, as MSL's stuck groups). ``loss_power = tau w >= 0``.
+
+    The smooth :class:`~acausal.library.rotational.BearingFriction` creeps through zero speed instead of sticking
+    (no events, exact sensitivities); this one sticks, which MSL's ``LossyGearDemo2`` needs. Defaults: MSL's
+    ``BearingFriction`` (``tau_pos = [0, 1]``: tau0 = 1 N m, no slope; ``peak = 1``)."""
+
+    tau0 = Parameter(1.0, unit="N.m", min=0.0, doc="sliding friction torque at zero speed (MSL tau_pos at w = 0)")
+    d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="slope of the sliding friction torque with |w|")
+    peak = Parameter(1.0, unit="1", min=1.0, doc="static / sliding friction ratio at rest")
+    phi = Variable(unit="rad", doc="shaft angle relative to the support")
+    w = Variable(unit="rad/s", doc="shaft speed relative to the support")
+    a = Variable(unit="rad/s2", doc="shaft acceleration relative to the support")
+    tau = Variable(unit="N.m", doc="friction torque on the shaft, opposing w")
+    loss_power = Variable(unit="W", doc="friction loss tau w >= 0")
+
+    def equations(self):
+        slide_fwd, slide_bwd = self.tau0 + self.d * self.w, -self.tau0 + self.d * self.w
+        return [*super().equations(), Eq(self.phi, self.flange_a.phi - self.phi_support),
+                Eq(self.flange_a.phi, self.flange_b.phi), Eq(self.w, der(self.phi)),
+                Eq(self.tau, self.flange_a.tau + self.flange_b.tau),
+                *self.friction_equations(self.w, self.a, self.tau, slide_fwd, slide_bwd),
+                Eq(self.loss_power, self.tau * self.w)]
+
+    def breakaway(self) -> tuple:
+        return self.peak * self.tau0, -self.peak * self.tau0
+
+    def events(self):
+        return self.friction_events(self.w)

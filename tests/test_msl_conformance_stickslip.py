@@ -1,9 +1,8 @@
 """Conformance suite, part 2 (issue 21, item 6): the stick/slip examples of the Modelica Standard Library (Modelica
 Association, BSD-3-Clause), ``Modelica.Mechanics.Rotational.Examples.LossyGearDemo1``, ``LossyGearDemo2``,
 ``LossyGearDemo3`` (this module) and ``Friction`` (``tests/test_msl_conformance_friction.py``), rebuilt from this
-library's components (the gear is ``StickSlipGear``; the MSL's ``Clutch`` and ``Brake`` are the library's; a
-``BearingFriction`` with stiction is a ``Brake`` at constant normal force, with a ``Damper`` for a friction torque
-that grows with speed). Conventions and tolerances: ``tests/test_msl_conformance.py``; the other six examples: it,
+library's components (the gear is ``StickSlipGear``; the MSL's ``Clutch``, ``Brake`` and ``BearingFriction`` are
+the library's ``Clutch``, ``Brake`` and ``StickSlipBearingFriction``). Conventions and tolerances: ``tests/test_msl_conformance.py``; the other six examples: it,
 ``tests/test_msl_conformance_circuits.py`` and ``tests/test_msl_conformance_rectifier.py``.
 
 They are checked against hand-written references of the MSL's friction elements (mode by mode, closed-form mode
@@ -19,9 +18,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from acausal import Model, Start, compile_model, connect
-from acausal.library.blocks import Ramp, SignalSource, Sine, Step
-from acausal.library.friction import Brake
-from acausal.library.rotational import Damper, Fixed, Inertia, SignalTorque, StickSlipGear
+from acausal.library.blocks import Ramp, Sine, Step
+from acausal.library.friction import StickSlipBearingFriction
+from acausal.library.rotational import Fixed, Inertia, SignalTorque, StickSlipGear
 
 from .msl_support import ATOL, METHODS, RTOL, check_energy
 from .msl_stickslip_support import (check_losses_around_events, check_mode_changes, check_modes_at_outputs,
@@ -139,11 +138,9 @@ class LossyGearDemo(Model):
     """MSL ``Rotational.Examples.LossyGearDemo1`` (``bearing=False``) and ``LossyGearDemo2`` (``bearing=True``).
 
     The MSL's ``LossyGear`` under forward dynamics is the library's ``StickSlipGear`` (eta = eta_b = 0.5, no
-    bearing torque). Demo2's ``BearingFriction`` with stiction has no single library component (the library's
-    ``BearingFriction`` is smooth and creeps instead of sticking): its Coulomb part with stiction, 0.5 N m at rest
-    and sliding (peak 1), is a ``Brake`` held at its full normal force (mu 0.5, fn_max 1 N, cgeo 1 m, a
-    ``SignalSource`` of 1 as the MSL's constant input) and its slope, 0.5 N m per rad/s, a ``Damper`` to the
-    housing on the same shaft."""
+    bearing torque). Demo2's ``BearingFriction`` (``tau_pos = [0, 0.5; 1, 1]``, peak 1) is the library's
+    ``StickSlipBearingFriction`` (tau0 = 0.5 N m, d = 0.5 N m s/rad), one component as in the MSL (the smooth
+    ``BearingFriction`` creeps through zero speed instead of sticking)."""
 
     def __init__(self, bearing: bool = False, **kw):
         super().__init__(**kw)
@@ -168,13 +165,10 @@ class LossyGearDemo(Model):
             connect(self.torque1.flange, self.Inertia1.flange_a)
             return
         B = DEMO2_BEARING
-        self.bearingFriction = Brake(mu=B["tau0"], fn_max=1.0, cgeo=1.0, use_support=True)
-        self.bearingSlope = Damper(d=B["d"])
-        self.bearingNormal = SignalSource(signal=1.0)
-        connect(self.bearingNormal.y, self.bearingFriction.f_normalized)
-        connect(self.torque1.flange, self.bearingFriction.flange_a, self.bearingSlope.flange_b)
+        self.bearingFriction = StickSlipBearingFriction(tau0=B["tau0"], d=B["d"], use_support=True)
+        connect(self.torque1.flange, self.bearingFriction.flange_a)
         connect(self.bearingFriction.flange_b, self.Inertia1.flange_a)
-        connect(self.fixed.flange, self.bearingFriction.support, self.bearingSlope.flange_a)
+        connect(self.fixed.flange, self.bearingFriction.support)
 
 
 def gear_demo_reference(t, bearing: bool):
@@ -313,10 +307,8 @@ class LossyGearDemo3(Model):
             return
         bf_a, bf_b = demo3_bearings(P["eta"], P["eta"], P["bf1"], P["bf2"], P["ratio"])
         self.gear = StickSlipGear(ratio=P["ratio"], eta=P["eta"])
-        self.bearing_a = Brake(mu=bf_a, fn_max=1.0, cgeo=1.0)
-        self.bearing_b = Brake(mu=bf_b, fn_max=1.0, cgeo=1.0)
-        self.normal = SignalSource(signal=1.0)
-        connect(self.normal.y, self.bearing_a.f_normalized, self.bearing_b.f_normalized)
+        self.bearing_a = StickSlipBearingFriction(tau0=bf_a)
+        self.bearing_b = StickSlipBearingFriction(tau0=bf_b)
         connect(self.Inertia1.flange_b, self.bearing_a.flange_a)
         connect(self.bearing_a.flange_b, self.gear.flange_a)
         connect(self.gear.flange_b, self.bearing_b.flange_a)
