@@ -181,7 +181,7 @@ class Result:
     def power(self, port: str) -> np.ndarray:
         """Power flowing *into* the component through a port [W]: ``v*i`` for a pin, ``tau*der(phi)`` for a
         flange, ``Q_flow`` for a heat port."""
-        names = set(self.names())
+        names = self._known_names()
         if f"{port}.v" in names and f"{port}.i" in names:
             return self[f"{port}.v"] * self[f"{port}.i"]
         if f"{port}.phi" in names and f"{port}.tau" in names:
