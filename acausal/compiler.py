@@ -158,7 +158,8 @@ class CompiledModel:
         from .simulation import choose_path
         u = self.input_tuple(inputs)
         if not self.state_names:
-            return "algebraic (no states: evaluated at the output times)"
+            from .simulation.algebraic import SOLVER
+            return SOLVER
         method, why = choose_path(self, "auto", u, 1e-6, 1e-9)
         return f"compiled (CasADi {self.compiled_path.integrator_name(u)})" if not why else f"scipy {method}: {why}"
 

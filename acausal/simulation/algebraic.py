@@ -6,6 +6,8 @@ import numpy as np
 
 from ..modes import algebraic_modes
 
+SOLVER = "algebraic (no states: evaluated at the output times)"  # what res.solver and simulation_path() say
+
 
 def integrate(run):
     """The :class:`~acausal.result.Result` of ``run`` (:class:`~.run.Run`) whose model has no states."""
@@ -13,4 +15,5 @@ def integrate(run):
 
     cm, t_out, p, d, u = run.cm, run.t_out, run.p, run.d, run.u
     modes = algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else d
-    return Result(cm, t_out, np.zeros((0, t_out.size)), p, u, modes, events=[], exact_time_function=True)
+    return Result(cm, t_out, np.zeros((0, t_out.size)), p, u, modes, events=[], exact_time_function=True,
+                  solver=SOLVER)
