@@ -253,6 +253,9 @@ class Component:
             cls.__doc__ = doc.rstrip() + "\n\n" + "\n".join(pad + ln for ln in doc_table(cls).splitlines())
 
     def __init__(self, doc: str = "", **values):
+        if not isinstance(doc, str):  # Resistor(0.386): a value without its name would become the doc text
+            raise ModelError(f"{type(self).__name__}({doc!r}, ...): the first positional argument is the doc "
+                             f"text; give parameters by name, e.g. {type(self).__name__}(name=value)")
         object.__setattr__(self, "_path", "")
         object.__setattr__(self, "_parent", None)
         object.__setattr__(self, "_attr_name", None)

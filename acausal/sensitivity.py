@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from .errors import ModelError, SimulationError
 from .modes import algebraic_modes
-from .simulation import check_tolerances, initialize
+from .simulation import check_finite_times, check_tolerances, initialize
 from .symbols import der_name, var_symbol
 
 
@@ -49,6 +49,7 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     t = np.atleast_1d(np.asarray(t, dtype=float))
     if t.ndim != 1:
         raise ModelError("sensitivities: t must be a 1-D array of times")
+    check_finite_times(t, "sensitivities: t")
     check_tolerances(rtol, atol, "sensitivities")
     if isinstance(wrt, str):
         raise ModelError(f"sensitivities: wrt must be a list of parameter names, got the string {wrt!r}")

@@ -282,3 +282,23 @@ def test_an_odd_power_law_is_solved_with_the_real_root_on_both_signs():
         assert np.all(np.isfinite(i)) and (i < -0.1).any() and (i > 0.1).any()
         assert np.allclose(2.0 * i**3, v, rtol=1e-9, atol=1e-12)
         assert np.all(np.sign(i) == np.sign(v))
+
+
+
+def test_sweep_findings_a_value_without_its_name_empty_outputs_and_non_finite_sensitivity_times():
+    """Issue 39's sweep (tests/trust_sweep_findings.md, 1, 2 and 5): Resistor(0.386) became a doc text and kept
+    R = 1 ohm; sensitivities at an infinite time hung and at a NaN returned 0; t_eval=[] was a raw IndexError."""
+    import numpy as np
+    from acausal import ModelError, compile_model
+    from acausal.library.electrical import Resistor
+    from .circuit_models import RC
+
+    with pytest.raises(ModelError, match=r"Resistor\(0.386, \.\.\.\): the first positional argument is the doc "
+                                         r"text; give parameters by name"):
+        Resistor(0.386)
+    sim = compile_model(RC(v_ref=1.0, R=1.0, C=1.0))
+    for bad, k in (([0, 0.5, float("inf")], 2), ([0, 0.5, float("nan"), 1.0], 2)):
+        with pytest.raises(ModelError, match=rf"sensitivities: t\[{k}\] is (inf|nan); output times must be finite"):
+            sim.sensitivities(bad, ["R.R"])
+    with pytest.raises(ModelError, match=r"simulate: t_eval is empty"):
+        sim.simulate(1.0, t_eval=np.array([]))

@@ -7,7 +7,7 @@ consistent start, tolerances, output grid), the choice of the backend that integ
 validate -> Run -> choose -> integrate -> trust check."""
 from .choose import COMPILED, FALLBACK, ROBUST, choose_path
 from .initial import initialize
-from .run import Run, check_run, check_tolerances, prepare
+from .run import Run, check_finite_times, check_run, check_tolerances, prepare
 
-__all__ = ["COMPILED", "FALLBACK", "ROBUST", "Run", "check_run", "check_tolerances", "choose_path", "initialize",
+__all__ = ["COMPILED", "FALLBACK", "ROBUST", "Run", "check_finite_times", "check_run", "check_tolerances", "choose_path", "initialize",
            "prepare"]

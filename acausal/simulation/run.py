@@ -97,12 +97,20 @@ def check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_even
         raise ModelError("simulate: t_eval must be an array of times") from None
     if t_out.ndim != 1:
         raise ModelError(f"simulate: t_eval must be a 1-d array of times, got shape {t_out.shape}")
-    if not np.all(np.isfinite(t_out)):
-        k = int(np.argmax(~np.isfinite(t_out)))
-        raise ModelError(f"simulate: t_eval[{k}] is {t_out[k]}; output times must be finite numbers")
+    if t_out.size == 0:
+        raise ModelError("simulate: t_eval is empty; give at least one output time (or leave it out: n_points "
+                         "evenly spaced times)")
+    check_finite_times(t_out, "simulate: t_eval")
     if t_out.size and (t_out[0] < t_start or t_out[-1] > t_end or np.any(np.diff(t_out) < 0)):
         raise ModelError("t_eval must be increasing and within [t_start, t_end]")
     return t_start, t_end, t_out
+
+
+def check_finite_times(t, what: str) -> None:
+    """Output times must be finite numbers: a ModelError naming the first that is not (``what[k]``)."""
+    if not np.all(np.isfinite(t)):
+        k = int(np.argmax(~np.isfinite(t)))
+        raise ModelError(f"{what}[{k}] is {t[k]}; output times must be finite numbers")
 
 
 def check_tolerances(rtol, atol, who: str) -> None:
