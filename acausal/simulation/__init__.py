@@ -9,5 +9,5 @@ from .choose import COMPILED, FALLBACK, ROBUST, choose_path
 from .initial import initialize
 from .run import Run, check_finite_times, check_run, check_tolerances, prepare
 
-__all__ = ["COMPILED", "FALLBACK", "ROBUST", "Run", "check_finite_times", "check_run", "check_tolerances", "choose_path", "initialize",
-           "prepare"]
+__all__ = ["COMPILED", "FALLBACK", "ROBUST", "Run", "check_finite_times", "check_run", "check_tolerances",
+           "choose_path", "initialize", "prepare"]
