@@ -7,10 +7,14 @@ interpolant is called step by step."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate._ivp.bdf import BdfDenseOutput
-from scipy.integrate._ivp.lsoda import LsodaDenseOutput
 
 from .quadratures import StatesOnly
+
+try:  # scipy's private classes: if a scipy release moves them, every interpolant is called step by step
+    from scipy.integrate._ivp.bdf import BdfDenseOutput
+    from scipy.integrate._ivp.lsoda import LsodaDenseOutput
+except ImportError:  # pragma: no cover
+    BdfDenseOutput = LsodaDenseOutput = None
 
 
 def states_at(segments, which, tn, nx: int) -> np.ndarray:
@@ -19,17 +23,15 @@ def states_at(segments, which, tn, nx: int) -> np.ndarray:
     Xn = np.zeros((nx,) + tn.shape)
     groups: dict = {}
     for k in np.unique(which):
-        sol = segments[k][2]
-        inner = sol.sol if isinstance(sol, StatesOnly) else sol
-        groups.setdefault(type(inner), []).append(k)
+        groups.setdefault(type(_inner(segments[k][2])), []).append(k)
     for kind, steps in groups.items():
         steps = np.asarray(steps)
         pieces = np.flatnonzero(np.isin(which, steps))
         at = np.searchsorted(steps, which[pieces])  # each piece's step, as a row of the stacked coefficients
         inner = [_inner(segments[k][2]) for k in steps]
-        if kind is LsodaDenseOutput:
+        if LsodaDenseOutput is not None and kind is LsodaDenseOutput:
             Xn[:, pieces, :] = _lsoda(inner, at, tn[pieces], nx)
-        elif kind is BdfDenseOutput:
+        elif BdfDenseOutput is not None and kind is BdfDenseOutput:
             Xn[:, pieces, :] = _bdf(inner, at, tn[pieces], nx)
         else:
             for k in steps:

@@ -151,6 +151,16 @@ def _finite(cm, i, t, value, d):
     return value
 
 
+def after_end(t_out, t_e, X, D, x_e, d) -> None:
+    """An event at the last output time (``t_end``): the outputs there take the values after it, the final value a
+    Modelica tool reports (a sample at ``t_end`` that resets a Mean block shows the new mean). An output at an
+    earlier event keeps the value before it."""
+    if t_out.size and t_e >= t_out[-1]:
+        at = t_out >= t_e
+        X[:, at] = np.asarray(x_e, dtype=float)[:, None]
+        D[:, at] = np.asarray(d, dtype=float)[:, None]
+
+
 def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
     """Append the crossings ``hits`` at ``t_e`` to ``events`` as ``(time, event index, "rising"|"falling")``; a
     SimulationError naming the last event's origin when there are more than ``max_events``."""

@@ -32,8 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..modes import apply_hits, crossings, handle_event, restarts, settle_modes
-from ..simulation.scipy_driver import after_end
+from ..modes import after_end, apply_hits, crossings, handle_event, restarts, settle_modes
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements

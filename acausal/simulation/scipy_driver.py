@@ -12,7 +12,7 @@ from scipy import integrate as scipy_integrate
 
 from ..errors import SimulationError
 from ..failures import non_finite_error, step_failure
-from ..modes import apply_hits, crossings_in_step, handle_event, restarts, settle_modes, zeros
+from ..modes import after_end, apply_hits, crossings_in_step, handle_event, restarts, settle_modes, zeros
 from ..quadratures import Quadratures, StatesOnly
 from .initial import initialize
 
@@ -133,16 +133,6 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
     res = Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label, integrals=integrals)
     res.scipy_method = method
     return res
-
-
-def after_end(t_out, t_e, X, D, x_e, d) -> None:
-    """An event at the last output time (``t_end``): the outputs there take the values after it, the final value a
-    Modelica tool reports (a sample at ``t_end`` that resets a Mean block shows the new mean). An output at an
-    earlier event keeps the value before it."""
-    if t_out.size and t_e >= t_out[-1]:
-        at = t_out >= t_e
-        X[:, at] = np.asarray(x_e, dtype=float)[:, None]
-        D[:, at] = np.asarray(d, dtype=float)[:, None]
 
 
 def _too_many_steps(cm, method, limit, t_prev, t_new, t_start, t_end) -> SimulationError:
