@@ -16,7 +16,7 @@ from .alias import eliminate_aliases
 from .codegen import CodeGenerator
 from .errors import ModelError, SignalError, StructureError, UnknownNameError
 from .flatten import FlatModel, flatten
-from .parameter_values import check_parameter, parameter_plan
+from .parameter_values import bound_message, check_parameter, parameter_plan
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import solve_blocks
@@ -349,14 +349,9 @@ class CompiledModel:
         return tuple(self._param_plan)
 
     def bound_message(self, name: str) -> str:
-        """Why a bound parameter cannot be overridden alone, and what to set instead (the error
-        :meth:`param_vector` raises; an exported FMU says the same)."""
-        binding = self._bound[name]
-        free = sorted(str(s) for s in getattr(binding, "free_symbols", ()))
-        owner = self.flat.parameters[name].owner if name in self.flat.parameters else ""
-        return (f"parameter {name!r}{f' of {owner}' if owner else ''} is bound to {binding} in the model: set "
-                f"{', '.join(repr(f) for f in free) or 'the parameters it depends on'} instead (an override of "
-                f"{name!r} alone would disagree with them)")
+        """Why a bound parameter cannot be overridden alone (the error :meth:`param_vector` raises; an exported
+        FMU says the same)."""
+        return bound_message(self.flat, name, self._bound[name])
 
     def param_batch(self, sets: list) -> np.ndarray:
         """Parameter array of shape ``(n_params, B, 1)`` for ``B`` parameter sets: generated functions evaluated

@@ -44,6 +44,15 @@ def parameter_plan(flat) -> list:
     return plan
 
 
+def bound_message(flat, name: str, binding) -> str:
+    """Why parameter ``name``, bound to ``binding`` in the model, cannot be overridden alone, and what to set."""
+    free = sorted(str(s) for s in getattr(binding, "free_symbols", ()))
+    owner = flat.parameters[name].owner if name in flat.parameters else ""
+    return (f"parameter {name!r}{f' of {owner}' if owner else ''} is bound to {binding} in the model: set "
+            f"{', '.join(repr(f) for f in free) or 'the parameters it depends on'} instead (an override of "
+            f"{name!r} alone would disagree with them)")
+
+
 def check_parameter(info, v) -> bool:
     """Check one parameter value (a number, or an array of values for a batch of runs) for finiteness and
     against the parameter's bounds; True when it is an array of values. Numbers take the fast path."""
