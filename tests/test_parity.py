@@ -32,6 +32,7 @@ The last test prints the model x backend table (``pytest -s``). Each model is co
 module (module-level caches); the module takes about 55-65 s on the two-core machine of the CI (one core: the
 runs are serial; most of the time is compiling 50 models, the BDF references at tight tolerances and the C
 compiler of 30 FMUs).
+The cases, their builders and tolerances are in ``tests/parity_cases.py``.
 """
 from __future__ import annotations
 
