@@ -207,11 +207,10 @@ class Clutch(PartialCompliantWithRelativeStates, _DryFriction):
         return self.friction_events(self.w_rel)
 
 
-class Brake(PartialElementaryTwoFlangesAndSupport2, _DryFriction):
-    """Brake on a shaft (MSL ``Brake``): ``flange_a`` and ``flange_b`` turn together, the friction torque
-    ``tau = flange_a.tau + flange_b.tau`` acts between the shaft and the support (its reaction on the support with
-    ``use_support=True``), opposing ``w = der(flange_a.phi - support angle)``; stuck, the shaft stands still
-    relative to the support up to ``peak mu cgeo fn``. ``loss_power = tau w >= 0``."""
+class _FrictionShaft(PartialElementaryTwoFlangesAndSupport2):
+    """A rigid shaft whose friction torque ``tau = flange_a.tau + flange_b.tau`` acts against the support, opposing
+    ``w = der(flange_a.phi - support angle)``: what :class:`Brake` and :class:`StickSlipBearingFriction` share
+    (each with :class:`~acausal.partials.PartialFriction`, whose events it watches on ``w``)."""
 
     phi = Variable(unit="rad", doc="shaft angle relative to the support")
     w = Variable(unit="rad/s", doc="shaft speed relative to the support")
@@ -221,14 +220,23 @@ class Brake(PartialElementaryTwoFlangesAndSupport2, _DryFriction):
     def equations(self):
         return [*super().equations(), Eq(self.phi, self.flange_a.phi - self.phi_support),
                 Eq(self.flange_a.phi, self.flange_b.phi), Eq(self.w, der(self.phi)),
-                Eq(self.tau, self.flange_a.tau + self.flange_b.tau),
-                *self._dry_friction(self.w, self.a, self.tau)]
+                Eq(self.tau, self.flange_a.tau + self.flange_b.tau)]
 
     def events(self):
         return self.friction_events(self.w)
 
 
-class StickSlipBearingFriction(PartialElementaryTwoFlangesAndSupport2, PartialFriction):
+class Brake(_FrictionShaft, _DryFriction):
+    """Brake on a shaft (MSL ``Brake``): ``flange_a`` and ``flange_b`` turn together, the friction torque
+    ``tau = flange_a.tau + flange_b.tau`` acts between the shaft and the support (its reaction on the support with
+    ``use_support=True``), opposing ``w = der(flange_a.phi - support angle)``; stuck, the shaft stands still
+    relative to the support up to ``peak mu cgeo fn``. ``loss_power = tau w >= 0``."""
+
+    def equations(self):
+        return [*super().equations(), *self._dry_friction(self.w, self.a, self.tau)]
+
+
+class StickSlipBearingFriction(_FrictionShaft, PartialFriction):
     """Bearing friction with stiction (MSL ``Rotational.Components.BearingFriction``): a rigid shaft whose friction
     torque ``tau = flange_a.tau + flange_b.tau`` acts against the support, opposing ``w = der(flange_a.phi - support
     angle)``. Sliding it is MSL's ``tau_pos`` table as a line, ``tau = tau0 + d |w|`` against the motion
@@ -243,22 +251,12 @@ class StickSlipBearingFriction(PartialElementaryTwoFlangesAndSupport2, PartialFr
     tau0 = Parameter(1.0, unit="N.m", min=0.0, doc="sliding friction torque at zero speed (MSL tau_pos at w = 0)")
     d = Parameter(0.0, unit="N.m.s/rad", min=0.0, doc="slope of the sliding friction torque with |w|")
     peak = Parameter(1.0, unit="1", min=1.0, doc="static / sliding friction ratio at rest")
-    phi = Variable(unit="rad", doc="shaft angle relative to the support")
-    w = Variable(unit="rad/s", doc="shaft speed relative to the support")
-    a = Variable(unit="rad/s2", doc="shaft acceleration relative to the support")
-    tau = Variable(unit="N.m", doc="friction torque on the shaft, opposing w")
     loss_power = Variable(unit="W", doc="friction loss tau w >= 0")
 
     def equations(self):
         slide_fwd, slide_bwd = self.tau0 + self.d * self.w, -self.tau0 + self.d * self.w
-        return [*super().equations(), Eq(self.phi, self.flange_a.phi - self.phi_support),
-                Eq(self.flange_a.phi, self.flange_b.phi), Eq(self.w, der(self.phi)),
-                Eq(self.tau, self.flange_a.tau + self.flange_b.tau),
-                *self.friction_equations(self.w, self.a, self.tau, slide_fwd, slide_bwd),
+        return [*super().equations(), *self.friction_equations(self.w, self.a, self.tau, slide_fwd, slide_bwd),
                 Eq(self.loss_power, self.tau * self.w)]
 
     def breakaway(self) -> tuple:
         return self.peak * self.tau0, -self.peak * self.tau0
-
-    def events(self):
-        return self.friction_events(self.w)
