@@ -28,12 +28,17 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
         raise ModelError("simulate_many: params must be a list of parameter dicts (one per run)")
+    for k, s in enumerate(params):
+        if s is not None and not isinstance(s, dict):
+            raise ModelError(f"simulate_many: params[{k}] is {s!r}, not a dict of parameter overrides by name "
+                             "(e.g. [{'R.R': 1.0}, {'R.R': 2.0}])")
     sets = [dict(s or {}) for s in params]
     if not sets:
         return []
     kwargs = dict(t_start=t_start, inputs=inputs, starts=starts, rtol=rtol, atol=atol, t_eval=t_eval,
                   n_points=n_points, max_step=max_step, first_step=first_step, dense_output=dense_output)
-    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points)
+    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points,
+                                      states=cm.state_names, dense_output=dense_output)
     ps = [cm.param_vector(s) for s in sets]
     us = [cm.input_tuple(inputs, p) for p in ps]
     batched = False

@@ -214,6 +214,8 @@ class CompiledModel:
         assumption about one device, :class:`~acausal.components.Parameter` ``device``), unless ``params``
         (a run's overrides) sets them: name -> (value, unit, device)."""
         given = set(params or ())
+        for name in given:
+            self.param_index(name)  # a misspelt override raises, with suggestions
         return {n: (float(p.value), p.unit, p.device) for n, p in sorted(self.flat.parameters.items())
                 if p.device and n not in given and not isinstance(p.value, sp.Basic)}
 

@@ -7,6 +7,7 @@ import fnmatch
 import sympy as sp
 
 from .describe import Listing
+from .errors import ModelError
 from .solve import Assign, LinearSolve, NewtonSolve
 from .symbols import der, split_der, var_symbol
 
@@ -118,6 +119,9 @@ def report(cm) -> str:
 
 def filtered(names: list, pattern: str | None) -> list:
     """``names`` matching ``pattern`` (a shell-style wildcard, or a substring when it has no wildcard)."""
+    if pattern is not None and not isinstance(pattern, str):
+        raise ModelError(f"names: pattern must be a str (a wildcard such as 'motor.*' or a substring), got "
+                         f"{pattern!r}")
     if not pattern:
         return names
     if any(ch in pattern for ch in "*?["):

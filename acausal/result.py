@@ -86,6 +86,8 @@ class Result:
         return self.model.names(pattern, parameters)
 
     def __contains__(self, name):
+        if not isinstance(name, str):
+            return False
         try:
             self[name]
             return True
@@ -93,6 +95,9 @@ class Result:
             return False
 
     def __getitem__(self, name: str) -> np.ndarray:
+        if not isinstance(name, str):
+            raise ModelError(f"result of {self.model.flat.name}: index it by a variable's name (a str, e.g. "
+                             f"res['C.v']), got the {type(name).__name__} {name!r}; res.names() lists them")
         if name in self._states_by_name:
             return self._states_by_name[name]
         if name in self._unknowns:
@@ -210,10 +215,28 @@ class Result:
         integrated the same way on the output grid with exact values at the nodes.
         """
         parts = self._through(what)
+        self._check_power(what, "energy")
         if parts != [what]:  # a component with several ports: the power into it through all of them
             self._integrate_with_states(parts)
             return sum(self._cumulative(p) for p in parts)
         return self._cumulative(what).copy()  # the caller's to change; the cached one stays
+
+    def _check_power(self, what, who: str) -> None:
+        """``what`` must be something with a power: a port, a component, or a variable or parameter in W (or
+        without a unit); a ModelError naming it and its unit otherwise."""
+        if not isinstance(what, str):
+            raise ModelError(f"{who}: name a power variable, a port or a component (a str), got {what!r}")
+        unit = self._unit(what)
+        if unit and unit != "W" and self._through(what) == [what] and not self._is_power_port(what):
+            raise ModelError(f"{who}: {what!r} [{unit}] is not a power (W); {who}() integrates a power variable, "
+                             "a port (pin, flange, heat port) or a component")
+
+    def _is_power_port(self, name) -> bool:
+        try:
+            self.power(name)
+            return True
+        except KeyError:
+            return False
 
     def energy_balance(self, t0: float | None = None, t1: float | None = None, between: tuple | None = None):
         """The energy balance between output times ``t0`` and ``t1`` (default: the whole result), from the
@@ -224,6 +247,9 @@ class Result:
         from .energy import balance
         b = balance(self, self.model.accounts, *self._window(t0, t1))
         if between is not None:
+            if isinstance(between, str) or not hasattr(between, "__len__") or len(between) != 2:
+                raise ModelError(f"energy_balance: between must be a pair (a, b) of names (power variables, ports "
+                                 f"or components), got {between!r}")
             a, z = between
             b.efficiency, b.efficiency_path = self.efficiency(a, z, t0, t1), (a, z)
         return b
@@ -239,12 +265,20 @@ class Result:
         :class:`ModelError`.
         """
         k0, k1 = self._window(t0, t1)
+        for x in (a, b):
+            self._check_power(x, "efficiency")
         self._integrate_with_states(self._through(a) + self._through(b))  # one more run for both, if any
         ea, eb = (self._passed(x, k0, k1) for x in (a, b))
         if ea == 0.0:
             raise ModelError(f"efficiency {a} -> {b}: no net energy passed {a!r} between {self.t[k0]:g} and "
                              f"{self.t[k1]:g} s")
-        return abs(eb) / abs(ea)
+        eta = abs(eb) / abs(ea)
+        if eta > 1.0 + 1e-9:
+            import warnings
+            warnings.warn(f"efficiency {a} -> {b} is {eta:.4g} > 1 between {self.t[k0]:g} and {self.t[k1]:g} s: more "
+                          f"energy passed {b!r} ({eb:.4g} J) than {a!r} ({ea:.4g} J); are the ends reversed, or does "
+                          "energy reach the far end from a store or another source?", stacklevel=2)
+        return eta
 
     def _through(self, name: str) -> list:
         """What :meth:`_passed` integrates for ``name``: ``name`` itself (a variable, a port, a one-port), or a
@@ -288,12 +322,28 @@ class Result:
         model with fewer than two power sensors gets its energy balance as one diagram (inflows left, each
         loss and stored energy leaving)."""
         from .energy import draw_sankey
+        if ax is not None and not callable(getattr(ax, "add_patch", None)):
+            raise ModelError(f"sankey: ax must be a matplotlib Axes (or None for a new figure), got {ax!r}")
         return draw_sankey(self, self.model.accounts, ax, *self._window(t0, t1), title)
 
     def _window(self, t0, t1) -> tuple:
-        """Output samples nearest to ``t0`` and ``t1`` (default: the first and the last)."""
-        k0 = 0 if t0 is None else int(np.argmin(np.abs(self.t - t0)))
-        k1 = self.t.size - 1 if t1 is None else int(np.argmin(np.abs(self.t - t1)))
+        """Output samples nearest to ``t0`` and ``t1`` (default: the first and the last); a ModelError when a time
+        is not a number, lies outside the run (by more than half an output interval) or ``t0`` is not before
+        ``t1``."""
+        t = self.t
+        slack = 0.5 * float(np.max(np.diff(t))) if t.size > 1 else 0.0
+        for what, value in (("t0", t0), ("t1", t1)):
+            if value is None:
+                continue
+            if isinstance(value, (str, bytes, bool, np.bool_)) or not np.isscalar(value) or not np.isreal(value) \
+                    or not np.isfinite(value):
+                raise ModelError(f"window: {what} must be a time in s (a finite number), got {value!r}")
+            if not t[0] - slack <= value <= t[-1] + slack:
+                raise ModelError(f"window: {what} = {value:g} s is outside the run ({t[0]:g}..{t[-1]:g} s)")
+        if t0 is not None and t1 is not None and not t0 < t1:
+            raise ModelError(f"window: t0 = {t0:g} s must be before t1 = {t1:g} s")
+        k0 = 0 if t0 is None else int(np.argmin(np.abs(t - t0)))
+        k1 = t.size - 1 if t1 is None else int(np.argmin(np.abs(t - t1)))
         return k0, k1
 
     def integral(self, name: str) -> float:
@@ -378,8 +428,14 @@ class Result:
     # ------------------------------------------------------------------ export
     def to_csv(self, path, names=None) -> None:
         """Write ``time`` and the named variables (default: all) as CSV, one row per output time."""
+        import os
         names = list(names) if names is not None else self.names()
         cols = [self[n] for n in names]
+        if os.path.isdir(path):
+            raise ModelError(f"to_csv: {path} is a folder; give a file path (e.g. {os.path.join(path, 'run.csv')})")
+        folder = os.path.dirname(os.fspath(path))
+        if folder and not os.path.isdir(folder):
+            raise ModelError(f"to_csv: the folder {folder} of {path} does not exist")
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["time"] + names)

@@ -50,7 +50,9 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     if t.ndim != 1:
         raise ModelError("sensitivities: t must be a 1-D array of times")
     check_finite_times(t, "sensitivities: t")
-    check_tolerances(rtol, atol, "sensitivities")
+    check_tolerances(rtol, atol, "sensitivities", cm.state_names)
+    if not isinstance(substeps, (int, np.integer)) or isinstance(substeps, bool) or substeps < 1:
+        raise ModelError(f"sensitivities: substeps must be a positive integer, got {substeps!r}")
     if isinstance(wrt, str):
         raise ModelError(f"sensitivities: wrt must be a list of parameter names, got the string {wrt!r}")
     wrt = list(wrt)
@@ -105,8 +107,6 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
 
 def _fixed_step(cm, t, t_start, p, d, u, starts, wrt, bindings, substeps):
     """States and sensitivities by :mod:`acausal.compiled.fixed_step` (RK4 on the grid ``t``)."""
-    if not isinstance(substeps, (int, np.integer)) or isinstance(substeps, bool) or substeps < 1:
-        raise ModelError(f"sensitivities: substeps must be a positive integer, got {substeps!r}")
     try:
         from .compiled.fixed_step import fixed_step
         from .compiled.translate import Unsupported

@@ -23,6 +23,7 @@ import numpy as np
 
 from .errors import SimulationError
 from .simulation import COMPILED, ROBUST, check_tolerances, choose_path, initialize, prepare  # noqa: F401
+from .simulation.choose import fallback
 from .simulation import algebraic, compiled_driver, scipy_driver
 from .simulation.scipy_driver import MAX_STEPS, MAX_STEPS_EXPLICIT, METHODS  # noqa: F401
 
@@ -45,7 +46,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     ``trust``: what the trust checks (:mod:`acausal.trust`: conditioning of every variable on the states'
     tolerances, the energy balance) do with a result they reject: ``"raise"`` an
     :class:`~acausal.trust.UntrustedResult`, ``"warn"``, or ``"off"``; their findings are ``res.trust``.
-    ``max_steps``: steps of a scipy integrator at most (default :data:`MAX_STEPS` for an implicit method,
+    ``max_steps``: steps of a scipy integrator at most (given, ``method="auto"`` takes the scipy path) (default :data:`MAX_STEPS` for an implicit method,
     :data:`MAX_STEPS_EXPLICIT` for an explicit one: a stiff model on RK45 stops with an error saying so instead of
     running for hours).
     """
@@ -78,6 +79,8 @@ def integrate(run) -> tuple:
     if not run.cm.state_names:
         return algebraic.integrate(run), None
     method, why = choose_path(run.cm, run.method, run.u, run.rtol, run.atol)
+    if method == COMPILED and run.max_steps is not None:  # method="auto" (check_run refuses it with "CVODES")
+        method, why = fallback(run.cm), "max_steps limits a scipy integrator's steps"
     if method == COMPILED:
         try:
             return compiled_driver.integrate(run), None

@@ -18,6 +18,11 @@ from .errors import ModelError
 def sweep(fn, args, executor: Executor | None = None, progress: bool = False, label: str = "tasks") -> list:
     """``[fn(a) for a in args]``, run through ``executor`` (default: a process pool on all cores; ``"serial"``
     runs in this process)."""
+    if not callable(fn):
+        raise ModelError(f"sweep: fn must be a function of one argument, got {fn!r}")
+    if isinstance(args, (str, bytes)) or not hasattr(args, "__iter__"):
+        raise ModelError(f"sweep: args must be a list (or another iterable) of arguments, one per call of fn, got "
+                         f"{args!r}")
     args = list(args)
     if not (executor is None or executor == "serial" or callable(getattr(executor, "submit", None))):
         raise ModelError(f"sweep: executor must be None, 'serial' or an Executor (something with submit), got "

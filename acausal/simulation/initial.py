@@ -11,7 +11,10 @@ from ..errors import ModelError, SimulationError
 
 
 def number(value, what: str) -> float:
-    """``value`` as a float; a ModelError naming ``what`` when it is not a number."""
+    """``value`` as a float; a ModelError naming ``what`` when it is not a real number (a string or a bool is not:
+    ``"1.0"`` and ``True`` are slips, taken literally elsewhere in Python)."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ModelError(f"{what} must be a number, got the {type(value).__name__} {value!r}")
     try:
         return float(value)
     except (TypeError, ValueError):

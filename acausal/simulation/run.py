@@ -52,7 +52,7 @@ def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t
     """Check the settings of :func:`acausal.simulate.simulate` (each error names its setting) and build the
     :class:`Run`: the parameter vector, the inputs, the discrete start and the consistent initial states."""
     t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
-                                      n_points, max_steps)
+                                      n_points, max_steps, cm.state_names, dense_output)
     p = cm.param_vector(params)
     if p.dtype == object:  # an array of values: a batch of runs
         batch = [name for name, value in (params or {}).items() if np.ndim(value) > 0]
@@ -67,7 +67,7 @@ def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t
 
 
 def check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points,
-               max_steps=None):
+               max_steps=None, states=None, dense_output=True):
     """The checked run settings of :func:`simulate`: ``(t_start, t_end, output times)``; a ModelError naming the
     setting at fault otherwise."""
     if method not in METHODS and method not in ("auto", COMPILED):
@@ -79,17 +79,28 @@ def check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_even
             raise ModelError(f"simulate: {what} must be a finite time, got {value}")
     if not t_end > t_start:
         raise ModelError(f"t_end = {t_end} must be after t_start = {t_start}")
-    check_tolerances(rtol, atol, "simulate")
+    check_tolerances(rtol, atol, "simulate", states)
+    if not isinstance(dense_output, (bool, np.bool_)):
+        raise ModelError(f"simulate: dense_output must be True or False, got {dense_output!r}")
+    span = t_end - t_start
     for what, step in (("max_step", max_step), ("first_step", first_step)):
         if step is not None and not number(step, what) > 0:
             raise ModelError(f"simulate: {what} must be positive, got {step}")
-    if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or max_steps < 1):
+    if first_step is not None and first_step > span:
+        raise ModelError(f"simulate: first_step = {first_step:g} s is longer than the run ({span:g} s, "
+                         f"{t_start:g}..{t_end:g})")
+    if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or isinstance(max_steps, bool)
+                                  or max_steps < 1):
         raise ModelError(f"simulate: max_steps must be a positive integer, got {max_steps!r}")
-    if not isinstance(max_events, (int, np.integer)) or max_events < 0:
+    if max_steps is not None and method == COMPILED:
+        raise ModelError(f"simulate: max_steps limits a scipy integrator's steps; method={COMPILED!r} has no such "
+                         "limit (leave max_steps out, or choose a scipy method)")
+    if not isinstance(max_events, (int, np.integer)) or isinstance(max_events, bool) or max_events < 0:
         raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
     if t_eval is None:
-        if not isinstance(n_points, (int, np.integer)) or n_points < 1:
-            raise ModelError(f"simulate: n_points must be a positive integer, got {n_points!r}")
+        if not isinstance(n_points, (int, np.integer)) or isinstance(n_points, bool) or n_points < 2:
+            raise ModelError(f"simulate: n_points must be an integer >= 2 (the outputs run from t_start to t_end), "
+                             f"got {n_points!r}; for one time give t_eval=[t]")
         return t_start, t_end, np.linspace(t_start, t_end, n_points)  # increasing, from t_start to t_end
     try:
         t_out = np.asarray(t_eval, dtype=float)
@@ -113,14 +124,26 @@ def check_finite_times(t, what: str) -> None:
         raise ModelError(f"{what}[{k}] is {t[k]}; output times must be finite numbers")
 
 
-def check_tolerances(rtol, atol, who: str) -> None:
-    """The integrator's relative and absolute tolerances: ``rtol`` positive, ``atol`` not negative (numbers,
-    or one per state); a ModelError naming ``who`` otherwise."""
-    if type(rtol) is float and type(atol) is float and rtol > 0 and atol >= 0:  # the usual case, without numpy
+def check_tolerances(rtol, atol, who: str, states=None) -> None:
+    """The integrator's relative and absolute tolerances: ``rtol`` in (0, 1), ``atol`` finite and not negative;
+    each a number or, with the model's ``states`` (names) given, one value per state. A ModelError naming ``who``
+    and the setting otherwise."""
+    if type(rtol) is float and type(atol) is float and 0 < rtol < 1 and 0 <= atol < math.inf:  # the usual case
         return
-    try:
-        ok = bool(np.all(np.asarray(rtol, dtype=float) > 0) and np.all(np.asarray(atol, dtype=float) >= 0))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise ModelError(f"{who}: rtol must be positive and atol not negative, got rtol = {rtol!r}, atol = {atol!r}")
+    for what, tol in (("rtol", rtol), ("atol", atol)):
+        if isinstance(tol, (str, bytes, bool, np.bool_)):
+            raise ModelError(f"{who}: {what} must be a number (or one per state), got the {type(tol).__name__} "
+                             f"{tol!r}")
+        try:
+            v = np.asarray(tol, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{who}: {what} must be a number (or one per state), got {tol!r}") from None
+        if v.ndim > 1 or (v.ndim == 1 and states is not None and v.size != len(states)):
+            n = len(states) if states is not None else "?"
+            raise ModelError(f"{who}: {what} has {v.size if v.ndim == 1 else f'shape {v.shape} of'} values for "
+                             f"{n} state{'s' if n != 1 else ''} {list(states or [])}; give one number or one per "
+                             "state")
+        if what == "rtol" and not np.all((v > 0) & (v < 1)):
+            raise ModelError(f"{who}: rtol must be positive and below 1, got rtol = {tol!r}")
+        if what == "atol" and not np.all((v >= 0) & np.isfinite(v)):
+            raise ModelError(f"{who}: atol must be finite and not negative, got atol = {tol!r}")
