@@ -27,7 +27,7 @@ import sys
 import time
 from pathlib import Path
 
-from .cli_values import check_bench_folder, check_outputs, number, pairs, whole_number
+from .cli_values import check_bench_folder, check_file_output, check_outputs, number, pairs, whole_number
 from .fileio import atomic_write_text
 
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
@@ -179,8 +179,14 @@ DIAGNOSE_MODELS = ("ankle", "servo_pendulum")
 
 def cmd_diagnose(args) -> int:
     check_outputs(args.data, out=args.out, json=args.json)
+    check_file_output(args.json, "--json")
     out = Path(args.out)
-    candidates = [c.strip() for c in args.candidates.split(",") if c.strip()] if args.candidates else None
+    candidates = None
+    if args.candidates is not None:
+        candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
+        if not candidates:
+            from acausal import DataError
+            raise DataError(f"--candidates {args.candidates!r} names no candidate; leave it out to try them all")
     progress = None if args.no_progress else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
     if args.model == "servo_pendulum":
         d = _diagnose_servo(args, out, candidates, progress)
@@ -188,6 +194,12 @@ def cmd_diagnose(args) -> int:
         from acausal import DataError
         raise DataError("--candidate and --candidates-file are for --model servo_pendulum; the ankle's candidates "
                         "are its effects (acausal.models.ankle.effects)")
+    elif args.split is not None or args.jobs is not None or args.bam:
+        from acausal import DataError
+        given = [o for o, v in (("--split", args.split), ("--jobs", args.jobs), ("--bam", args.bam or None))
+                 if v is not None]
+        raise DataError(f"{', '.join(given)}: for --model servo_pendulum only; the ankle's diagnosis holds out "
+                        "strides (--holdout-every) and runs in this process")
     else:
         from acausal.models.bench import diagnosis
         from acausal.models.bench.diagnosis_report import write_json, write_report
@@ -268,10 +280,38 @@ def load_model_class(ref: str):
     return load_class(ref, Model, "model")
 
 
+def build_user_model(ref: str, cls):
+    """The user's model class ``cls`` (named by ``ref``) instantiated without arguments and compiled; what goes
+    wrong in the user's code is a ModelError naming the reference, the exception and the user's file and line."""
+    import inspect
+
+    from acausal import AcausalError, ModelError, compile_model
+    from acausal.references import user_code_error
+
+    required = [p.name for p in list(inspect.signature(cls).parameters.values())
+                if p.default is p.empty and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    if required:
+        raise ModelError(f"model {ref!r}: the class must be buildable without arguments; its __init__ needs "
+                         f"{', '.join(required)}")
+    try:
+        return compile_model(cls())
+    except AcausalError:
+        raise
+    except Exception as exc:
+        raise user_code_error(f"model {ref!r}: building it", exc) from None
+
+
+def own_doc(cls) -> str:
+    """``cls``'s own docstring (not one inherited from :class:`~acausal.Model`), cleaned; "" when it has none."""
+    import inspect
+    text = cls.__dict__.get("__doc__")
+    return inspect.cleandoc(text) if isinstance(text, str) else ""
+
+
 def cmd_export(args) -> int:
     import inspect
 
-    from acausal import ModelError, compile_model
+    from acausal import ModelError
     from acausal.export import export_fmu
 
     sets = {}
@@ -281,8 +321,11 @@ def cmd_export(args) -> int:
         except ValueError:
             raise ModelError(f"--set {name}={value}: the value {value!r} is not a number (SI units)") from None
     if ":" in args.model:
+        if args.preset is not None:
+            raise ModelError(f"--preset {args.preset}: presets are for registered models (acausal compare --list); "
+                             f"{args.model} takes its parameters from its class (and --set)")
         cls = load_model_class(args.model)
-        cm, doc, params = compile_model(cls()), inspect.getdoc(cls) or "", {}
+        cm, doc, params = build_user_model(args.model, cls), own_doc(cls), {}
     else:
         from acausal.models.ankle.presets import preset  # the CLI wires verbs to models (design rule exception)
         from acausal.models.ankle.protocol import compiled
@@ -291,7 +334,7 @@ def cmd_export(args) -> int:
         s = spec(args.model)
         cm = compiled(args.model).sim
         doc = f"{s.summary}.\n\n{inspect.getdoc(type(s.build())) or ''}"
-        params = {k: v for k, v in preset(args.preset).items() if cm.has_parameter(k)}
+        params = {k: v for k, v in preset(args.preset or "library").items() if cm.has_parameter(k)}
         params.update(s.params)
     for name in sets:
         if not cm.has_parameter(name):
@@ -314,14 +357,14 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--out", required=True, help="output directory (created if missing)")
     paper.add_argument("--quick", action="store_true",
                        help="reduced grid (P in 5, 8, 18 mm x 1.2, 2, 3 s) and resolution, for tests")
-    paper.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    paper.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="worker processes (default: all cores)")
     paper.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     paper.set_defaults(run=cmd_paper)
     infer = sub.add_parser("infer", help="infer the paper's unpublished parameters from its published numbers "
                            "(the paper_fit preset; several minutes)")
     infer.add_argument("--out", required=True, help="output directory (paper_fit.json, inference.md)")
     infer.add_argument("--install", action="store_true", help="also replace the shipped paper_fit preset record")
-    infer.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    infer.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="worker processes (default: all cores)")
     infer.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
     infer.set_defaults(run=cmd_infer)
     bench = sub.add_parser("bench", help="virtual test bench: record the paper's protocol on a truth model")
@@ -334,7 +377,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seed", type=whole_number("--seed", least=0), default=0, help="noise seed (default 0)")
     bench.add_argument("--force", action="store_true", help="write into a folder that already holds files (its "
                        "files are deleted first)")
-    bench.add_argument("--strides", type=int, default=6, help="recorded strides per condition (default 6)")
+    bench.add_argument("--strides", type=whole_number("--strides"), default=6, help="recorded strides per condition (default 6)")
     bench.add_argument("--quick", action="store_true", help="9 conditions instead of the paper's 36")
     bench.add_argument("--session", type=float, default=None, metavar="PAUSE_S",
                        help="record the conditions one after another as one session, PAUSE_S seconds apart: the "
@@ -364,7 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("model", metavar="MODEL", help="a registered model (acausal compare --list), MODULE:CLASS or "
                     "FILE.py:CLASS (a Model class built without arguments)")
     ex.add_argument("--fmu", required=True, help="the FMU file to write (ends in .fmu)")
-    ex.add_argument("--preset", default="library", help="registered models: parameter preset (default: library)")
+    ex.add_argument("--preset", default=None, help="registered models: parameter preset (default: library)")
     ex.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter's value in the FMU, in SI "
                     "units (its start value, still settable through FMI); repeatable")
     ex.add_argument("--identifier", help="the FMU's modelIdentifier (default: the model's class name)")
@@ -395,7 +438,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "a position servo swinging a pendulum, BAM's log format)")
     dg.add_argument("--split", help="servo_pendulum: held-out recordings, kp[=VALUE] or trajectory[=NAME] "
                     "(default: every recording at the middle kp, else the middle trajectory)")
-    dg.add_argument("--jobs", type=int, default=None, help="servo_pendulum: worker processes (default: all cores)")
+    dg.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="servo_pendulum: worker processes (default: all cores)")
     dg.add_argument("--bam", action="store_true", help="servo_pendulum: also replay BAM's published XL330 "
                     "parameter sets on the recordings (for XL330 data)")
     dg.add_argument("--candidate", action="append", default=[], metavar="SPEC",

@@ -21,12 +21,18 @@ def number(text: str, where: str) -> float:
 
 
 def pairs(items, flag):
-    """``NAME=VALUE`` items of option ``flag`` as ``(name, value)`` text pairs."""
+    """``NAME=VALUE`` items of option ``flag`` as ``(name, value)`` text pairs; a name given twice is a DataError
+    (which value was meant cannot be told)."""
+    seen = {}
     for item in items or ():
         name, sep, value = item.partition("=")
         if not sep:
             raise SystemExit(f"acausal: {flag} {item!r}: expected NAME=VALUE")
-        yield name.strip(), value.strip()
+        name = name.strip()
+        if name in seen:
+            raise DataError(f"{flag} {name}: given twice ({seen[name]!r} and {item!r}); give each once")
+        seen[name] = item
+        yield name, value.strip()
 
 
 def whole_number(option: str, least: int = 1):
@@ -56,6 +62,12 @@ def check_outputs(data, **outputs):
             raise DataError(f"{flag} {path}: inside the input data folder {data}; outputs would mix with the "
                             "recordings (and a folder of recordings with other files in it no longer loads): "
                             "choose a folder outside it")
+
+
+def check_file_output(path, flag: str) -> None:
+    """An option's output file must not be an existing folder (checked before any work)."""
+    if path is not None and Path(path).is_dir():
+        raise DataError(f"{flag} {path}: is a folder; give a file path (e.g. {Path(path) / 'verdict.json'})")
 
 
 def check_bench_folder(out, force: bool):

@@ -330,6 +330,10 @@ class CompiledModel:
                 v = default
             batch = check_parameter(info, v) or batch
             values[name] = v
+        for cond, message, origin in self.flat.assertions:
+            if not np.all(self.eval_expr(cond, values)):
+                used = ", ".join(f"{s.name} = {values[s.name]}" for s in sorted(cond.free_symbols, key=str))
+                raise ModelError(f"{origin}: {message} ({cond} fails with {used})")
         if batch:
             out = np.empty(len(self.param_names), dtype=object)
             for i, n in enumerate(self.param_names):

@@ -30,6 +30,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 import sympy as sp
 
 from .errors import ConnectError, ModelError
@@ -66,6 +68,8 @@ class Parameter(_Declaration):
 
     def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
                  max: float | None = None, device: str = "", nonzero: bool = False, derived: str = ""):
+        if min is not None and max is not None and min > max:
+            raise ModelError(f"Parameter({default!r}, {unit!r}): min {min} > max {max}; no value could meet both")
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
         self.device, self.nonzero = device, nonzero
         self.derived = derived  # without a default: the rule the constructor sets it by when not given ("ki/kp")
@@ -90,7 +94,8 @@ class Parameter(_Declaration):
 class Variable(_Declaration):
     """A continuous unknown of time.
 
-    ``start`` is the initial value (used as an initial condition when ``fixed=True``, else as a guess);
+    ``start`` is the initial value (used as an initial condition when ``fixed=True``, else as a guess); ``min``
+    and ``max`` bound the start values a component is given (an absolute temperature ``min=0``);
     ``state_select`` ("never", "avoid", "default", "prefer", "always") guides which variables index reduction
     keeps as states, as in Modelica.
     """
@@ -100,11 +105,15 @@ class Variable(_Declaration):
     kind = "variable"
 
     def __init__(self, start: float = 0.0, unit: str = "1", doc: str = "", fixed: bool = False,
-                 state_select: str = "default", nominal: float = 1.0):
+                 state_select: str = "default", nominal: float = 1.0, min: float | None = None,
+                 max: float | None = None):
         if state_select not in _STATE_SELECT:
             raise ModelError(f"state_select must be one of {sorted(_STATE_SELECT)}, got {state_select!r}")
+        if min is not None and max is not None and min > max:
+            raise ModelError(f"{type(self).__name__}(unit={unit!r}): min {min} > max {max}; no value could meet both")
         self.start, self.unit, self.doc, self.fixed = start, unit, doc, fixed
         self.state_select, self.nominal = state_select, nominal
+        self.min, self.max = min, max  # bounds of a start value given to it (Modelica's min/max attributes)
 
     def __repr__(self):
         parts = [f"start={self.start!r}", f"unit={self.unit!r}"]
@@ -277,20 +286,51 @@ class Component:
                     raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is a "
                                      f"{type(value).__name__}; give a number [{d.unit}] or an expression of "
                                      f"parameters")
+                if isinstance(value, sp.Basic) and value.is_number and not (value.is_real and value.is_finite):
+                    raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value} is not a finite real "
+                                     f"number [{d.unit}]")
                 if isinstance(value, (int, float)) and not _within(d, value):  # refused where it is given
                     raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is "
                                      + ("not finite" if value != value or abs(value) == float("inf") else
                                         f"outside its bounds [{d.min if d.min is not None else '-inf'}, "
-                                        f"{d.max if d.max is not None else 'inf'}] {d.unit}"))
+                                        f"{d.max if d.max is not None else 'inf'}] {d.unit}"
+                                        + (" (an absolute temperature: 25 degC is 298.15 K)" if d.unit == "K" else
+                                           "")))
                 self._values[key] = value
             elif isinstance(d, (Variable, Discrete)):
-                self._starts[key] = value if isinstance(value, Start) else Start(float(value), getattr(d, "fixed", False))
+                self._starts[key] = self._start(key, d, value)
             elif isinstance(d, Input):
                 self._inputs[key] = value
             else:
                 known = ", ".join(sorted(k for k, v in decl.items() if not isinstance(v, Component)))
                 raise ModelError(f"{type(self).__name__}: unknown parameter, variable or input {key!r}; "
                                  f"known: {known}")
+
+    def _start(self, key, d, value) -> Start:
+        """The start value given for variable or mode ``key`` (declared ``d``): a number or a :class:`Start`,
+        checked (a real number within the variable's bounds, ``fixed`` a bool) where it is given."""
+        st = value if isinstance(value, Start) else Start(value, getattr(d, "fixed", False))
+        unit = getattr(d, "unit", "1")
+        v = st.value
+        bad = isinstance(v, (str, bytes, bool, np.bool_))
+        if not bad:
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                bad = True
+        if bad:
+            raise ModelError(f"{type(self).__name__}: start of {key!r} = {st.value!r} is a {type(st.value).__name__}; "
+                             f"give a number [{unit}]")
+        if not isinstance(st.fixed, (bool, np.bool_)):
+            raise ModelError(f"{type(self).__name__}: Start({st.value!r}, fixed={st.fixed!r}) for {key!r}: fixed "
+                             "must be True or False")
+        low, high = getattr(d, "min", None), getattr(d, "max", None)
+        if (low is not None and v < low) or (high is not None and v > high):
+            hint = " (an absolute temperature: 25 degC is 298.15 K)" if unit == "K" else ""
+            raise ModelError(f"{type(self).__name__}: start of {key!r} = {v:g} is outside its bounds "
+                             f"[{low if low is not None else '-inf'}, {high if high is not None else 'inf'}] "
+                             f"{unit}{hint}")
+        return Start(v, bool(st.fixed))
 
     # ---- declarations
     @classmethod
@@ -383,6 +423,14 @@ class Component:
     def indeterminates(self) -> list:
         """Variables the equations may leave undetermined in some mode (:class:`Indeterminate`), with the rule
         that picks their values there."""
+        return []
+
+    def assertions(self) -> list:
+        """Conditions on this component's parameters that every run must meet (Modelica's ``assert`` on
+        parameters): ``(condition, message)`` pairs, the condition a sympy relation of parameters
+        (``self.u_max >= self.u_min``). Checked by :meth:`CompiledModel.param_vector
+        <acausal.compiler.CompiledModel.param_vector>` for the defaults and every run's overrides; a run that
+        breaks one is a ModelError naming the component, the message and the values."""
         return []
 
     # ---- values

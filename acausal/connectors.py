@@ -36,7 +36,7 @@ class HeatPort(Connector):
     """Thermal port: temperature ``T`` [K], heat flow ``Q_flow`` [W] into the component."""
 
     domain = "thermal"
-    T = Potential(start=293.15, unit="K", doc="port temperature")
+    T = Potential(start=293.15, unit="K", min=0.0, doc="port temperature")
     Q_flow = Flow(unit="W", doc="heat flow into the component")
 
 

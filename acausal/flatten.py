@@ -97,6 +97,8 @@ class FlatModel:
     time_events: dict = field(default_factory=dict)  # mode name -> threshold time (expression of parameters)
     # variable name -> (nominal, scale, origin): the rule for a variable the equations may leave free (Indeterminate)
     indeterminates: dict = field(default_factory=dict)
+    # (condition on parameters, message, origin): what every run's parameters must meet (Component.assertions)
+    assertions: list = field(default_factory=list)
 
     def equations_of(self, component: str | None = None) -> list:
         """The equations as written (:class:`FlatEquation`, ``text`` set) of the component at path
@@ -162,12 +164,27 @@ def flatten(model: Component) -> FlatModel:
             if name not in flat.variables:
                 raise ModelError(f"{origin}: Indeterminate({ind.var!r}) is not a variable of the model")
             flat.indeterminates[name] = (sp.sympify(ind.nominal), sp.sympify(ind.scale), origin)
+        for cond, message in c.assertions():
+            flat.assertions.append((cond, message, origin))
     for c in comps:
         if not isinstance(c, Connector):
             _connection_equations(c, flat, is_root=c is model)
     _check_parameter_bindings(flat)
+    _check_assertions(flat)
     flat.written = list(flat.equations)
     return flat
+
+
+def _check_assertions(flat) -> None:
+    """Each assertion is a relation of parameters only (it is checked before a run, from the parameter vector)."""
+    for cond, message, origin in flat.assertions:
+        if not isinstance(cond, sp.core.relational.Relational):
+            raise ModelError(f"{origin}: assertion {cond!r} ({message}) is not a relation such as "
+                             "self.u_max >= self.u_min")
+        other = sorted(s.name for s in cond.free_symbols if s.name not in flat.parameters)
+        if other:
+            raise ModelError(f"{origin}: assertion {cond} ({message}) uses {', '.join(other)}, which "
+                             f"{'is not a parameter' if len(other) == 1 else 'are not parameters'}")
 
 
 def _residual(eq, origin):

@@ -44,9 +44,34 @@ def load_class(ref: str, base: type, what: str = "class"):
             if os.getcwd() not in sys.path:  # the console script does not put the working directory on it
                 sys.path.insert(0, os.getcwd())
             module = importlib.import_module(where)
+    except ModelError:
+        raise
+    except SyntaxError as exc:
+        raise ModelError(f"{what} {ref!r}: {exc.filename} line {exc.lineno}: SyntaxError: {exc.msg}") from None
     except ImportError as exc:
         raise ModelError(f"{what} {ref!r}: cannot import {where!r}: {exc}") from None
+    except Exception as exc:  # the user's module raised while it was loaded
+        raise user_code_error(f"{what} {ref!r}: loading {where}", exc) from None
     cls = getattr(module, name, None)
     if not (isinstance(cls, type) and issubclass(cls, base)):
         raise ModelError(f"{what} {ref!r}: {where} has no {base.__name__} class {name!r}")
     return cls
+
+
+def user_code_error(doing: str, exc: BaseException) -> ModelError:
+    """A ModelError for an exception the user's code raised while ``doing`` (e.g. "model 's.py:X': building
+    it"): its type and message, and the last line of the traceback outside this package (the user's file and
+    line), instead of a raw traceback."""
+    import traceback
+
+    here = Path(__file__).resolve().parent.parent  # acausal/, beside library/ and models/ (acausal.library, .models)
+    ours = tuple(str(here / part) + os.sep for part in ("acausal", "library", "models"))
+    installed = tuple({os.path.realpath(p) + os.sep for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)})
+
+    def users(filename):
+        real = os.path.realpath(filename)
+        return not real.startswith(ours) and not real.startswith(installed) and not filename.startswith("<")
+
+    frames = [f for f in traceback.extract_tb(exc.__traceback__) if users(f.filename)]
+    at = f" ({frames[-1].filename} line {frames[-1].lineno})" if frames else ""
+    return ModelError(f"{doing} raised {type(exc).__name__}: {exc}{at}")

@@ -165,6 +165,9 @@ class PID(_PIDBase):
     def _limits(self):
         return self.y_min, self.y_max
 
+    def assertions(self):
+        return [(self.y_max >= self.y_min, "the upper output limit y_max must not be below the lower limit y_min")]
+
 
 class PIDVariableLimit(_PIDBase):
     """:class:`PID` whose output limit comes from a signal: ``y = clamp(y_unsat, -limit, +limit)``.
@@ -221,6 +224,9 @@ class Limiter(Component):
 
     def equations(self):
         return [Eq(self.y.value, clamp(self.u.value, self.u_min, self.u_max))]
+
+    def assertions(self):
+        return [(self.u_max >= self.u_min, "the upper limit u_max must not be below the lower limit u_min")]
 
 
 class Feedback(Component):

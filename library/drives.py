@@ -218,7 +218,7 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
     w_c = Parameter(1.0, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
     alpha_R = Parameter(0.00393, unit="1/K", doc="resistance temperature coefficient (copper)")
-    T_ref = Parameter(298.15, unit="K", doc="reference temperature of R")
+    T_ref = Parameter(298.15, unit="K", min=0.0, doc="reference temperature of R")
     w = Variable(unit="rad/s", doc="shaft speed relative to the housing", state_select="prefer")
     tau_e = Variable(unit="N.m", doc="electromagnetic torque k i")
     tau_f = Variable(unit="N.m", doc="friction torque (viscous + Coulomb), opposing w")

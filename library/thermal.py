@@ -52,9 +52,9 @@ class HeatCapacitor(Component):
     """
 
     C = Parameter(1.0, unit="J/K", min=0.0, doc="heat capacity of the element (c_p * m)")
-    T_ref = Parameter(T_DEFAULT, unit="K", doc="reference temperature of the stored energy")
+    T_ref = Parameter(T_DEFAULT, unit="K", min=0.0, doc="reference temperature of the stored energy")
     port = HeatPort(doc="heat port; Q_flow > 0 heats the element")
-    T = Variable(start=T_DEFAULT, unit="K", fixed=True, state_select="prefer", nominal=300.0,
+    T = Variable(start=T_DEFAULT, unit="K", fixed=True, min=0.0, state_select="prefer", nominal=300.0,
                  doc="temperature of the element")
     der_T = Variable(unit="K/s", doc="time derivative of the temperature")
     energy = Variable(unit="J", doc="stored heat C*(T - T_ref)")
@@ -155,7 +155,7 @@ class FixedTemperature(Component):
         T [K]: boundary temperature. Default 293.15 K (20 degC, MSL default; maxon datasheets rate at 25 degC).
     """
 
-    T = Parameter(T_DEFAULT, unit="K", doc="fixed temperature at the port")
+    T = Parameter(T_DEFAULT, unit="K", min=0.0, doc="fixed temperature at the port")
     port = HeatPort(doc="heat port; Q_flow > 0 is heat absorbed by the boundary")
 
     def equations(self):
@@ -187,7 +187,7 @@ class _HeatFlowSource(Component, abc.ABC):
     ``T_ref`` [K] is the temperature at which the heat flow equals ``Q``; default 293.15 K (MSL default).
     """
 
-    T_ref = Parameter(T_DEFAULT, unit="K", doc="reference temperature of alpha")
+    T_ref = Parameter(T_DEFAULT, unit="K", min=0.0, doc="reference temperature of alpha")
     alpha = Parameter(0.0, unit="1/K", doc="temperature coefficient of the heat flow")
     port = HeatPort(doc="heat port; the source pushes heat out of it into the network")
 

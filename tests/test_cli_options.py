@@ -24,7 +24,7 @@ BENCH = {
     "fractional encoder bits": (["--sensor", "encoder_bits=13.7"], "--sensor encoder_bits=13.7: a whole number"),
     "negative noise": (["--sensor", "motor_current_noise=-1"], "--sensor motor_current_noise=-1: a finite number "
                        ">= 0 expected [A]"),
-    "zero sample rate": (["--sensor", "rate=0"], "--sensor rate=0: a finite number > 0 expected [Hz]"),
+    "zero sample rate": (["--sensor", "rate=0"], "--sensor rate=0: a finite number 10-100000 expected [Hz]"),
     "a filter above Nyquist": (["--sensor", "current_filter_hz=600"], "below half the sample rate (1000 Hz)"),
     "a negative seed": (["--seed", "-1"], "--seed takes a whole number >= 0, got '-1'"),
     "a truth that is no number": (["--truth", "R=abc"], "--truth R=abc: the value after '=' must be a finite number"),

@@ -59,6 +59,26 @@ def find_compiler(compiler: str | None = None) -> str:
                       "export with binary=False for a source-only FMU")
 
 
+def compiler_fault(cc: str, given: str | None, tmp: Path) -> str | None:
+    """Why ``cc`` is not a working C compiler (it cannot build a one-line program), naming where it came from
+    (``compiler=``/``--compiler``, ``$CC`` or the PATH); None when it is one (then the generated code is at fault)."""
+    probe = tmp / "probe.c"
+    probe.write_text("int main(void) { return 0; }\n")
+    try:
+        run = subprocess.run([cc, "-o", str(tmp / "probe"), str(probe)], capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.SubprocessError) as exc:
+        code, said = None, str(exc)
+    else:
+        if run.returncode == 0:
+            return None
+        code, said = run.returncode, (run.stderr or run.stdout).strip()
+    origin = "compiler= (--compiler)" if given else "$CC" if os.environ.get("CC") else "found on the PATH"
+    return (f"the C compiler {cc} ({origin}) cannot build a one-line C program"
+            + (f" (exit status {code})" if code is not None else "") + (f": {said[-800:]}" if said else
+                                                                         " and says nothing")
+            + ": is it a C compiler? Name a working one with --compiler or CC")
+
+
 def identifier_of(name: str) -> str:
     """A C identifier from a model name (the FMU's ``modelIdentifier`` and the binary's file name)."""
     ident = re.sub(r"\W", "_", name, flags=re.ASCII)
@@ -93,13 +113,18 @@ def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None =
         cm = model
     elif isinstance(model, Component):
         cm = compile_model(model)
-        if doc is None:
-            doc = inspect.getdoc(type(model)) or ""
+        if doc is None:  # the model's own docstring (not the framework's, inherited from Model)
+            own = type(model).__dict__.get("__doc__")
+            doc = inspect.cleandoc(own) if isinstance(own, str) else ""
     else:
         raise ExportError(f"export_fmu: expected a CompiledModel or a Model instance, got {type(model).__name__}")
     path = Path(path)
     if path.suffix.lower() != ".fmu":
         raise ExportError(f"export_fmu: the file name {str(path)!r} must end in .fmu")
+    if identifier is not None and not (isinstance(identifier, str) and identifier.isidentifier()
+                                       and identifier.isascii()):
+        raise ExportError(f"export_fmu: identifier {identifier!r} is not a C identifier (ASCII letters, digits and "
+                          f"_, not starting with a digit), e.g. {identifier_of(str(identifier))!r}")
     ident = identifier_of(identifier or cm.flat.name)
     doc = (doc or "").strip()
     description = doc.split("\n\n")[0].replace("\n", " ") if doc else f"{cm.flat.name} (exported by acausal)"
@@ -135,6 +160,9 @@ def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None =
             cmd = [cc, *link, *CFLAGS, "-o", str(lib), str(c_file), "-lm"]
             run = subprocess.run(cmd, capture_output=True, text=True)
             if run.returncode != 0:
+                broken = compiler_fault(cc, compiler, Path(tmp))
+                if broken:
+                    raise ExportError(broken)
                 raise ExportError(f"the C compiler {cc} failed on the generated code of {cm.flat.name} (a bug of "
                                   f"the exporter: please report it with the model):\n{run.stderr[-4000:]}")
             members[f"binaries/{folder}/{ident}{suffix}"] = lib.read_bytes()

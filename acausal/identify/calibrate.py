@@ -225,6 +225,9 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
                             + (f" (did you mean {close[0]!r}?)" if close else f"; fitted: {', '.join(signals)}"))
         if not (isinstance(w, (int, float, np.floating)) and np.isfinite(w) and w >= 0):
             raise DataError(f"calibrate: the weight of {k!r} must be a finite number >= 0, got {w!r}")
+    if signals and all(weights.get(s, 1.0) == 0 for s in signals):
+        raise DataError(f"calibrate: every fitted signal ({', '.join(signals)}) has weight 0: nothing would be "
+                        "fitted; give at least one a positive weight")
     scales = dict(scales or noise_scales(experiments, signals))
     fixed = dict(fixed or {})
     xs = np.array([f.scale or (abs(f.start) or 1.0) for f in free])

@@ -141,8 +141,15 @@ class Recording:
 def load_recordings(folder, fmt: RecordingFormat) -> list:
     """Every ``NAME.csv`` + ``NAME.json`` pair in ``folder``, sorted by name."""
     folder = Path(folder)
+    if folder.is_file():
+        raise DataError(f"recording set {folder}: is a file; give the folder that holds the NAME.csv + NAME.json "
+                        "recordings")
     if not folder.is_dir():
         raise DataError(f"recording set {folder}: no such folder")
+    for p in folder.iterdir():
+        if p.is_dir() and p.suffix.lower() in (".csv", ".json"):
+            raise DataError(f"{p}: is a folder, not a recording file (a recording is a NAME.csv + NAME.json pair "
+                            "of files)")
     files = [p for p in folder.iterdir() if p.is_file() and not p.name.startswith(".")]
     csvs = {p.stem: p for p in files if p.suffix.lower() == ".csv"}
     jsons = {p.stem: p for p in files if p.suffix.lower() == ".json" and p.name != MANIFEST}
@@ -182,7 +189,7 @@ def check_manifest(folder: Path, csvs: dict, jsons: dict):
     """Every recording of ``folder`` is the one its manifest lists (a DataError naming the file otherwise)."""
     path = folder / MANIFEST
     try:
-        man = json.loads(path.read_text())
+        man = json.loads(read_text(path))
         listed = man["recordings"]
     except (json.JSONDecodeError, KeyError, TypeError):
         raise DataError(f"{path}: not a manifest of this library (JSON object with 'recordings' expected)") from None
@@ -219,7 +226,7 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
         raise DataError(f"{csv_path}: no such file")
     if not json_path.exists():
         raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
-    meta, notes = _load_meta(json_path, fmt)
+    meta, notes, twice = _load_meta(json_path, fmt)
     columns, extra = _load_csv(csv_path, fmt)
     if fmt.max_gap is not None:
         _check_gaps(csv_path, columns[fmt.time_column], fmt.max_gap, fmt.time_column)
@@ -229,6 +236,8 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
         problem = check(columns, meta)
         if problem:
             raise DataError(f"{csv_path} ({json_path.name}): {problem}")
+    if twice:  # after the range checks: a unit slip in the key the format reads is the likelier culprit
+        raise DataError(f"{json_path}: {twice}")
     return Recording(csv_path.stem, columns, meta, extra, csv_path, notes)
 
 
@@ -273,9 +282,9 @@ def _no_duplicate_keys(path: Path):
     return hook
 
 
-def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
+def _load_meta(path: Path, fmt: RecordingFormat) -> tuple:
     try:
-        raw = json.loads(path.read_text(), object_pairs_hook=_no_duplicate_keys(path))
+        raw = json.loads(read_text(path), object_pairs_hook=_no_duplicate_keys(path))
     except json.JSONDecodeError as e:
         raise DataError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
     if not isinstance(raw, dict):
@@ -314,7 +323,32 @@ def _load_meta(path: Path, fmt: RecordingFormat) -> dict:
                 raise DataError(f"{path}: key {k.name!r} must be positive [{k.unit}], got {v!r}")
             v = int(v) if k.kind == "integer" else float(v)
         meta[k.name] = v
-    return meta, notes
+    return meta, notes, _said_twice(raw, keys)
+
+
+def _said_twice(raw: dict, keys: dict) -> str | None:
+    """A number the JSON gives again under another object (``kp`` and ``controller.kp``), disagreeing with the key
+    the format reads; None when every such pair agrees."""
+    for leaf, value in _leaves(raw):
+        if leaf in keys:
+            continue
+        for k in (k for k in keys if k.rsplit(".", 1)[-1] == leaf.rsplit(".", 1)[-1]):
+            given = _lookup(raw, k, None)
+            numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (value, given))
+            if numbers and value != given:
+                return (f"key {leaf!r} = {value!r} contradicts key {k!r} = {given!r}; the format reads {k!r}: remove "
+                        "or correct the other")
+    return None
+
+
+def _leaves(raw: dict, prefix: str = ""):
+    """``(dotted name, value)`` of every value in the JSON object ``raw`` that is not itself an object."""
+    for k, v in raw.items():
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            yield from _leaves(v, name + ".")
+        else:
+            yield name, v
 
 
 def _lookup(raw: dict, dotted: str, missing):
@@ -325,6 +359,15 @@ def _lookup(raw: dict, dotted: str, missing):
             return missing
         v = v[part]
     return v
+
+
+def read_text(path: Path) -> str:
+    """A text file of a recording set as UTF-8 (a leading byte-order mark, as spreadsheet programs write, is
+    dropped); a DataError naming the file and the first byte that is not UTF-8 otherwise."""
+    try:
+        return path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset {exc.start})") from None
 
 
 def _load_csv(path: Path, fmt: RecordingFormat):
@@ -340,7 +383,7 @@ def _load_csv(path: Path, fmt: RecordingFormat):
 
 
 def _parse_csv(path: Path, fmt: RecordingFormat):
-    with open(path, newline="", encoding="utf-8") as fh:
+    with open(path, newline="", encoding="utf-8-sig") as fh:  # a byte-order mark before the header is dropped
         header_line = fh.readline()
         if not header_line.strip():
             raise DataError(f"{path}: empty file (expected a header row of column names)")

@@ -81,6 +81,8 @@ def parse_effects(items) -> dict:
     for item in items or ():
         name, _, value = item.partition("=")
         e = effect(name.strip())
+        if e.id in out:
+            raise ModelError(f"--effect {e.id}: given twice; give each effect once")
         try:
             out[e.id] = float(value) if value.strip() else e.typical
         except ValueError:

@@ -11,24 +11,27 @@ from acausal.identify.plausibility import column_range, first, key_range, sample
 
 #: plausibility ranges of an ankle-actuator bench recording: a value outside is a unit slip (ms, mA, mV, degrees,
 #: N mm) or a broken sensor, not physics. The actuator: a 48 V supply, a motor of a few amperes (the paper's
-#: EC-4pole 30 peaks near 10 A), a human ankle's torque up to about 2 N m per kg of body mass
+#: EC-4pole 30 peaks near 10 A), a human ankle's torque up to about 2 N m per kg of body mass, MACCEPA levers of
+#: centimetres (the paper's A = 0.1 m, B = 0.06 m), a transmission ratio in the hundreds (the paper's 860)
 RANGES = {"sample interval": (1e-5, 0.1), "angle": (-2 * np.pi, 2 * np.pi), "joint_torque_Nm": (-1000.0, 1000.0),
           "supply_voltage_V": (0.0, 200.0), "supply_current_A": (-200.0, 200.0), "motor_current_A": (-200.0, 200.0),
           "precompression_m": (0.0, 0.1), "stride_time_s": (0.2, 20.0), "spring_stiffness_N_per_m": (1e3, 1e7),
-          "body_mass_kg": (1.0, 500.0)}
+          "body_mass_kg": (1.0, 500.0), "lever_A_m": (0.001, 1.0), "lever_B_m": (0.001, 1.0),
+          "gear_ratio": (1.0, 1e4)}
 _UNITS = {"joint_torque_Nm": "N m", "supply_voltage_V": "V", "supply_current_A": "A", "motor_current_A": "A"}
 
 
 def _plausible(columns: dict, meta: dict) -> str | None:
     """What makes a bench recording physically implausible (see :data:`RANGES`), or None."""
     angles = ("ankle_angle_rad", "moment_arm_angle_rad", "moment_arm_setpoint_rad")
-    keys = ("precompression_m", "stride_time_s", "spring_stiffness_N_per_m", "body_mass_kg")
+    keys = ("precompression_m", "stride_time_s", "spring_stiffness_N_per_m", "body_mass_kg", "supply_voltage_V",
+            "lever_A_m", "lever_B_m", "gear_ratio")
     return first(
         sample_interval(columns["time_s"], RANGES["sample interval"], "a bench is sampled"),
         *(column_range(columns, n, RANGES["angle"], "rad", "degrees in a column of radians?") for n in angles),
         *(column_range(columns, n, RANGES[n], u, "another unit, or a broken sensor? (the ankle actuator's bench)")
           for n, u in _UNITS.items()),
-        *(key_range(meta, k, RANGES[k], "mm for m, g for kg, N/mm for N/m?") for k in keys))
+        *(key_range(meta, k, RANGES[k], "mm for m, g for kg, N/mm for N/m, mV for V?") for k in keys))
 
 
 def recorded_span(meta: dict):

@@ -37,7 +37,7 @@ from ..ankle.actuator import AnkleActuator
 from ..ankle.presets import EQ4_LUMPED, preset
 from ..ankle.protocol import BENCH, PRECOMPRESSIONS, STRIDE_TIMES, compiled
 from ..ankle.effects import EFFECTS, effect
-from .recording_format import ANKLE_FORMAT, SIGNALS
+from .recording_format import ANKLE_FORMAT, RANGES, SIGNALS
 
 #: the truth's parameters when nothing else is said: Eq. 4's lumped values (presets.EQ4_LUMPED) and the motor's
 #: datasheet L and k (the DCMotor defaults)
@@ -262,13 +262,13 @@ def _write_readme(out: Path, conditions, effects, truth, sensors, seed, chain: s
 
 
 #: what each sensor setting may be: (lowest, highest, whole number, unit); the encoder needs one bit at least and a
-#: 64-bit float resolves no more than 52 of a turn, a rate must be positive (:data:`_ABOVE_ZERO`), noise not
-#: negative, the current filter below the Nyquist frequency (checked against the rate)
-_ABOVE_ZERO = float(np.finfo(float).tiny)
+#: 64-bit float resolves no more than 52 of a turn, the rate is one the recordings' loader takes (their sample
+#: interval, :data:`.recording_format.RANGES`: 10 Hz-100 kHz), noise not negative, the current filter below the
+#: Nyquist frequency (checked against the rate)
 SENSOR_RANGES = {"encoder_bits": (1, 52, True, "bits"), "motor_current_noise": (0.0, np.inf, False, "A"),
                  "motor_current_offset": (-np.inf, np.inf, False, "A"),
                  "supply_current_noise": (0.0, np.inf, False, "A"), "supply_voltage_noise": (0.0, np.inf, False, "V"),
-                 "torque_noise": (0.0, np.inf, False, "N m"), "rate": (_ABOVE_ZERO, np.inf, False, "Hz"),
+                 "torque_noise": (0.0, np.inf, False, "N m"), "rate": (1.0 / RANGES["sample interval"][1], 1.0 / RANGES["sample interval"][0], False, "Hz"),
                  "current_filter_hz": (0.0, np.inf, False, "Hz")}
 
 
@@ -288,7 +288,7 @@ def sensors_with(overrides: dict) -> Sensors:
         except (TypeError, ValueError):
             v = float("nan")
         if not (np.isfinite(v) and lo <= v <= hi and (not whole or v == int(v))):
-            span = (f" {lo:g}-{hi:g}" if np.isfinite(hi) else " > 0" if lo == _ABOVE_ZERO else " >= 0" if lo == 0
+            span = (f" {lo:g}-{hi:g}" if np.isfinite(hi) else " >= 0" if lo == 0
                     else "")
             raise DataError(f"--sensor {k}={text}: {'a whole number' if whole else 'a finite number'}{span} "
                             f"expected [{unit}]")

@@ -30,6 +30,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from pathlib import Path
 
 from acausal import ModelError
+from acausal.cli_values import whole_number
 from acausal.fileio import atomic_write_text
 
 from ..ankle.presets import preset as preset_overrides
@@ -295,7 +296,8 @@ def configure(parser) -> None:
                         help="set a parameter, in SI units (m, s, ohm, ...; the only mm here is --precompression), "
                         "for every compared model that has it, or for MODEL only; repeatable")
     parser.add_argument("--out", help="output directory (created if missing); required unless --list")
-    parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    parser.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="worker processes (default: all "
+                        "cores)")
     parser.add_argument("--list", action="store_true", help="list the known models and exit")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.set_defaults(run=run)
@@ -308,11 +310,15 @@ def parse_sets(sets: list, models: list) -> dict:
     from ..ankle.protocol import compiled
 
     out: dict = {}
+    seen: dict = {}
     for item in sets:
         target, sep, value = item.partition("=")
         model, _, name = target.rpartition(":") if ":" in target else ("", "", target)
         if not sep or not name:
             raise ModelError(f"--set {item!r}: expected [MODEL:]NAME=VALUE, e.g. --set motor.R=0.4")
+        if (model, name) in seen:
+            raise ModelError(f"--set {target}: given twice ({seen[model, name]!r} and {item!r}); give each once")
+        seen[model, name] = item
         try:
             number = float(value)
         except ValueError:
