@@ -391,3 +391,35 @@ def test_12_13_21_export_names_the_users_file_the_compiler_and_the_setting(tmp_p
     assert main(["export", f"{models}:RC", "--fmu", fmu, "--no-binary"]) == 0
     xml = zipfile.ZipFile(fmu).read("modelDescription.xml").decode()
     assert 'description="RC (exported by acausal)"' in xml  # not the framework's Model docstring
+
+
+def test_14_the_fmu_checks_the_components_assertions_too(tmp_path):
+    """An FMU user who sets a limit below the other is refused at fmi2ExitInitializationMode, with the component's
+    message in the FMU's log, as simulate() refuses it."""
+    from .fmu_support import require_fmu_tools
+    require_fmu_tools()
+    from fmpy import simulate_fmu
+
+    from acausal import Model, connect
+    from acausal.export import export_fmu
+    from acausal.library.blocks import Sine
+    from acausal.library.control import Limiter
+
+    class Limited(Model):
+        """A sine through a limiter."""
+
+        def build(self):
+            self.s, self.blk = Sine(amplitude=3.0), Limiter(u_max=2.0)
+            connect(self.s.y, self.blk.u)
+
+    path = export_fmu(Limited(), tmp_path / "limited.fmu")
+    res = simulate_fmu(str(path), stop_time=1.0, output=["blk.y.value"])
+    assert abs(max(res["blk.y.value"]) - 2.0) < 1e-9
+    got = []
+
+    def logger(env, name, status, category, message):
+        got.append(message.decode() if isinstance(message, bytes) else str(message))
+
+    with pytest.raises(Exception, match="fmi2ExitInitializationMode"):
+        simulate_fmu(str(path), stop_time=1.0, start_values={"blk.u_max": -3.0}, logger=logger)
+    assert any("Limiter 'blk': the upper limit u_max must not be below the lower limit u_min" in m for m in got), got

@@ -6,6 +6,8 @@ parameters, states, unknowns (state derivatives included), aliases and discrete 
 
 * ``model_bound_parameters``: parameters bound to an expression of others, in dependency order;
 * ``model_check_parameter``: one parameter's value against its bounds (finite, ``min``, ``max``);
+* ``model_check_assertions``: the conditions on parameters (:meth:`Component.assertions
+  <acausal.components.Component.assertions>`), each failure logged with its component and message;
 * ``model_evaluate``: every unknown (assignments, linear blocks by Gaussian elimination, Newton blocks with their
   exact Jacobian and the same start guesses, iteration limits and tolerances as :func:`acausal.runtime.newton`),
   every alias and every event zero function, from time, states, parameters and modes;
@@ -391,6 +393,17 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
         cases.append(f"    case {k}:\n" + "\n".join(checks) + "\n        return 0;")
     parts.append("static int model_check_parameter(Inst *m, int vr) {\n    double v = m->r[vr];\n"
                  "    switch (vr) {\n" + "\n".join(cases) + "\n    default: return 0;\n    }\n}")
+
+    # conditions on parameters (Component.assertions), after the bound parameters are evaluated
+    em = _Emitter(printer, names, "_a")
+    said = []
+    for i, (cond, message, origin) in enumerate(cm.flat.assertions):
+        em.assign(f"ok[{i}]", sp.Piecewise((1.0, cond), (0.0, True)))
+        said.append(f"    if (ok[{i}] == 0.0) {{ log_msg(m, fmi2Error, \"logStatusError\", "
+                    f"{_c_string(f'{origin}: {message} ({cond} fails)'.replace('%', '%%'))}); bad = 1; }}")
+    parts.append("static int model_check_assertions(Inst *m) {\n    double *r = m->r;\n    int bad = 0;\n"
+                 f"    double ok[{max(1, len(said))}];\n    (void)r; (void)ok;\n" + em.render() + "\n"
+                 + "\n".join(said) + "\n    return bad;\n}")
 
     # Newton blocks: residuals and Jacobian of the tear variables
     newton_fns = {}

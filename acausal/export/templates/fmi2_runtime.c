@@ -1,7 +1,7 @@
 /* ---------------------------------------------------------------------------------------------------------
  * acausal FMI 2.0 Model Exchange runtime: the same for every exported model. The model's part (above: sizes,
- * start values, names; below: model_bound_parameters, model_check_parameter, model_evaluate, model_event) is
- * generated from the compiled model's solved equations.
+ * start values, names; below: model_bound_parameters, model_check_parameter, model_check_assertions, model_evaluate,
+ * model_event) is generated from the compiled model's solved equations.
  *
  * Every real variable lives in r[] at the index of its value reference: parameters, states, unknowns (state
  * derivatives included), aliases, discrete modes. model_evaluate computes unknowns, aliases and event indicators
@@ -48,6 +48,7 @@ typedef struct {
 
 static void model_bound_parameters(Inst *m);
 static int model_check_parameter(Inst *m, int vr);
+static int model_check_assertions(Inst *m);
 static int model_evaluate(Inst *m);
 static void model_event(Inst *m, int i, int rising);
 static int model_reinit(Inst *m, int i, double *x);  /* event i's Event.reinit into x (states); 1 if it has any */
@@ -372,6 +373,7 @@ FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     CHECK_INST;
     model_bound_parameters(m);
     for (k = 0; k < NP; k++) bad |= model_check_parameter(m, k);
+    if (!bad) bad = model_check_assertions(m);
     if (bad) { m->phase = PHASE_ERROR; return fmi2Error; }
     for (k = 0; k < NPT; k++)
         if (m->r[tabulated_vr[k]] != tabulated_value[k])
