@@ -261,6 +261,7 @@ CASES = [
     doc("writing-components.md", "Powered", 1.0, min_events=0),
     doc("writing-components.md", "TripCircuit", 0.5),
     doc("writing-components.md", "Mains", 0.04),
+    doc("writing-components.md", "Banded", 1.0, min_events=0),
     doc("writing-components.md", "Shaken", 1.0, min_events=0),
     # ---- the MSL conformance examples (tests/test_msl_determinism.py's runs, some shortened further)
     msl("First", 0.2, fmu="yes"),

@@ -188,24 +188,11 @@ def test_compiled_path_refuses_naming_the_construct_and_the_component(case):
     assert len(res.events) >= case.min_events
 
 
-#: measured disagreement (finding of this suite): scipy's Radau on the half-wave rectifier (an IdealDiode into
-#: R || C, docs/simulation-paths.md) finds spurious crossings of the diode's zero function while it conducts, each
-#: a falling event and a rising one 1e-12 s later: at rtol 1e-11, atol 1e-13 over 0.025 s, 10 events against BDF's,
-#: CVODES's and the FMU's 2, its turn-off at 0.0090425534 s instead of 0.0090310793 s (11.5 us late), C.v off by
-#: 1.8e-5 of its range; at rtol 1e-8 over 0.04 s, 104 events against 4, C.v off by 0.0229 V (2.3e-3 of its range).
-#: The trust checks pass it (res.trust == []).
-RADAU_HALF_WAVE = ("method='Radau' on the half-wave rectifier: spurious diode off/on event pairs 1e-12 s apart while "
-                   "it conducts (10 events against 2 in 0.025 s at rtol 1e-11), the turn-off 11.5 us late, C.v off "
-                   "by 1.8e-5 of its range")
-#: the same in the six-pulse bridge (tests/circuit_models.py): at rtol 1e-10, atol 1e-12 over 0.01 s, 24 events
-#: against 8, the 16 more off/on pairs 1e-12 s apart (the first at 0.0010071056 s, diode 5), C.v off by 1.6e-6 of its
-#: range (2.8e-4 V at 0.0092 s); the 8 real commutations within 4e-11 s of BDF's
-RADAU_BRIDGE = ("method='Radau' on the six-pulse diode bridge: 8 spurious off/on event pairs 1e-12 s apart (24 "
-                "events against 8 in 0.01 s at rtol 1e-10), C.v off by 1.6e-6 of its range")
-RADAU = [pytest.param(BY_NAME["docs/fmu-export.md: HalfWave"], id="docs/fmu-export.md: HalfWave",
-                      marks=_xfail(RADAU_HALF_WAVE)),
-         pytest.param(BY_NAME["tests/test_fmu.py: Bridge6"], id="tests/test_fmu.py: Bridge6",
-                      marks=_xfail(RADAU_BRIDGE)),
+#: scipy's Radau on the half-wave rectifier and the six-pulse bridge once found spurious crossings of a diode's zero
+#: function while it conducted (its long steps' interpolant dipped below zero where the solution did not: 10 events
+#: against 2, 24 against 8); a dip seen only inside a step is now checked by integrating to it (scipy_driver)
+RADAU = [pytest.param(BY_NAME["docs/fmu-export.md: HalfWave"], id="docs/fmu-export.md: HalfWave"),
+         pytest.param(BY_NAME["tests/test_fmu.py: Bridge6"], id="tests/test_fmu.py: Bridge6"),
          pytest.param(BY_NAME["docs/writing-components.md: TripCircuit"], id="docs/writing-components.md: TripCircuit")]
 
 

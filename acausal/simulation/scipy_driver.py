@@ -76,6 +76,7 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
         restarted = False
         while solver.status == "running":
             t_prev = solver.t
+            x_prev = solver.y.copy() if has_events or method in COARSE_INTERPOLANT else None
             try:
                 msg = solver.step()
             except _NonFinite as exc:  # see _make_functions
@@ -97,10 +98,17 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
             if has_events:
                 z_new = zeros(cm, t_new, solver.y[:n], p, d, u, False, off)  # a bad value: after any crossing
                 hits = crossings_in_step(cm, sol, t_prev, t_new, z_old, z_new, p, d, u, off=off)
+                x_e = None
+                if hits and method in COARSE_INTERPOLANT:  # the crossing located on the solution, not its interpolant
+                    hits, x_e = _located_on_solution(cm, solver_cls, fun, opts, t_prev, x_prev, t_new, solver.y,
+                                                     sol, hits, p, d, u, off, n)
+                elif hits and _dip_only(z_old, z_new, hits) and not _dip_confirmed(
+                        cm, solver_cls, fun, opts, t_prev, x_prev, t_new, sol, hits, p, d, u, off, n):
+                    hits = []  # the interpolant dipped across zero where the solution does not
                 z_old = z_new
                 if hits:
                     t_e = hits[0][0]
-                    x_e = sol(t_e)
+                    x_e = sol(t_e) if x_e is None else x_e[:n]
                     d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
                     if not np.array_equal(d_new, d) or restarts(cm, hits):  # else no restart is needed
                         hit = hits
@@ -110,10 +118,14 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
             if need_out:
                 k_end = np.searchsorted(t_out, t_stop, side="right")
                 if k_end > k_out:
-                    X[:, k_out:k_end] = sol(t_out[k_out:k_end])
+                    if method in COARSE_INTERPOLANT:  # the outputs integrated to, not read off the interpolant
+                        at = _chain(solver_cls, fun, opts, t_prev, x_prev, t_out[k_out:k_end])
+                        X[:, k_out:k_end], Q[:, k_out:k_end] = at[:n], at[n:]
+                    else:
+                        X[:, k_out:k_end] = sol(t_out[k_out:k_end])
+                        if nq:
+                            Q[:, k_out:k_end] = np.asarray(full(t_out[k_out:k_end]))[n:]
                     D[:, k_out:k_end] = d[:, None]
-                    if nq:
-                        Q[:, k_out:k_end] = np.asarray(full(t_out[k_out:k_end]))[n:]
                     k_out = k_end
             if hit:
                 x_e, d, off = handle_event(cm, events, hit, t_e, x_e, p, d, d_new, u, max_events)
@@ -133,6 +145,96 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
     res = Result(cm, t_out, X, p, u, D, events=events, segments=segments, solver=solver_label, integrals=integrals)
     res.scipy_method = method
     return res
+
+
+#: integrators whose dense output is of lower order than their steps (Radau IIA: the collocation polynomial, order 3,
+#: against the step's 5): their crossings are located by integrating to trial times, not on the interpolant
+COARSE_INTERPOLANT = {"Radau"}
+
+
+def _integrate_to(solver_cls, fun, opts, t0, x0, t1):
+    """The states at ``t1`` integrated from ``(t0, x0)`` by a fresh solver (same integrator and tolerances)."""
+    if t1 <= t0:
+        return np.array(x0, dtype=float)
+    again = solver_cls(fun, t0, x0, t1, **{**opts, "first_step": None})
+    while again.status == "running":
+        msg = again.step()
+    if again.status != "finished":
+        raise SimulationError(f"integrating again from t = {t0:.9g} s to {t1:.9g} s (to locate an event or an output "
+                              f"inside a step) failed: {msg}")
+    return again.y
+
+
+def _chain(solver_cls, fun, opts, t0, x0, times) -> np.ndarray:
+    """The states (columns) at ``times`` (increasing, in the step after ``t0``), each integrated from the one before,
+    the first from ``(t0, x0)``."""
+    out, t, x = [], t0, x0
+    for tk in times:
+        x = _integrate_to(solver_cls, fun, opts, t, x, float(tk))
+        out.append(np.array(x, dtype=float))
+        t = float(tk)
+    return np.array(out).T
+
+
+def _located_on_solution(cm, solver_cls, fun, opts, t_prev, x_prev, t_new, y_new, sol, hits, p, d, u, off, n):
+    """``hits`` with their time refined on the solution itself (Brent's method on the zero function of states
+    integrated from the step's start), and the states there; a zero function that does not cross on the solution
+    drops out (a dip of the interpolant only). The bracket's far end is the step's end, or for a dip the
+    interpolant's deepest point."""
+    from scipy import optimize
+
+    if hits[0][0] == t_prev:  # leaving an exact zero at the step's start (modes.crossings): nothing to locate
+        return hits, np.array(x_prev, dtype=float)
+
+    def g(t, i):
+        return float(zeros(cm, t, _integrate_to(solver_cls, fun, opts, t_prev, x_prev, t)[:n], p, d, u, False,
+                           off)[i])
+
+    kept = []
+    for _, i, rising in hits:
+        hi = t_new
+        z_end = float(zeros(cm, t_new, y_new[:n], p, d, u, False, off)[i])
+        if not ((z_end > 0) if rising else (z_end < 0)):  # a dip: the far end is its deepest point
+            hi = _deepest(cm, sol, t_prev, t_new, i, rising, p, d, u, off)
+        if not ((g(hi, i) > 0) if rising else (g(hi, i) < 0)):
+            continue
+        te = optimize.brentq(g, t_prev, hi, args=(i,), xtol=1e-13 * max(1.0, abs(hi)), rtol=4 * np.finfo(float).eps)
+        if not ((g(te, i) > 0) if rising else (g(te, i) < 0)):  # just past the crossing, as modes.crossings does
+            te = min(hi, te + 1e-12 * max(1.0, abs(te)))
+        kept.append((te, i, rising))
+    if not kept:
+        return [], None
+    t_first = min(k[0] for k in kept)
+    together = [k for k in kept if k[0] <= t_first + 1e-9 * max(1.0, abs(t_first))]
+    t_e = max(k[0] for k in together)
+    return [(t_e, i, rising) for _, i, rising in together], _integrate_to(solver_cls, fun, opts, t_prev, x_prev, t_e)
+
+
+def _deepest(cm, sol, t_prev, t_new, i, rising, p, d, u, off) -> float:
+    """The time inside the step where the interpolant ``sol`` takes zero function ``i`` furthest past zero in the
+    crossing's direction (64 points)."""
+    ts = t_prev + (t_new - t_prev) * np.linspace(0.0, 1.0, 65)[1:-1]
+    z = np.broadcast_to(np.asarray(cm.funcs["zeros"](ts, np.asarray(sol(ts)), p, d, u)[i], dtype=float), ts.shape)
+    return float(ts[int(np.argmax(z - off[i] if rising else off[i] - z))])
+
+
+def _dip_only(z_old, z_new, hits) -> bool:
+    """Whether every zero function of ``hits`` has the same sign at both ends of the step: it crossed zero and
+    back inside it, seen only on the step's interpolant."""
+    return all(z_old[i] * z_new[i] > 0 for _, i, _ in hits)
+
+
+def _dip_confirmed(cm, solver_cls, fun, opts, t_prev, x_prev, t_new, sol, hits, p, d, u, off, n) -> bool:
+    """Whether the solution itself crosses where the interpolant ``sol`` dips: the states integrated again from the
+    step's start to the interpolant's deepest point of the dip (same integrator and tolerances), their zero
+    function checked there. A dip the integrator does not confirm is no event."""
+    for _, i, rising in hits:
+        t_probe = _deepest(cm, sol, t_prev, t_new, i, rising, p, d, u, off)
+        z = float(zeros(cm, t_probe, _integrate_to(solver_cls, fun, opts, t_prev, x_prev, t_probe)[:n], p, d, u,
+                        False, off)[i])
+        if (z > 0) if rising else (z < 0):
+            return True
+    return False
 
 
 def _too_many_steps(cm, method, limit, t_prev, t_new, t_start, t_end) -> SimulationError:
