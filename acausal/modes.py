@@ -311,8 +311,10 @@ def handle_event(cm, events: list, hits, t, x, p, d, d_new, u, max_events: int) 
 
 def knee_offsets(cm, t, x, p, d, u, kept) -> np.ndarray:
     """The thresholds the zero functions are watched at after an event (one per zero function; 0: the ordinary
-    zero). A zero function the knee rule overruled (``kept``, :func:`cascade`) has the sign that says leave the
-    present modes, by less than :data:`KNEE`; watched at zero, it would never cross again as it moves further that
+    zero). A zero function the knee rule overruled (``kept``, :func:`cascade`), or one that the event left within
+    :data:`KNEE` of zero on the side that says leave the present modes (a diode whose current the source's zero
+    crossing turned by round-off before its neighbours switched), has the sign that says leave the present modes,
+    by less than :data:`KNEE`; watched at zero, it would never cross again as it moves further that
     way (a clutch kept stuck with its holding torque a hair past the limit, the torque then growing: the breakaway
     would be lost). It is watched at twice its value instead (at least :data:`ROUNDOFF` further): once it has moved
     as far again the leaving way, that is a crossing in the same direction, and the event iteration there leaves
@@ -329,6 +331,10 @@ def knee_offsets(cm, t, x, p, d, u, kept) -> np.ndarray:
     off = np.zeros(len(cm.event_zeros))
     z = zeros(cm, t, x, p, d, u)
     kept = set(kept or ())
+    for i in range(z.size):  # at its knee on the leaving side without having flipped (it crossed with the event)
+        if i not in kept and 0 < abs(z[i]) <= KNEE and \
+                not np.array_equal(apply_event(cm, i, z[i] > 0, t, x, p, d, u), d):
+            kept.add(i)
     for i in range(z.size):
         if i in kept and z[i] != 0:
             off[i] = z[i] + np.sign(z[i]) * max(abs(z[i]), ROUNDOFF)

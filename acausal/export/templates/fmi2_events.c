@@ -186,16 +186,23 @@ static int cascade(Inst *m, const double *d_old, double *side, int *kept) {
     return 1;
 }
 
-/* modes.knee_offsets: an indicator the knee rule overruled (kept) is watched at twice its value (at least ROUNDOFF
- * further), so that moving as far again the way it says to leave is a crossing; one exactly at zero, which
+/* modes.knee_offsets: an indicator the knee rule overruled (kept), or one the event left within KNEE of zero on the
+ * side that says leave the present modes, is watched at twice its value (at least ROUNDOFF further), so that moving as far again the way it says to leave is a crossing; one exactly at zero, which
  * crossing one way would leave the present modes and the other not, at +-ROUNDOFF, so that leaving its zero by
  * round-off is not. */
-static int knee_offsets(Inst *m, const int *kept) {
+static int knee_offsets(Inst *m, int *kept) {
     double z[NZ1], d[ND1];
     int i, up, down;
     if (indicators(m)) return 1;
     memcpy(z, m->z, sizeof(double) * NZ);
     memcpy(d, MODES, sizeof(double) * ND);
+    for (i = 0; i < NZ; i++) {  /* at its knee on the leaving side without having flipped: watched as kept */
+        if (kept[i] || z[i] == 0.0 || fabs(z[i]) > KNEE) continue;
+        if (apply_event(m, i, z[i] > 0)) return 1;
+        if (modes_differ(d, MODES)) kept[i] = 1;
+        memcpy(MODES, d, sizeof(double) * ND);
+        m->valid = 0;
+    }
     for (i = 0; i < NZ; i++) {
         m->off[i] = 0.0;
         if (kept[i] && z[i] != 0.0) {
