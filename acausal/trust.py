@@ -352,10 +352,11 @@ def _residual(res) -> tuple | None:
     acc = res.model.accounts
     if acc is None or not (acc.losses or acc.stored):
         return None
-    b = res.energy_balance()
+    from .energy import balance
+    b = balance(res, acc, 0, -1, energy=res._run_energy)  # the run's totals (on the scipy path: its steps' nodes)
     terms = list(b.sources.values()) + list(b.boundary.values()) + list(b.losses.values())
     swing = [float(np.nanmax(res[n]) - np.nanmin(res[n])) for n in acc.stored]
-    sources = [float(np.nanmax(np.abs(res.energy(n)))) for n in acc.sources]
+    sources = [float(np.nanmax(np.abs(res._run_energy(n)))) for n in acc.sources]
     scale = max([abs(v) for v in terms] + swing + sources + _exchanged(res, acc.stored) + [0.0])
     if scale < ENERGY_FLOOR or not np.isfinite(scale):
         return None
