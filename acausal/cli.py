@@ -11,7 +11,7 @@
     acausal diagnose DATA --model servo_pendulum --out DIR         the same for a servo on a pendulum (BAM logs)
     acausal check DATA --model servo_pendulum                      what a set of servo recordings can show
 
-    acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR | --list
+    acausal compare MODEL [MODEL ...] [--stride-time S ...] [--precompression P ...] --out DIR [--html] | --list
 
     acausal export MODEL --fmu FILE.fmu [--preset NAME] [--set NAME=VALUE ...]   an FMI 2.0 Model Exchange FMU
 
@@ -308,6 +308,22 @@ def own_doc(cls) -> str:
     return inspect.cleandoc(text) if isinstance(text, str) else ""
 
 
+def cmd_compare(args) -> int:
+    """``acausal compare`` (:func:`acausal.models.drivetrains.compare.run`); with ``--html`` also its page,
+    DIR/index.html (plotly checked before anything runs)."""
+    from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
+
+    page = args.html and not args.list
+    if page:
+        from .html import require_plotly
+        require_plotly("acausal compare --html")
+    code = compare.run(args)
+    if code == 0 and page:
+        from acausal.models.reporting.explorer import compare_page
+        print(f"page: {compare_page(args.out, compare.MD_ROWS, compare.NO_SERIES_LINK)}")
+    return code
+
+
 def cmd_export(args) -> int:
     import inspect
 
@@ -402,6 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
     from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
     cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
     compare.configure(cmp)
+    cmp.add_argument("--html", action="store_true", help="also write DIR/index.html: the runs' energy chains as an "
+                     "interactive page read from compare.csv (needs plotly: pip install \"acausal[html]\")")
+    cmp.set_defaults(run=cmd_compare)
     ex = sub.add_parser("export", help="write a model as an FMI 2.0 Model Exchange FMU (C code compiled into a "
                         "binary for this platform; runs in fmpy and Modelica tools)")
     ex.add_argument("model", metavar="MODEL", help="a registered model (acausal compare --list), MODULE:CLASS or "

@@ -326,6 +326,17 @@ class Result:
             raise ModelError(f"sankey: ax must be a matplotlib Axes (or None for a new figure), got {ax!r}")
         return draw_sankey(self, self.model.accounts, ax, *self._window(t0, t1), title)
 
+    def to_html(self, path, t0: float | None = None, t1: float | None = None, title: str | None = None,
+                names=(), max_points: int = 4000):
+        """Write a self-contained HTML page of this run to ``path`` (plotly.js inline, data embedded; opens from
+        the file system, offline) and return its path: the energy accounts found by convention as an interactive
+        Sankey diagram between output times ``t0`` and ``t1`` [s] (as :meth:`sankey`), every account's power and
+        the variables ``names`` over time (at most ``max_points`` samples drawn), the energy balance [J] and its
+        relative residual over time (:mod:`acausal.html`). Needs plotly (``pip install "acausal[html]"``): without
+        it a ModelError says so."""
+        from .html import result_page
+        return result_page(self, path, t0, t1, title, names, max_points)
+
     def _window(self, t0, t1) -> tuple:
         """Output samples nearest to ``t0`` and ``t1`` (default: the first and the last); a ModelError when a time
         is not a number, lies outside the run (by more than half an output interval) or ``t0`` is not before

@@ -242,6 +242,7 @@ CASES = [
         note="rtol 1e-11: at 1e-10 the gear's stick/slip events lie 1.2e-9 s apart"),
     doc("friction-and-gears.md", "Creep", 0.2, min_events=0),
     doc("friction-and-gears.md", "SwingArm", 1.0, min_events=0),
+    doc("html-pages.md", "SensedDrive", 0.5, min_events=0),
     doc("index-reduction.md", "Geared", 0.5, min_events=0),
     doc("index-reduction.md", "InverseDrive", 0.5, min_events=0),
     doc("index-reduction.md", "DiodeCircuit", 1e-3, min_events=0),

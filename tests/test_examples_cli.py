@@ -57,6 +57,15 @@ def test_every_figure_has_its_csv(out):
         assert (out / f"{name}.csv").stat().st_size > 0, name
 
 
+def test_the_explorer_page_is_written_beside_the_report(out):
+    """Issue 40: with plotly installed (the test extra) the run writes its page, linked from the report."""
+    pytest.importorskip("plotly", reason="the page needs plotly (the html and test extras)")
+    page = out / "index.html"
+    assert page.stat().st_size > 1_000_000  # plotly.js inline
+    assert "index.html" in (out / "report.md").read_text()
+    assert (out / "power_traces.csv").stat().st_size > 0
+
+
 def test_csvs_parse(out):
     for path in out.glob("*.csv"):
         with path.open() as f:

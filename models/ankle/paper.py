@@ -210,6 +210,9 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(out_dir / "protocol.csv", [r.row() for r in results])
+    traces = power_trace_rows(results)
+    if traces:
+        write_csv(out_dir / "power_traces.csv", traces)
 
     replays = [r for r in results if r.condition.model == "replay" and r.condition.preset == HEADLINE]
     Ps = sorted({r.condition.P for r in replays})
@@ -315,12 +318,25 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     L += ["## Files", "", "- [`protocol.csv`](protocol.csv): one row per simulated condition (energies at the "
           "five points, stage losses, peak powers, efficiency, balance residual, tracking error, required duty).",
           "- [`claims.csv`](claims.csv): the paper's claims, the simulated value and whether each holds."]
+    L += ["- [`power_traces.csv`](power_traces.csv): power at the five points over the evaluated stride, per bench "
+          "condition of both presets."] if traces else []
+    from ..reporting.explorer import write_index  # issue 40: the page reads the CSVs written above
+    L += [write_index(out_dir)]
     for o in outputs:
         for f in [*o.get("figures", []), *o.get("csv", [])]:
             L += [f"- [`{_rel(out_dir, f)}`]({_rel(out_dir, f)})"]
     path = out_dir / "report.md"
     path.write_text("\n".join(L) + "\n")
     return path
+
+
+def power_trace_rows(results) -> list[dict]:
+    """One CSV row per output time of the evaluated stride of every bench condition (:data:`BENCH`) of the two
+    presets: time [ms] from the stride's start and the power [W] at each of the five points."""
+    return [dict(model=r.condition.model, preset=r.condition.preset, P_mm=1e3 * r.condition.P,
+                 stride_time_s=r.condition.stride_time, time_ms=1e3 * t, **{f"P_{k}_W": r.power[k][i] for k in POINTS})
+            for r in results if r.condition.model == BENCH and r.condition.preset in (HEADLINE, BESIDE)
+            for i, t in enumerate(r.time)]
 
 
 def _rel(out_dir: Path, path) -> str:
