@@ -70,6 +70,15 @@ F = "acausal.library.firmware:"
 #: the encoder step of a 4096-count encoder [rad] (XL330, STS3215)
 _STEP = 2 * 3.141592653589793 / 4096
 
+#: the flanks of a play (``backlash``, ``gear_backlash``: :class:`~acausal.library.rotational.ElastoBacklash`'s
+#: fixed parameters): stiff, 500 N m/rad (a small servo's stall torque, 0.6 N m for the XL330, deflects them by
+#: 1.2 mrad, under one step of a 4096-step encoder: at zero play the candidate is the baseline to a third of a
+#: step), damped (2 N m s/rad) with the damping coming in over 1 mrad of deflection (below an encoder step).
+#: Stiffer flanks and a sharper onset change little the data can see and make the replays stiff: at 1000 N m/rad,
+#: 1 N m s/rad and 1e-5 rad, RK4 on the XL330 recordings of square steps needed more than 32 substeps per sample
+#: (CVODES), at these values 8 to 16
+FLANKS = (("c", 500.0), ("d", 2.0), ("phi_d", 1e-3))
+
 EFFECTS = {e.id: e for e in [
     Effect("stribeck", "friction", "stribeck", "servo.friction.tau_s", "N.m", 0.0, 0.01, (0.0, 2.0), 0.01,
            "breakaway friction at low speed (BAM M2; w_s, alpha at the library's defaults)"),
@@ -109,16 +118,16 @@ EFFECTS = {e.id: e for e in [
            "homing offset applied on one side only); the arm's own mounting offset is the baseline's phi0"),
     Effect("backlash", "output", "acausal.library.rotational:ElastoBacklash", "servo.backlash.b", "rad", 0.0, 0.02,
            (0.0, 0.3), 0.005, "play between the shaft the encoder reads and the output (gear backlash; plastic "
-           "servo gears 0.5-2 deg); flanks stiff (1000 N m/rad) and damped. A hard nonlinearity: the play's first "
+           "servo gears 0.5-2 deg); flanks stiff and damped (FLANKS). A hard nonlinearity: the play's first "
            "order effect at zero flips with the sign of the flanks' deflection, so it is fingerprinted by the secant "
            "to 0.01 rad (0.6 deg, the low end of that range)",
-           fixed=(("c", 1000.0), ("d", 1.0)), probe=0.01, excludes=("gear_backlash",)),
+           fixed=FLANKS, probe=0.01, excludes=("gear_backlash",)),
     Effect("gear_backlash", "drive", "acausal.library.rotational:ElastoBacklash", "servo.gear_backlash.b", "rad",
            0.0, 0.02, (0.0, 0.3), 0.005, "play in the gear train between the rotor and an encoder that reads the "
            "output shaft (the XL330's magnetic encoder does): the firmware regulates the output, so the rotor "
            "crosses the gap unseen when the torque reverses; flanks and fingerprint as for backlash. Not with "
            "backlash: two plays in series with no inertia between them are one play",
-           fixed=(("c", 1000.0), ("d", 1.0)), probe=0.01, excludes=("backlash",)),
+           fixed=FLANKS, probe=0.01, excludes=("backlash",)),
     Effect("current_limit", "winding", "acausal.library.electrical:CurrentLimitedResistor",
            "servo.winding.inv_i_max", "1/A", 0.0, 1 / 1.75, (0.0, 20.0), 0.5, "the driver caps the winding's "
            "current at 1/inv_i_max (Dynamixel Current Limit register; XL330-M288: 1750 mA, ROBOTIS e-manual). A "

@@ -51,8 +51,8 @@ CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 #: is what needs more.
 SUBSTEPS = 4
 #: the most substeps tried before a recording's replays go to CVODES (RK4 with sensitivities at 16 substeps costs
-#: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction, at 32 as much; with the play
-#: of ``backlash`` (stiff flanks) 32 substeps pass where 16 do not, at half of CVODES's cost)
+#: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction, at 32 as much; the play of
+#: ``backlash`` takes 8 to 16 with its flanks, ``effects.FLANKS``)
 MAX_SUBSTEPS = 32
 #: tolerances of a replay on CVODES (``substeps=None``): within 5e-5 rad of rtol 1e-8 on the XL330 set
 RTOL, ATOL = 1e-5, 1e-7
