@@ -198,10 +198,10 @@ def fmu_test(name, t_end, **kw):
     return Case(f"tests/test_fmu.py: {name}", "fmu", lambda: _fmu_model(name), t_end, **kw)
 
 
-#: the FMU of MSL DiodeBridge2Pulse (no states) once kept diodes p1 and n2 on after the source's zero crossing at
-#: 0.01 s: their current turned by round-off (-2.9e-7 A) with the crossing, within the knee of zero on the side that
-#: says switch off, and was then watched at zero, never to cross again (0 A load current where the MSL has the
-#: rectified sine); such an indicator is now watched as the knee rule's kept ones are (modes.knee_offsets)
+#: MSL DiodeBridge2Pulse (no states) guards the knee rule in the FMU: at the source's zero crossing (0.01 s) the
+#: current of diodes p1 and n2 turns by round-off (-2.9e-7 A), within the knee of zero on the side that says switch
+#: off; watched at zero it would never cross again (all four diodes on, 0 A load current where the MSL has the
+#: rectified sine), so it is watched as the knee rule's kept indicators are (modes.knee_offsets, fmi2_events.c)
 #: the turn-off of a half-wave rectifier's ideal diode (its current through R || C falling through zero) is where
 #: the tolerance shows most: at rtol 1e-10 CVODES and BDF put it 2.6e-9 to 3.6e-9 s apart, at 1e-11 1.6e-10 s, at
 #: 1e-12 1.5e-11 s (both converge to 0.0090310791 s): these run at rtol 1e-11

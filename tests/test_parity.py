@@ -188,9 +188,9 @@ def test_compiled_path_refuses_naming_the_construct_and_the_component(case):
     assert len(res.events) >= case.min_events
 
 
-#: scipy's Radau on the half-wave rectifier and the six-pulse bridge once found spurious crossings of a diode's zero
-#: function while it conducted (its long steps' interpolant dipped below zero where the solution did not: 10 events
-#: against 2, 24 against 8); a dip seen only inside a step is now checked by integrating to it (scipy_driver)
+#: Radau's long steps over a conducting diode: its order-3 interpolant dips below zero where the solution does not
+#: (read off the interpolant: 10 events against 2 on the half-wave rectifier, 24 against 8 on the six-pulse bridge,
+#: C.v off by 1.8e-5 of its range); the scipy driver locates Radau's crossings and takes its outputs on the solution
 RADAU = [pytest.param(BY_NAME["docs/fmu-export.md: HalfWave"], id="docs/fmu-export.md: HalfWave"),
          pytest.param(BY_NAME["tests/test_fmu.py: Bridge6"], id="tests/test_fmu.py: Bridge6"),
          pytest.param(BY_NAME["docs/writing-components.md: TripCircuit"], id="docs/writing-components.md: TripCircuit")]
