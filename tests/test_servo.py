@@ -259,3 +259,19 @@ def test_servo_example_writes_its_report(tmp_path):
     for fig in res["figures"]:
         assert fig.exists()
     assert json.loads((tmp_path / "servo_friction" / "diagnosis.json").read_text())["heldout"]["metric"] == "mae"
+
+
+def test_the_evidence_table_says_why_a_candidate_was_not_refitted():
+    """A candidate left out of the refits by the ranking is not called weak: the table says which limit left it
+    out, and marks its scores as the linearised step's."""
+    from acausal.identify.verdict import CandidateScore
+    from acausal.models.servo.problem import ServoProblem
+    from acausal.models.servo.report import _not_refitted
+
+    def score(why, failed=""):
+        return CandidateScore("gain_error", "servo.gain_error.s", 0.1, float("nan"), {}, 0.076, 0.076, float("nan"),
+                              -10.0, {}, screened=True, why_screened=why, failed=failed)
+
+    assert _not_refitted(score("ranked"), ServoProblem) == "not refitted (beyond the 4 most promising)"
+    assert _not_refitted(score("weak"), ServoProblem) == "not refitted (fingerprint too weak)"
+    assert _not_refitted(score("failed", "R left its range"), ServoProblem) == "refit failed: R left its range"

@@ -321,8 +321,11 @@ def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say, 
     scores = []
     for cid in order:
         cos = cosines[cid]
-        if cid not in refit or 1.0 - np.sqrt(max(1.0 - share[cid], 0.0)) < thresholds.screen:
-            scores.append(_screened(base, problem.candidates[cid], r, fp_step[cid], cos))
+        weak = 1.0 - np.sqrt(max(1.0 - share[cid], 0.0)) < thresholds.screen
+        if cid not in refit or weak:
+            sc = _screened(base, problem.candidates[cid], r, fp_step[cid], cos)
+            sc.why_screened = "weak" if weak else "ranked"
+            scores.append(sc)
             continue
         say(f"refitting with {cid}" + (f" on top of {', '.join(causes)}" if causes else ""))
         try:
@@ -332,7 +335,7 @@ def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say, 
         except AcausalError as err:  # e.g. a parameter leaving its range: the candidate cannot be scored
             say(f"{cid}: refit failed: {err}")
             sc = _screened(base, problem.candidates[cid], r, fp_step[cid], cos)
-            sc.failed, sc.significant = str(err), False
+            sc.failed, sc.significant, sc.why_screened = str(err), False, "failed"
             scores.append(sc)
             continue
         sc = score(base, ext, problem.candidates[cid], thresholds)

@@ -153,6 +153,8 @@ class CandidateScore:
     fit: Fit | None = None
     screened: bool = False  # not refitted: scores are the linearised prediction (training strides)
     failed: str = ""  # why the refit failed (scores are then the linearised prediction)
+    why_screened: str = ""  # why it was not refitted: "weak" (fingerprint below Thresholds.screen), "ranked" (beyond
+    # the problem's max_refits most promising), "failed" (the refit failed)
     sign_p: float = float("nan")  # one-sided sign test: P(at least this many strides improved | no effect)
     named_by: str = ""  # "drift": named because it explains a drift over the session (:func:`_named_by_drift`);
     # "pair with ID": named with ID as a pair that passes the tests together (:func:`_lookahead`)
@@ -162,7 +164,8 @@ class CandidateScore:
                 "params": dict(self.params), "loso_rmse_gain": self.loso_rmse_gain, "t_stat": _num(self.t_stat),
                 "sign_p": _num(self.sign_p),
                 "std": _num(self.std), "fingerprint_match": _num(self.fingerprint_match), "significant": self.significant,
-                "screened": self.screened, "failed": self.failed or None, "named_by": self.named_by or None,
+                "screened": self.screened, "why_screened": self.why_screened or None, "failed": self.failed or None,
+                "named_by": self.named_by or None,
                 "heldout_rmse": {s: {"before": b, "after": a} for s, (b, a) in self.heldout_rmse.items()}}
 
 
