@@ -21,18 +21,19 @@ def states_at(segments, which, tn, nx: int) -> np.ndarray:
     """The states (``nx`` rows) at ``tn`` (pieces x nodes): piece ``i`` lies in step ``segments[which[i]]``, a
     ``(t0, t1, interpolant, modes)`` of the scipy driver. Returns ``nx x pieces x nodes``."""
     Xn = np.zeros((nx,) + tn.shape)
-    groups: dict = {}
-    for k in np.unique(which):
-        groups.setdefault(type(_inner(segments[k][2])), []).append(k)
-    for kind, steps in groups.items():
-        steps = np.asarray(steps)
-        pieces = np.flatnonzero(np.isin(which, steps))
+    used = np.unique(which)
+    inner = [_inner(segments[k][2]) for k in used]  # one pass over the steps: each step's interpolant
+    kinds = [type(sol) for sol in inner]
+    for kind in dict.fromkeys(kinds):
+        rows = [r for r, kd in enumerate(kinds) if kd is kind] if len(set(kinds)) > 1 else range(len(kinds))
+        steps = used[list(rows)]
+        sols = [inner[r] for r in rows]
+        pieces = np.flatnonzero(np.isin(which, steps)) if len(steps) < len(used) else np.arange(which.size)
         at = np.searchsorted(steps, which[pieces])  # each piece's step, as a row of the stacked coefficients
-        inner = [_inner(segments[k][2]) for k in steps]
         if LsodaDenseOutput is not None and kind is LsodaDenseOutput:
-            Xn[:, pieces, :] = _lsoda(inner, at, tn[pieces], nx)
+            Xn[:, pieces, :] = _lsoda(sols, at, tn[pieces], nx)
         elif BdfDenseOutput is not None and kind is BdfDenseOutput:
-            Xn[:, pieces, :] = _bdf(inner, at, tn[pieces], nx)
+            Xn[:, pieces, :] = _bdf(sols, at, tn[pieces], nx)
         else:
             for k in steps:
                 m = which == k
@@ -46,13 +47,13 @@ def _inner(sol):
 
 def _lsoda(sols, at, t, nx):
     """LSODA's Nordsieck form: y(t) = sum_j yh[:, j] ((t - t_n) / h)^j."""
-    sizes = np.array([s.p.size for s in sols])
+    sizes = np.fromiter((s.p.size for s in sols), dtype=int, count=len(sols))
     J = int(sizes.max())
     YH = np.zeros((len(sols), nx, J))
-    for size in np.unique(sizes):  # steps of one order stacked at once
-        rows = np.flatnonzero(sizes == size)
-        YH[rows, :, :size] = np.stack([sols[r].yh[:nx] for r in rows])
-    T, H = np.array([s.t for s in sols]), np.array([s.h for s in sols])
+    for r, s in enumerate(sols):  # each step's coefficients (orders differ)
+        YH[r, :, :sizes[r]] = s.yh[:nx]
+    T = np.fromiter((s.t for s in sols), dtype=float, count=len(sols))
+    H = np.fromiter((s.h for s in sols), dtype=float, count=len(sols))
     x = (t - T[at][:, None]) / H[at][:, None]
     P = np.ones(x.shape + (J,))
     if J > 1:
