@@ -70,13 +70,16 @@ def crossings(cm, sol, t0, t1, z0, z1, p, d, u, off=None):
             if (a < 0 and g_te < 0) or (a > 0 and g_te > 0):
                 te = min(t1, te + 1e-12 * max(1.0, abs(te)))
             found.append((te, i, a < 0))
-    if not found:
-        return []
+    return together(found) if found else []
+
+
+def together(found) -> list:
+    """Of crossings ``found`` (``(time, event index, rising?)``), the earliest and those within 1e-9 (relative) of
+    it, all at the latest of their times: zero functions that cross together are handled together."""
     t_first = min(f[0] for f in found)
-    tol = 1e-9 * max(1.0, abs(t_first))
-    together = [f for f in found if f[0] <= t_first + tol]
-    t_e = max(f[0] for f in together)
-    return [(t_e, i, rising) for _, i, rising in together]
+    first = [f for f in found if f[0] <= t_first + 1e-9 * max(1.0, abs(t_first))]
+    t_e = max(f[0] for f in first)
+    return [(t_e, i, rising) for _, i, rising in first]
 
 
 #: interior points of a solver step at which the scipy path also checks the zero functions (the compiled path

@@ -215,19 +215,19 @@ class Result:
         integrated the same way on the output grid with exact values at the nodes.
         """
         parts = self._through(what)
-        self._check_power(what, "energy")
+        self._check_power(what, "energy", parts)
         if parts != [what]:  # a component with several ports: the power into it through all of them
             self._integrate_with_states(parts)
             return sum(self._cumulative(p) for p in parts)
         return self._cumulative(what).copy()  # the caller's to change; the cached one stays
 
-    def _check_power(self, what, who: str) -> None:
+    def _check_power(self, what, who: str, parts=None) -> None:
         """``what`` must be something with a power: a port, a component, or a variable or parameter in W (or
-        without a unit); a ModelError naming it and its unit otherwise."""
+        without a unit); a ModelError naming it and its unit otherwise. ``parts``: its :meth:`_through`, if known."""
         if not isinstance(what, str):
             raise ModelError(f"{who}: name a power variable, a port or a component (a str), got {what!r}")
         unit = self._unit(what)
-        if unit and unit != "W" and self._through(what) == [what] and not self._is_power_port(what):
+        if unit and unit != "W" and (parts or self._through(what)) == [what] and not self._is_power_port(what):
             raise ModelError(f"{who}: {what!r} [{unit}] is not a power (W); {who}() integrates a power variable, "
                              "a port (pin, flange, heat port) or a component")
 
@@ -365,14 +365,11 @@ class Result:
         """Gauss-Legendre nodes of every solver step (cut at the output times) and a Result evaluated there;
         built once per Result and shared by all energy integrals. ``steps_only``: the steps uncut (the run's
         totals, :meth:`_run_energy`: a fifth to a sixth of the nodes with many outputs per step)."""
-        if steps_only and self._segments and self._given_nodes is None:
-            if "step nodes" not in self._cache:
-                self._cache["step nodes"] = self._nodes_at(None)
-            return self._cache["step nodes"]
-        if getattr(self, "_nodes", None) is not None:
-            return self._nodes
-        self._nodes = self._nodes_at(self.t)
-        return self._nodes
+        steps_only = steps_only and bool(self._segments) and self._given_nodes is None
+        key = ("nodes", steps_only)
+        if key not in self._cache:
+            self._cache[key] = self._nodes_at(None if steps_only else self.t)
+        return self._cache[key]
 
     def _nodes_at(self, cuts):
         """:meth:`_quadrature_nodes` with the steps also cut at the times ``cuts`` (None: the steps alone)."""
@@ -422,12 +419,8 @@ class Result:
             return self.energy(what)
         key = ("run cumulative", what)
         if key not in self._cache:
-            total = 0.0
-            for part in self._through(what):
-                bps, shape, half, wg, sub = self._quadrature_nodes(steps_only=True)
-                y = np.asarray(sub._integrand(part), dtype=float).reshape(shape)
-                total = total + np.concatenate([[0.0], np.cumsum(half * (y @ wg))])
-            self._cache[key] = total
+            nodes = self._quadrature_nodes(steps_only=True)
+            self._cache[key] = sum(_gauss_cumulative(nodes, part) for part in self._through(what))
         return self._cache[key]
 
     def _integrate_with_states(self, names) -> None:
@@ -456,11 +449,8 @@ class Result:
             return q - q[0]
         if not self._segments and not self._exact_time_function and self._given_nodes is None:
             return integrate_cumulative(self._integrand(what), t)
-        bps, shape, half, wg, sub = self._quadrature_nodes()
-        y = np.asarray(sub._integrand(what), dtype=float).reshape(shape)
-        pieces = half * (y @ wg)
-        cum = np.concatenate([[0.0], np.cumsum(pieces)])
-        return cum[np.searchsorted(bps, t)]
+        nodes = self._quadrature_nodes()
+        return _gauss_cumulative(nodes, what)[np.searchsorted(nodes[0], t)]
 
     # ------------------------------------------------------------------ export
     def to_csv(self, path, names=None) -> None:
@@ -487,60 +477,8 @@ class Result:
         (one name), a list (one per name) or a dict (name -> label); by default each curve is labelled with its name
         and unit. Other keywords go to matplotlib's ``plot``. Outside a notebook call ``matplotlib.pyplot.show()``
         to see the figure (or save it: ``ax.figure.savefig(path)``)."""
-        import warnings
-
-        import matplotlib
-        if not names:
-            raise ModelError("plot: name at least one variable, e.g. res.plot('L.i')")
-        labels = self._plot_labels(names, label)
-        values = [self[n] for n in names]  # an unknown name fails here, before any figure is made
-        if ax is None:
-            matplotlib.use(matplotlib.get_backend())
-            import matplotlib.pyplot as plt
-            _, ax = plt.subplots()
-        units = list(dict.fromkeys(self._unit(n) for n in names))
-        if len(units) > 2:
-            warnings.warn(f"plot: {len(units)} units ({', '.join(u or 'no unit' for u in units)}); the curves in "
-                          f"{', '.join(u or 'no unit' for u in units[1:])} share the right-hand axis", stacklevel=2)
-        axes = {units[0]: ax}
-        if len(units) > 1:
-            ax.twin = getattr(ax, "twin", None) or ax.twinx()
-            for unit in units[1:]:
-                axes[unit] = ax.twin
-        colors = iter(matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", [None]) * len(names))
-        for n, v, text in zip(names, values, labels):
-            unit = self._unit(n)
-            style = dict(kwargs)
-            if "color" not in style and "c" not in style:
-                style["color"] = next(colors)  # one color cycle over both axes
-            axes[unit].plot(self.t, v, label=text, **style)
-        ax.set_ylabel(f"[{units[0]}]" if units[0] else "")
-        if len(units) > 1:
-            ax.twin.set_ylabel(", ".join(f"[{u}]" if u else "(no unit)" for u in units[1:]))
-        ax.set_xlabel("time [s]")
-        handles = [h for a in dict.fromkeys(axes.values()) for h in a.get_lines()]
-        ax.legend(handles, [h.get_label() for h in handles])
-        ax.grid(True, alpha=0.3)
-        return ax
-
-    def _plot_labels(self, names, label) -> list:
-        if label is None:
-            return [f"{n} [{self._unit(n)}]" if self._unit(n) else n for n in names]
-        if isinstance(label, str):
-            if len(names) != 1:
-                raise ModelError(f"plot: label={label!r} is one string for {len(names)} variables; give a list "
-                                 "(one per name) or a dict (name -> label)")
-            return [label]
-        if isinstance(label, dict):
-            unknown = [k for k in label if k not in names]
-            if unknown:
-                raise ModelError(f"plot: label names {unknown} that are not plotted (plotted: {list(names)})")
-            default = self._plot_labels(names, None)
-            return [label.get(n, d) for n, d in zip(names, default)]
-        labels = list(label)
-        if len(labels) != len(names):
-            raise ModelError(f"plot: {len(labels)} labels for {len(names)} variables {list(names)}")
-        return [str(x) for x in labels]
+        from .plotting import plot_result
+        return plot_result(self, names, ax, label, kwargs)
 
     def _unit(self, name):
         flat = self.model.flat
@@ -555,6 +493,14 @@ class Result:
 
     def __repr__(self):
         return f"<Result {self.model.flat.name}: {self.t.size} samples, t = {self.t[0]:g}..{self.t[-1]:g} s>"
+
+
+def _gauss_cumulative(nodes, what) -> np.ndarray:
+    """The cumulative integral of ``what`` (:meth:`Result._integrand`) at the breakpoints of ``nodes`` (a
+    :meth:`Result._quadrature_nodes` set: 5-point Gauss-Legendre on every interval between them)."""
+    bps, shape, half, wg, sub = nodes
+    y = np.asarray(sub._integrand(what), dtype=float).reshape(shape)
+    return np.concatenate([[0.0], np.cumsum(half * (y @ wg))])
 
 
 def gauss_nodes(bps):

@@ -26,6 +26,7 @@ from scipy.integrate import solve_ivp
 from .errors import ModelError, SimulationError
 from .modes import algebraic_modes
 from .simulation import check_finite_times, check_tolerances, initialize
+from .simulation.initial import whole
 from .symbols import der_name, var_symbol
 
 
@@ -51,8 +52,7 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
         raise ModelError("sensitivities: t must be a 1-D array of times")
     check_finite_times(t, "sensitivities: t")
     check_tolerances(rtol, atol, "sensitivities", cm.state_names)
-    if not isinstance(substeps, (int, np.integer)) or isinstance(substeps, bool) or substeps < 1:
-        raise ModelError(f"sensitivities: substeps must be a positive integer, got {substeps!r}")
+    whole(substeps, "sensitivities: substeps", 1)
     if isinstance(wrt, str):
         raise ModelError(f"sensitivities: wrt must be a list of parameter names, got the string {wrt!r}")
     wrt = list(wrt)

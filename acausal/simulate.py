@@ -46,9 +46,9 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     ``trust``: what the trust checks (:mod:`acausal.trust`: conditioning of every variable on the states'
     tolerances, the energy balance) do with a result they reject: ``"raise"`` an
     :class:`~acausal.trust.UntrustedResult`, ``"warn"``, or ``"off"``; their findings are ``res.trust``.
-    ``max_steps``: steps of a scipy integrator at most (given, ``method="auto"`` takes the scipy path) (default :data:`MAX_STEPS` for an implicit method,
+    ``max_steps``: steps of a scipy integrator at most (default :data:`MAX_STEPS` for an implicit method,
     :data:`MAX_STEPS_EXPLICIT` for an explicit one: a stiff model on RK45 stops with an error saying so instead of
-    running for hours).
+    running for hours); given, ``method="auto"`` takes the scipy path.
     """
     from .trust import check, check_mode, integration_fault
 

@@ -21,6 +21,15 @@ def number(value, what: str) -> float:
         raise ModelError(f"{what} must be a number, got {value!r}") from None
 
 
+def whole(value, what: str, least: int, why: str = "", then: str = "") -> int:
+    """``value`` as an int >= ``least``; a ModelError naming ``what`` otherwise (a bool is no number here):
+    "``what`` must be a positive integer``why``, got ``value````then``"."""
+    if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)) or value < least:
+        kind = {0: "a non-negative integer", 1: "a positive integer"}.get(least, f"an integer >= {least}")
+        raise ModelError(f"{what} must be {kind}{why}, got {value!r}{then}")
+    return int(value)
+
+
 def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
     """Consistent initial states.
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .choose import COMPILED
-from .initial import initialize, number
+from .initial import initialize, number, whole
 from .scipy_driver import METHODS
 
 
@@ -89,18 +89,15 @@ def check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_even
     if first_step is not None and first_step > span:
         raise ModelError(f"simulate: first_step = {first_step:g} s is longer than the run ({span:g} s, "
                          f"{t_start:g}..{t_end:g})")
-    if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or isinstance(max_steps, bool)
-                                  or max_steps < 1):
-        raise ModelError(f"simulate: max_steps must be a positive integer, got {max_steps!r}")
+    if max_steps is not None:
+        whole(max_steps, "simulate: max_steps", 1)
     if max_steps is not None and method == COMPILED:
         raise ModelError(f"simulate: max_steps limits a scipy integrator's steps; method={COMPILED!r} has no such "
                          "limit (leave max_steps out, or choose a scipy method)")
-    if not isinstance(max_events, (int, np.integer)) or isinstance(max_events, bool) or max_events < 0:
-        raise ModelError(f"simulate: max_events must be a non-negative integer, got {max_events!r}")
+    whole(max_events, "simulate: max_events", 0)
     if t_eval is None:
-        if not isinstance(n_points, (int, np.integer)) or isinstance(n_points, bool) or n_points < 2:
-            raise ModelError(f"simulate: n_points must be an integer >= 2 (the outputs run from t_start to t_end), "
-                             f"got {n_points!r}; for one time give t_eval=[t]")
+        whole(n_points, "simulate: n_points", 2, " (the outputs run from t_start to t_end)",
+              "; for one time give t_eval=[t]")
         return t_start, t_end, np.linspace(t_start, t_end, n_points)  # increasing, from t_start to t_end
     try:
         t_out = np.asarray(t_eval, dtype=float)

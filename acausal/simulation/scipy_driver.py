@@ -12,7 +12,7 @@ from scipy import integrate as scipy_integrate
 
 from ..errors import SimulationError
 from ..failures import non_finite_error, step_failure
-from ..modes import after_end, apply_hits, crossings_in_step, handle_event, restarts, settle_modes, zeros
+from ..modes import after_end, apply_hits, crossings_in_step, handle_event, restarts, settle_modes, together, zeros
 from ..quadratures import Quadratures, StatesOnly
 from .initial import initialize
 
@@ -196,18 +196,19 @@ def _located_on_solution(cm, solver_cls, fun, opts, t_prev, x_prev, t_new, y_new
         z_end = float(zeros(cm, t_new, y_new[:n], p, d, u, False, off)[i])
         if not ((z_end > 0) if rising else (z_end < 0)):  # a dip: the far end is its deepest point
             hi = _deepest(cm, sol, t_prev, t_new, i, rising, p, d, u, off)
-        if not ((g(hi, i) > 0) if rising else (g(hi, i) < 0)):
+        def past(t):  # the solution's zero function on the crossing's far side at t
+            return g(t, i) > 0 if rising else g(t, i) < 0
+
+        if not past(hi):
             continue
         te = optimize.brentq(g, t_prev, hi, args=(i,), xtol=1e-13 * max(1.0, abs(hi)), rtol=4 * np.finfo(float).eps)
-        if not ((g(te, i) > 0) if rising else (g(te, i) < 0)):  # just past the crossing, as modes.crossings does
+        if not past(te):  # just past the crossing, as modes.crossings does
             te = min(hi, te + 1e-12 * max(1.0, abs(te)))
         kept.append((te, i, rising))
     if not kept:
         return [], None
-    t_first = min(k[0] for k in kept)
-    together = [k for k in kept if k[0] <= t_first + 1e-9 * max(1.0, abs(t_first))]
-    t_e = max(k[0] for k in together)
-    return [(t_e, i, rising) for _, i, rising in together], _integrate_to(solver_cls, fun, opts, t_prev, x_prev, t_e)
+    hits = together(kept)
+    return hits, _integrate_to(solver_cls, fun, opts, t_prev, x_prev, hits[0][0])
 
 
 def _deepest(cm, sol, t_prev, t_new, i, rising, p, d, u, off) -> float:
