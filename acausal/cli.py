@@ -196,8 +196,8 @@ def cmd_diagnose(args) -> int:
                         "are its effects (acausal.models.ankle.effects)")
     elif args.split is not None or args.jobs is not None or args.bam:
         from acausal import DataError
-        given = [o for o, v in (("--split", args.split), ("--jobs", args.jobs), ("--bam", args.bam or None))
-                 if v is not None]
+        given = [o for o, v in (("--split", args.split), ("--jobs", args.jobs), ("--bam", args.bam))
+                 if v not in (None, False)]
         raise DataError(f"{', '.join(given)}: for --model servo_pendulum only; the ankle's diagnosis holds out "
                         "strides (--holdout-every) and runs in this process")
     else:
@@ -301,13 +301,6 @@ def build_user_model(ref: str, cls):
         raise user_code_error(f"model {ref!r}: building it", exc) from None
 
 
-def own_doc(cls) -> str:
-    """``cls``'s own docstring (not one inherited from :class:`~acausal.Model`), cleaned; "" when it has none."""
-    import inspect
-    text = cls.__dict__.get("__doc__")
-    return inspect.cleandoc(text) if isinstance(text, str) else ""
-
-
 def cmd_compare(args) -> int:
     """``acausal compare`` (:func:`acausal.models.drivetrains.compare.run`); with ``--html`` also its page,
     DIR/index.html (plotly checked before anything runs)."""
@@ -341,6 +334,7 @@ def cmd_export(args) -> int:
             raise ModelError(f"--preset {args.preset}: presets are for registered models (acausal compare --list); "
                              f"{args.model} takes its parameters from its class (and --set)")
         cls = load_model_class(args.model)
+        from acausal.export.fmu import own_doc
         cm, doc, params = build_user_model(args.model, cls), own_doc(cls), {}
     else:
         from acausal.models.ankle.presets import preset  # the CLI wires verbs to models (design rule exception)
@@ -373,14 +367,16 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--out", required=True, help="output directory (created if missing)")
     paper.add_argument("--quick", action="store_true",
                        help="reduced grid (P in 5, 8, 18 mm x 1.2, 2, 3 s) and resolution, for tests")
-    paper.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="worker processes (default: all cores)")
+    paper.add_argument("--jobs", type=whole_number("--jobs"), default=None,
+                       help="worker processes (default: all cores)")
     paper.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     paper.set_defaults(run=cmd_paper)
     infer = sub.add_parser("infer", help="infer the paper's unpublished parameters from its published numbers "
                            "(the paper_fit preset; several minutes)")
     infer.add_argument("--out", required=True, help="output directory (paper_fit.json, inference.md)")
     infer.add_argument("--install", action="store_true", help="also replace the shipped paper_fit preset record")
-    infer.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="worker processes (default: all cores)")
+    infer.add_argument("--jobs", type=whole_number("--jobs"), default=None,
+                       help="worker processes (default: all cores)")
     infer.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
     infer.set_defaults(run=cmd_infer)
     bench = sub.add_parser("bench", help="virtual test bench: record the paper's protocol on a truth model")
@@ -393,7 +389,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seed", type=whole_number("--seed", least=0), default=0, help="noise seed (default 0)")
     bench.add_argument("--force", action="store_true", help="write into a folder that already holds files (its "
                        "files are deleted first)")
-    bench.add_argument("--strides", type=whole_number("--strides"), default=6, help="recorded strides per condition (default 6)")
+    bench.add_argument("--strides", type=whole_number("--strides"), default=6,
+                       help="recorded strides per condition (default 6)")
     bench.add_argument("--quick", action="store_true", help="9 conditions instead of the paper's 36")
     bench.add_argument("--session", type=float, default=None, metavar="PAUSE_S",
                        help="record the conditions one after another as one session, PAUSE_S seconds apart: the "
@@ -457,7 +454,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "a position servo swinging a pendulum, BAM's log format)")
     dg.add_argument("--split", help="servo_pendulum: held-out recordings, kp[=VALUE] or trajectory[=NAME] "
                     "(default: every recording at the middle kp, else the middle trajectory)")
-    dg.add_argument("--jobs", type=whole_number("--jobs"), default=None, help="servo_pendulum: worker processes (default: all cores)")
+    dg.add_argument("--jobs", type=whole_number("--jobs"), default=None,
+                    help="servo_pendulum: worker processes (default: all cores)")
     dg.add_argument("--bam", action="store_true", help="servo_pendulum: also replay BAM's published XL330 "
                     "parameter sets on the recordings (for XL330 data)")
     dg.add_argument("--candidate", action="append", default=[], metavar="SPEC",

@@ -234,6 +234,12 @@ class Indeterminate:
     doc: str = ""
 
 
+def _outside(low, high, unit: str) -> str:
+    """"outside its bounds [low, high] unit", with a hint for an absolute temperature (a degC slip)."""
+    return (f"outside its bounds [{low if low is not None else '-inf'}, {high if high is not None else 'inf'}] {unit}"
+            + (" (an absolute temperature: 25 degC is 298.15 K)" if unit == "K" else ""))
+
+
 def _within(d: Parameter, value: float) -> bool:
     """Whether a number given to parameter ``d`` is finite and lies within its declared bounds."""
     return not (value != value or abs(value) == float("inf") or (d.min is not None and value < d.min)
@@ -292,10 +298,7 @@ class Component:
                 if isinstance(value, (int, float)) and not _within(d, value):  # refused where it is given
                     raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is "
                                      + ("not finite" if value != value or abs(value) == float("inf") else
-                                        f"outside its bounds [{d.min if d.min is not None else '-inf'}, "
-                                        f"{d.max if d.max is not None else 'inf'}] {d.unit}"
-                                        + (" (an absolute temperature: 25 degC is 298.15 K)" if d.unit == "K" else
-                                           "")))
+                                        _outside(d.min, d.max, d.unit)))
                 self._values[key] = value
             elif isinstance(d, (Variable, Discrete)):
                 self._starts[key] = self._start(key, d, value)
@@ -319,17 +322,14 @@ class Component:
             except (TypeError, ValueError):
                 bad = True
         if bad:
-            raise ModelError(f"{type(self).__name__}: start of {key!r} = {st.value!r} is a {type(st.value).__name__}; "
-                             f"give a number [{unit}]")
+            raise ModelError(f"{type(self).__name__}: start of {key!r} = {st.value!r} is a "
+                             f"{type(st.value).__name__}; give a number [{unit}]")
         if not isinstance(st.fixed, (bool, np.bool_)):
             raise ModelError(f"{type(self).__name__}: Start({st.value!r}, fixed={st.fixed!r}) for {key!r}: fixed "
                              "must be True or False")
         low, high = getattr(d, "min", None), getattr(d, "max", None)
         if (low is not None and v < low) or (high is not None and v > high):
-            hint = " (an absolute temperature: 25 degC is 298.15 K)" if unit == "K" else ""
-            raise ModelError(f"{type(self).__name__}: start of {key!r} = {v:g} is outside its bounds "
-                             f"[{low if low is not None else '-inf'}, {high if high is not None else 'inf'}] "
-                             f"{unit}{hint}")
+            raise ModelError(f"{type(self).__name__}: start of {key!r} = {v:g} is {_outside(low, high, unit)}")
         return Start(v, bool(st.fixed))
 
     # ---- declarations

@@ -266,7 +266,9 @@ def test_the_evidence_table_says_why_a_candidate_was_not_refitted():
     out, and marks its scores as the linearised step's."""
     from acausal.identify.verdict import CandidateScore
     from acausal.models.servo.problem import ServoProblem
-    from acausal.models.servo.report import _not_refitted
+
+    def _not_refitted(score, problem):  # what the servo report's evidence table writes
+        return score.refit_note(problem.max_refits)
 
     def score(why, failed=""):
         return CandidateScore("gain_error", "servo.gain_error.s", 0.1, float("nan"), {}, 0.076, 0.076, float("nan"),

@@ -3,14 +3,19 @@ it now gets (an error naming the argument, option, key or file at fault, or a fl
 carry the finding's number."""
 from __future__ import annotations
 
+import contextlib
+import re
+import shutil
 import warnings
 
 import numpy as np
 import pytest
+import sympy as sp
 
 from acausal import ModelError, compile_model
 
 from .circuit_models import RC
+from .test_nothing_silent import _copy as copy_set
 
 
 @pytest.fixture(scope="module")
@@ -185,8 +190,8 @@ def test_15_a_negative_absolute_temperature_is_refused_with_a_celsius_hint():
     (lambda C, Start: C(C=1.0, v=[1, 2]), r"Capacitor: start of 'v' = \[1, 2\] is a list; give a number \[V\]"),
     (lambda C, Start: C(C=1.0, v="0.5"), r"Capacitor: start of 'v' = '0.5' is a str"),
     (lambda C, Start: C(C=1.0, v=Start(0.5, fixed="no")), r"fixed='no'\) for 'v': fixed must be True or False"),
-    (lambda C, Start: C(C=__import__("sympy").I), r"Capacitor: parameter 'C' = I is not a finite real number \[F\]"),
-    (lambda C, Start: C(C=__import__("sympy").zoo), r"parameter 'C' = zoo is not a finite real number"),
+    (lambda C, Start: C(C=sp.I), r"Capacitor: parameter 'C' = I is not a finite real number \[F\]"),
+    (lambda C, Start: C(C=sp.zoo), r"parameter 'C' = zoo is not a finite real number"),
 ])
 def test_16_start_values_and_parameters_of_the_wrong_type_are_refused_where_given(make, message):
     from acausal import Start
@@ -206,29 +211,21 @@ def bench_set(tmp_path_factory):
 
 
 def _copy(src, dst):
-    dst.mkdir(parents=True, exist_ok=True)
-    for p in src.iterdir():
-        (dst / p.name).write_bytes(p.read_bytes())
-    (dst / "manifest.json").unlink()  # edited recordings no longer match their checksums
+    """``src``'s recordings in ``dst``, without the manifest (edited recordings no longer match its checksums)."""
+    copy_set(src, dst)
+    (dst / "manifest.json").unlink()
     return dst
 
 
 def _refused(capsys, argv, message):
+    """``acausal ARGV`` refuses with exit status 2 and ``message`` (a regex) on stderr; ``usage:...``: refused by
+    argparse (SystemExit) before the verb runs."""
     from acausal.cli import main
-    with pytest.raises(SystemExit) if message.startswith("usage:") else _no_exit():
-        code = main(argv)
-        assert code == 2
+    with pytest.raises(SystemExit) if message.startswith("usage:") else contextlib.nullcontext():
+        assert main(argv) == 2
     err = capsys.readouterr().err
-    assert __import__("re").search(message.removeprefix("usage:"), err), err
+    assert re.search(message.removeprefix("usage:"), err), err
     return err
-
-
-class _no_exit:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
 
 
 def test_7_a_json_that_is_not_utf8_is_named_with_its_byte_and_a_bom_is_read(bench_set, tmp_path, capsys):
@@ -302,7 +299,6 @@ def test_17_18_fit_and_diagnose_options_that_would_do_nothing_are_refused(bench_
 
 def test_20_a_quantity_given_twice_in_a_servo_json_must_agree(tmp_path):
     import json
-    import shutil
     from importlib import resources
 
     from acausal import DataError
@@ -385,8 +381,8 @@ def test_12_13_21_export_names_the_users_file_the_compiler_and_the_setting(tmp_p
              r"identifier 'my model-1' is not a C identifier .* e.g. 'my_model_1'")
     _refused(capsys, ["export", f"{models}:RC", "--fmu", fmu, "--no-binary", "--preset", "paper_fit"],
              r"--preset paper_fit: presets are for registered models")
-    if __import__("shutil").which("false"):
-        _refused(capsys, ["export", f"{models}:RC", "--fmu", fmu, "--compiler", __import__("shutil").which("false")],
+    if shutil.which("false"):
+        _refused(capsys, ["export", f"{models}:RC", "--fmu", fmu, "--compiler", shutil.which("false")],
                  r"cannot build a one-line C program \(exit status 1\) and says nothing: is it a C compiler\?")
     assert main(["export", f"{models}:RC", "--fmu", fmu, "--no-binary"]) == 0
     xml = zipfile.ZipFile(fmu).read("modelDescription.xml").decode()

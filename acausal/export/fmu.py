@@ -79,6 +79,13 @@ def compiler_fault(cc: str, given: str | None, tmp: Path) -> str | None:
             + ": is it a C compiler? Name a working one with --compiler or CC")
 
 
+def own_doc(cls) -> str:
+    """``cls``'s own docstring, cleaned (not one inherited from :class:`~acausal.Model`, the framework's); "" when
+    it has none: the FMU's description."""
+    text = cls.__dict__.get("__doc__")
+    return inspect.cleandoc(text) if isinstance(text, str) else ""
+
+
 def identifier_of(name: str) -> str:
     """A C identifier from a model name (the FMU's ``modelIdentifier`` and the binary's file name)."""
     ident = re.sub(r"\W", "_", name, flags=re.ASCII)
@@ -113,9 +120,8 @@ def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None =
         cm = model
     elif isinstance(model, Component):
         cm = compile_model(model)
-        if doc is None:  # the model's own docstring (not the framework's, inherited from Model)
-            own = type(model).__dict__.get("__doc__")
-            doc = inspect.cleandoc(own) if isinstance(own, str) else ""
+        if doc is None:
+            doc = own_doc(type(model))
     else:
         raise ExportError(f"export_fmu: expected a CompiledModel or a Model instance, got {type(model).__name__}")
     path = Path(path)

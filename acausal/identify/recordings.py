@@ -146,11 +146,12 @@ def load_recordings(folder, fmt: RecordingFormat) -> list:
                         "recordings")
     if not folder.is_dir():
         raise DataError(f"recording set {folder}: no such folder")
-    for p in folder.iterdir():
+    entries = list(folder.iterdir())
+    for p in entries:
         if p.is_dir() and p.suffix.lower() in (".csv", ".json"):
             raise DataError(f"{p}: is a folder, not a recording file (a recording is a NAME.csv + NAME.json pair "
                             "of files)")
-    files = [p for p in folder.iterdir() if p.is_file() and not p.name.startswith(".")]
+    files = [p for p in entries if p.is_file() and not p.name.startswith(".")]
     csvs = {p.stem: p for p in files if p.suffix.lower() == ".csv"}
     jsons = {p.stem: p for p in files if p.suffix.lower() == ".json" and p.name != MANIFEST}
     for stem in sorted(set(csvs) ^ set(jsons)):

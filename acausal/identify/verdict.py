@@ -159,6 +159,14 @@ class CandidateScore:
     named_by: str = ""  # "drift": named because it explains a drift over the session (:func:`_named_by_drift`);
     # "pair with ID": named with ID as a pair that passes the tests together (:func:`_lookahead`)
 
+    def refit_note(self, max_refits: int | None = None) -> str:
+        """What an evidence table says of a candidate that was not refitted (``screened``), and why."""
+        if self.why_screened == "failed" or self.failed:
+            return f"refit failed: {self.failed}"
+        if self.why_screened == "ranked":
+            return f"not refitted (beyond the {max_refits} most promising)"
+        return "not refitted (fingerprint too weak)"
+
     def summary(self) -> dict:
         return {"id": self.id, "heldout_rmse_gain": self.heldout_rmse_gain, "delta_bic": self.delta_bic,
                 "params": dict(self.params), "loso_rmse_gain": self.loso_rmse_gain, "t_stat": _num(self.t_stat),

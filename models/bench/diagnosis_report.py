@@ -65,8 +65,7 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
         title = "## 2. Candidates (added to the calibrated baseline, refitted with R, J, b)" if k == 0 else \
             (f"### Step {k + 1}: does `{st.scores[0].id}` explain the drift over the session{on_top}?"
              if st.kind == "drift" else f"### Step {k + 1}: candidates{on_top}")
-        rows = [[f"`{s.id}`", (("refit failed: " + s.failed) if s.failed else "not refitted" + (
-                     " (beyond the most promising)" if s.why_screened == "ranked" else "")) if s.screened
+        rows = [[f"`{s.id}`", s.refit_note(problem.max_refits) if s.screened
                  else f"{s.value:.4g} ± {s.std:.2g} {EFFECTS[s.id].unit}",
                  f"{100 * s.heldout_rmse_gain:+.1f} %" + (" (lin.)" if s.screened else ""),
                  "" if s.screened else f"{100 * s.loso_rmse_gain:+.1f} %", "" if s.screened else f"{s.t_stat:.1f}",

@@ -268,7 +268,8 @@ def _write_readme(out: Path, conditions, effects, truth, sensors, seed, chain: s
 SENSOR_RANGES = {"encoder_bits": (1, 52, True, "bits"), "motor_current_noise": (0.0, np.inf, False, "A"),
                  "motor_current_offset": (-np.inf, np.inf, False, "A"),
                  "supply_current_noise": (0.0, np.inf, False, "A"), "supply_voltage_noise": (0.0, np.inf, False, "V"),
-                 "torque_noise": (0.0, np.inf, False, "N m"), "rate": (1.0 / RANGES["sample interval"][1], 1.0 / RANGES["sample interval"][0], False, "Hz"),
+                 "torque_noise": (0.0, np.inf, False, "N m"), "rate": (1.0 / RANGES["sample interval"][1],
+                                                                 1.0 / RANGES["sample interval"][0], False, "Hz"),
                  "current_filter_hz": (0.0, np.inf, False, "Hz")}
 
 

@@ -127,7 +127,7 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
         md += [md_table(["candidate", "parameter", "fitted", "held-out RMSE gain", "leave-one-out gain", "paired t",
                          "sign test p", "delta BIC", "significant"],
                         [[f"`{s.id}`", f"`{s.parameter}`",
-                          _not_refitted(s, problem) if s.screened else f"{s.value:.4g} ± {s.std:.2g}",
+                          s.refit_note(problem.max_refits) if s.screened else f"{s.value:.4g} ± {s.std:.2g}",
                           f"{100 * s.heldout_rmse_gain:+.1f} %" + (" (lin.)" if s.screened else ""),
                           "" if s.screened else f"{100 * s.loso_rmse_gain:+.1f} %",
                           "" if s.screened or not np.isfinite(s.t_stat) else f"{s.t_stat:.1f}",
@@ -300,12 +300,3 @@ def _warning_lines(d) -> list:
         return []
     return ["**Warnings** (data or fit problems the verdict does not cover):", "",
             *[f"- {w}" for w in d.warnings], ""]
-
-
-def _not_refitted(s, problem) -> str:
-    """Why candidate score ``s`` was not refitted, as the evidence table says it."""
-    if s.why_screened == "failed" or s.failed:
-        return f"refit failed: {s.failed}"
-    if s.why_screened == "ranked":
-        return f"not refitted (beyond the {problem.max_refits} most promising)"
-    return "not refitted (fingerprint too weak)"

@@ -187,7 +187,8 @@ static int cascade(Inst *m, const double *d_old, double *side, int *kept) {
 }
 
 /* modes.knee_offsets: an indicator the knee rule overruled (kept), or one the event left within KNEE of zero on the
- * side that says leave the present modes, is watched at twice its value (at least ROUNDOFF further), so that moving as far again the way it says to leave is a crossing; one exactly at zero, which
+ * side that says leave the present modes, is watched at twice its value (at least ROUNDOFF further), so that
+ * moving as far again the way it says to leave is a crossing; one exactly at zero, which
  * crossing one way would leave the present modes and the other not, at +-ROUNDOFF, so that leaving its zero by
  * round-off is not. */
 static int knee_offsets(Inst *m, int *kept) {
