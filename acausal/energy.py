@@ -191,6 +191,17 @@ def balance(res, acc: Accounts, k0: int = 0, k1: int = -1, energy=None) -> Balan
                    heat={(n, ports): passed[n] for n, ports in acc.heat.items()})
 
 
+def chain(res, acc: Accounts, k0: int = 0, k1: int = -1) -> list:
+    """The energy chain between output samples ``k0`` and ``k1``: one ``(sensor, its component, energy passed on
+    [J], components whose losses lie between the sensor before and this one)`` per power sensor, in build order."""
+    out = []
+    for s in acc.sensors:
+        e = res.energy(s)
+        out.append((s, s.rsplit(".", 1)[0], float(e[k1] - e[k0]),
+                    [n.rsplit(".", 1)[0] for n in acc.stages.get(s, [])]))
+    return out
+
+
 def draw_sankey(res, acc: Accounts, ax=None, k0: int = 0, k1: int = -1, title: str | None = None):
     """The energy passed on at each power sensor (build order) between output samples ``k0`` and ``k1``, each
     stage's loss labelled by the components that dissipate it; returns the axes. A model with fewer than two
@@ -210,14 +221,9 @@ def draw_sankey(res, acc: Accounts, ax=None, k0: int = 0, k1: int = -1, title: s
     if ax is None:
         import matplotlib.pyplot as plt
         _, ax = plt.subplots(figsize=(2.2 * len(acc.sensors) + 2, 5))
-    energy = {}
-    for s in acc.sensors:
-        e = res.energy(s)
-        energy[s.rsplit(".", 1)[0]] = float(e[k1] - e[k0])
-    names = []
-    for s in acc.sensors[1:]:
-        owners = [n.rsplit(".", 1)[0] for n in acc.stages.get(s, [])]
-        names.append((s.rsplit(".", 1)[0], "loss" + (f"\n({', '.join(owners)})" if owners else "")))
+    points = chain(res, acc, k0, k1)
+    energy = {comp: J for _, comp, J, _ in points}
+    names = [(comp, "loss" + (f"\n({', '.join(owners)})" if owners else "")) for _, comp, _, owners in points[1:]]
     top = max(abs(v) for v in energy.values()) or 1.0
     sankey(ax, energy, title=title or f"{res.model.flat.name}: energy at each power sensor [J]", scale=1.0 / top,
            loss_names=names)

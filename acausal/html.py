@@ -269,16 +269,13 @@ def result_data(res, t0=None, t1=None, names=(), max_points: int = 4000) -> dict
 
 
 def _chain(res, acc, k0, k1) -> dict:
-    """Energy [J] passed on at each power sensor (build order) and each stage's loss named by its components."""
-    points = []
-    for s in acc.sensors:
-        e = res.energy(s)
-        points.append(dict(label=s.rsplit(".", 1)[0], J=float(e[k1] - e[k0]), key=s))
-    losses = []
-    for a, s in zip(points, points[1:]):
-        owners = [n.rsplit(".", 1)[0] for n in acc.stages.get(s["key"], [])]
-        losses.append(dict(label="loss" + (f" ({', '.join(owners)})" if owners else ""), J=a["J"] - s["J"],
-                           key=f"loss before {s['key']}"))
+    """Energy [J] passed on at each power sensor (build order) and each stage's loss named by its components
+    (:func:`acausal.energy.chain`)."""
+    from .energy import chain
+    links = chain(res, acc, k0, k1)
+    points = [dict(label=comp, J=J, key=s) for s, comp, J, _ in links]
+    losses = [dict(label="loss" + (f" ({', '.join(owners)})" if owners else ""), J=before[2] - J,
+                   key=f"loss before {s}") for before, (s, _, J, owners) in zip(links, links[1:])]
     return dict(kind="chain", points=points, losses=losses)
 
 
