@@ -66,7 +66,10 @@ class CodeGenerator(OnDemand):
     unknowns and steps) with the model's parameters, discrete modes and numeric inputs, all named in the order
     the generated functions take them."""
 
-    def __init__(self, system, params, discretes, input_tokens):
+    def __init__(self, system, params, discretes, input_tokens, event_zeros=()):
+        self.event_zeros = list(event_zeros)
+        self._entries: dict = {}  # entry point name -> function, generated when first asked for (entry())
+        self._entry_sources: dict = {}
         self.states, self.params, self.discretes = list(system.states), list(params), list(discretes)
         self.inputs, self.unknowns, self.steps = list(input_tokens), list(system.unknowns), list(system.steps)
         self.names: dict = {time: "t"}
@@ -84,10 +87,12 @@ class CodeGenerator(OnDemand):
         self._blocks: list[str] = []  # source of Newton residual functions
         self._labels: dict = {}  # Newton block (step index) -> description for error messages
         self._newton_args: dict = {}  # Newton block -> the outside symbols it takes
-        self.source = ""
-        self.signal_orders: dict = {}  # token -> highest order used
+        self._signal_orders: dict = {}  # token -> highest order used
         self.defined_by: dict = {}
-        self._namespace: dict = {}  # globals of the generated functions (set by generate)
+        # the globals every generated function sees (the entry points and those generated on demand)
+        self._namespace = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack,
+                           "_linsolve": runtime.linsolve, "_newton": runtime.newton, "_piecewise": runtime.piecewise,
+                           "_labels": self._labels}
         self._on_demand: dict = {}  # value and sensitivity functions generated when first asked for (ondemand)
         for k, st in enumerate(self.steps):
             for v in step_vars(st):
@@ -111,7 +116,7 @@ class CodeGenerator(OnDemand):
             sym = sp.Symbol(ident, real=True)
             self.names[sym] = ident
             rep[call] = sym
-            self.signal_orders[token] = max(self.signal_orders.get(token, 0), order)
+            self._signal_orders[token] = max(self._signal_orders.get(token, 0), order)
         return expr.xreplace(rep)
 
     def _slice(self, targets) -> list[int]:
@@ -364,43 +369,70 @@ class CodeGenerator(OnDemand):
         head += sig
         return "\n".join(head + lines + list(result_lines))
 
-    def generate(self, event_zeros=()):
-        """Build the functions; returns a dict name -> callable and keeps :attr:`source`."""
-        srcs = []
-        all_ids = list(range(len(self.steps)))
-        items, _ = self._body(all_ids)
+    #: the entry points, in the order :attr:`source` lists them
+    ENTRIES = ("all_values", "rhs", "rhs_vec", "jac", "zeros")
+
+    def entry(self, name: str):
+        """Entry point ``name`` (one of :data:`ENTRIES`), generated when first asked for: a run that never
+        evaluates the model in numpy (the CasADi fixed step) does not pay for printing them (half of a small
+        model's compile time), and one that only initialises prints ``all_values`` alone."""
+        if name not in self._entries:
+            if name not in self.ENTRIES:
+                raise KeyError(name)
+            for fname, src in getattr(self, f"_src_{'rhs' if name == 'rhs_vec' else name}")().items():
+                self._entry_sources[fname] = src
+                self._entries[fname] = self._define(fname, src)
+        return self._entries[name]
+
+    def functions(self) -> dict:
+        """Every entry point by name (:data:`ENTRIES`), generated now where not yet."""
+        return {k: self.entry(k) for k in self.ENTRIES}
+
+    @property
+    def source(self) -> str:
+        """The generated Python source of the entry points (and the Newton blocks they call)."""
+        self.functions()
+        return "\n\n".join(self._blocks + [self._entry_sources[k] for k in self.ENTRIES]) + "\n"
+
+    @property
+    def signal_orders(self) -> dict:
+        """Input token -> the highest derivative order the generated functions read of it."""
+        self.functions()
+        return self._signal_orders
+
+    def _src_all_values(self) -> dict:
+        items, _ = self._body(list(range(len(self.steps))))
         outs = ", ".join(self.names[var_symbol(v)] for v in self.unknowns)
-        srcs.append(self._render("all_values", items, [f"    return [{outs}{',' if len(self.unknowns) == 1 else ''}]"]))
+        return {"all_values": self._render("all_values", items,
+                                           [f"    return [{outs}{',' if len(self.unknowns) == 1 else ''}]"])}
+
+    def _src_rhs(self) -> dict:
+        """``rhs`` and ``rhs_vec``: the same body (one common-subexpression pass), returning an array or a stack."""
         dnames = [var_symbol(der_name(s)) for s in self.states]
-        rhs_ids = self._slice(dnames)
-        items, _ = self._body(rhs_ids)
+        items, _ = self._body(self._slice(dnames))
         vals = ", ".join(self.names[d] for d in dnames)
         rhs = self._render("rhs", items, [f"    return _np_array([{vals}], dtype=float)"])
-        srcs.append(rhs)  # rhs_vec: the same body (one common-subexpression pass), returning a stack
-        srcs.append(rhs.replace("def rhs(", "def rhs_vec(", 1).rsplit("\n", 1)[0]
-                    + f"\n    return _bstack([{vals}{',' if len(dnames) == 1 else ''}])")
-        items, D = self._body(rhs_ids, with_jac=True)
+        return {"rhs": rhs, "rhs_vec": rhs.replace("def rhs(", "def rhs_vec(", 1).rsplit("\n", 1)[0]
+                + f"\n    return _bstack([{vals}{',' if len(dnames) == 1 else ''}])"}
+
+    def _src_jac(self) -> dict:
+        dnames = [var_symbol(der_name(s)) for s in self.states]
+        items, D = self._body(self._slice(dnames), with_jac=True)
         n = len(self.states)
         rows = []
-        for i, d in enumerate(dnames):
+        for d in dnames:
             row = D.get(d, {})
             rows.append("[" + ", ".join(self.names[row[j]] if j in row and row[j] in self.names else
                                          (pr_const(row[j]) if j in row else "0.0") for j in range(n)) + "]")
-        srcs.append(self._render("jac", items, [f"    return _np_array([{', '.join(rows)}], dtype=float)"]))
-        zeros = [self._signal_symbols(z) for z in event_zeros]
-        z_ids = self._slice([s for z in zeros for s in z.free_symbols])
-        items, _ = self._body(z_ids)
+        return {"jac": self._render("jac", items, [f"    return _np_array([{', '.join(rows)}], dtype=float)"])}
+
+    def _src_zeros(self) -> dict:
+        zeros = [self._signal_symbols(z) for z in self.event_zeros]
+        items, _ = self._body(self._slice([s for z in zeros for s in z.free_symbols]))
         for i, z in enumerate(zeros):
             items.append(("assign", f"_z{i}", z))
         zs = ", ".join(f"_z{i}" for i in range(len(zeros)))
-        srcs.append(self._render("zeros", items, [f"    return [{zs}{',' if len(zeros) == 1 else ''}]"]))
-        self.source = "\n\n".join(self._blocks + srcs) + "\n"
-        ns = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack, "_linsolve": runtime.linsolve,
-              "_newton": runtime.newton, "_piecewise": runtime.piecewise, "_labels": self._labels}
-        code = compile(self.source, "<acausal generated>", "exec")
-        exec(code, ns)
-        self._namespace = ns  # shared by functions generated later (sensitivity_function)
-        return {k: ns[k] for k in ("all_values", "rhs", "rhs_vec", "jac", "zeros")}
+        return {"zeros": self._render("zeros", items, [f"    return [{zs}{',' if len(zeros) == 1 else ''}]"])}
 
 
 def pr_const(e):

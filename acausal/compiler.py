@@ -39,15 +39,32 @@ def compile_model(model) -> "CompiledModel":
     except StructureError as err:  # a component that does not balance its own unknowns is named first
         raise StructureError(unbalanced_note(model) + str(err)) from None
     system = reduce_index(system)
-    _check_signal_orders(flat, system)
+    orders = _check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
     free = {n: (_resolve(nominal, flat), _resolve(scale, flat), origin)
             for n, (nominal, scale, origin) in flat.indeterminates.items() if n not in flat.aliases}
     system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes), indeterminates=free)
-    gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs))
     zeros = [_resolve(ev.zero, flat) for ev in flat.events]
-    funcs = gen.generate(zeros)
-    return CompiledModel(flat, system, gen, funcs, zeros, _time.perf_counter() - t0, energy_accounts(model))
+    gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs), zeros)
+    return CompiledModel(flat, system, gen, _Functions(gen), zeros, _time.perf_counter() - t0,
+                         energy_accounts(model), orders)
+
+
+class _Functions(Mapping):
+    """A compiled model's numeric entry points by name (:meth:`CodeGenerator.functions
+    <acausal.codegen.CodeGenerator.functions>`), generated when one is first asked for."""
+
+    def __init__(self, gen):
+        self._gen = gen
+
+    def __getitem__(self, name):
+        return self._gen.entry(name)
+
+    def __iter__(self):
+        return iter(self._gen.ENTRIES)
+
+    def __len__(self):
+        return len(self._gen.ENTRIES)
 
 
 def _resolve(expr, flat: FlatModel):
@@ -81,15 +98,24 @@ def _check_symbols(flat, system):
                                  "input of the model")
 
 
-def _check_signal_orders(flat, system):
-    """The derivatives of numeric inputs that the (index-reduced) equations use are ones their signals have."""
+def _signal_orders(flat, system) -> dict:
+    """Input token -> ``(highest derivative order, origin)`` that the (index-reduced) equations and the event zero
+    functions read of it."""
     need: dict = {}
-    for r, o in zip(system.residuals, system.origins):
+    exprs = list(zip(system.residuals, system.origins)) + [(_resolve(ev.zero, flat), ev.origin) for ev in flat.events]
+    for r, o in exprs:
         if r.has(SignalCall):
             for c in r.atoms(SignalCall):
                 tok, order = c.args[0].name, int(c.args[1])
                 if order > need.get(tok, (-1, ""))[0]:
                     need[tok] = (order, o)
+    return need
+
+
+def _check_signal_orders(flat, system) -> dict:
+    """The derivatives of numeric inputs that the (index-reduced) equations use are ones their signals have;
+    returns token -> the highest order used."""
+    need = _signal_orders(flat, system)
     for tok, (order, o) in need.items():
         info = flat.inputs[tok]
         mo = info.signal.max_order
@@ -97,6 +123,7 @@ def _check_signal_orders(flat, system):
             raise SignalError(
                 f"input {tok!r} of {info.owner}: index reduction needs its derivative of order {order} (for "
                 f"{o}), but its signal {type(info.signal).__name__} provides derivatives only up to order {mo}")
+    return {tok: order for tok, (order, _) in need.items()}
 
 
 class CompiledModel:
@@ -108,11 +135,14 @@ class CompiledModel:
     ``generator`` the code generator and ``funcs`` the generated functions. ``accounts`` are the model's energy
     accounts found by convention (:class:`~acausal.energy.Accounts`: losses, stored energies, sources, boundary,
     power sensors), which :meth:`Result.energy_balance <acausal.result.Result.energy_balance>` and
-    :meth:`Result.sankey <acausal.result.Result.sankey>` use.
+    :meth:`Result.sankey <acausal.result.Result.sankey>` use. The numeric functions are printed when first used
+    (a run on the CasADi fixed step never uses them), so :attr:`compile_seconds` does not include them.
     """
 
-    def __init__(self, flat, system, gen, funcs, zeros, compile_seconds, accounts=None):
+    def __init__(self, flat, system, gen, funcs, zeros, compile_seconds, accounts=None, signal_orders=None):
         self.flat = flat
+        #: input name -> the highest derivative order the equations and zero functions read of it
+        self.signal_orders = dict(signal_orders or {})
         self.accounts = accounts
         self.reduction = system
         self.blocks = system.blocks
@@ -382,7 +412,7 @@ class CompiledModel:
             values = dict(zip(self.param_names, self.param_vector() if p is None else p))
             chosen = [v.bind(values) if isinstance(v, ParametricSignal) else v for v in chosen]
         for n, v in zip(self.input_names, chosen):  # replacements and bound signals (the model's own are checked
-            need = self.generator.signal_orders.get(n, 0)  # when it compiles)
+            need = self.signal_orders.get(n, 0)  # when it compiles)
             if v.max_order is not None and v.max_order < need:
                 raise SignalError(f"input {n!r}: the model needs derivatives up to order {need}, the signal "
                                   f"{v.name!r} ({type(v).__name__}) provides up to {v.max_order}")

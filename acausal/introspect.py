@@ -111,9 +111,9 @@ def report(cm) -> str:
     if free:
         lines.append(f"  unconnected ports ({len(free)}; their flows are zero: an open pin, a free flange, an "
                      f"adiabatic heat port): {', '.join(sorted(dict.fromkeys(free)))}")
-    if cm.generator.signal_orders:
+    if cm.signal_orders:
         lines.append("  input derivatives used: " + ", ".join(
-            f"{k} up to order {v}" for k, v in sorted(cm.generator.signal_orders.items())))
+            f"{k} up to order {v}" for k, v in sorted(cm.signal_orders.items())))
     return "\n".join(lines)
 
 

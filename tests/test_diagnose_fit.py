@@ -65,3 +65,38 @@ def test_a_named_effect_far_beyond_its_typical_size_is_said():
     # at its typical size nothing is said
     q = Decay(0.1, typical=0.1)
     assert oversized(q, fit_model(q, ("c",), {}, q.noise_scales(None)), ["c"], Thresholds()) == []
+
+
+def test_a_fit_with_sensitivities_run_together_takes_the_same_steps_with_one_run_per_evaluation():
+    """``calibrate(together=True)``: each evaluation runs the sensitivities, and the optimiser's Jacobian at an
+    accepted point takes them without a second run; the fit is the same as with separate runs."""
+    from acausal.identify.calibrate import calibrate
+
+    t = np.linspace(0.0, 3.0, 300)
+    y = 2.0 * np.exp(-1.3 * t) + 0.01 * np.random.default_rng(3).standard_normal(t.size)
+    runs = {"predict": 0, "sensitivity": 0}
+
+    def predict(v):
+        runs["predict"] += 1
+        return {"y": v["a"] * np.exp(-v["k"] * t)}
+
+    def sensitivity(v, names):
+        runs["sensitivity"] += 1
+        d = {"a": np.exp(-v["k"] * t), "k": -v["a"] * t * np.exp(-v["k"] * t)}
+        return predict(v), {"y": np.stack([d[n] for n in names])}
+
+    def fit(together):
+        runs.update(predict=0, sensitivity=0)
+        e = Experiment("decay", t, {"y": y}, predict, np.ones(t.size, bool), np.zeros(t.size, bool),
+                       np.zeros(t.size, int), sensitivity=sensitivity)
+        cal = calibrate([e], [Free("a", 1.0, 0.0, 10.0, 1.0), Free("k", 0.5, 0.0, 10.0, 1.0)], ["y"],
+                        scales={"y": 0.01}, loss="linear", tol=1e-10, together=together)
+        return cal, dict(runs)
+
+    apart, runs_apart = fit(False)
+    with_sens, runs_together = fit(True)
+    for name in ("a", "k"):
+        assert abs(apart.values[name] - with_sens.values[name]) < 1e-9
+    assert apart.nfev == with_sens.nfev
+    assert runs_together["sensitivity"] == with_sens.nfev  # one run with sensitivities per evaluation, no more
+    assert runs_apart["sensitivity"] >= 2  # the Jacobians of the separate fit were runs of their own

@@ -225,7 +225,7 @@ def input_forms(cm, params: dict | None, inputs: dict | None) -> tuple:
         built = {}
         if isinstance(own, ParametricSignal) and (inputs or {}).get(name) is None:
             built = {v: float(values[v]) for v in dict.fromkeys(own.parameters.values())}
-        need = cm.generator.signal_orders.get(name, 0)
+        need = cm.signal_orders.get(name, 0)
         table = sig.table()
         if table is not None:
             coef = np.asarray(table.coef, dtype=float)

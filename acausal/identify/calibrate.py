@@ -193,11 +193,16 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
 
 def calibrate(experiments, free, signals, weights: dict | None = None, scales: dict | None = None,
               fixed: dict | None = None, max_nfev: int = 100, loss: str = "soft_l1",
-              f_scale: float = 3.0, tol: float = 1e-10) -> Calibration:
+              f_scale: float = 3.0, tol: float = 1e-10, together: bool = False) -> Calibration:
     """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``.
 
     ``tol``: the optimiser's relative tolerances on the cost, the step and the gradient (``ftol``, ``xtol``,
     ``gtol`` of :func:`scipy.optimize.least_squares`); ``max_nfev``: at most this many evaluations.
+    ``together``: every evaluation runs the experiments' sensitivities too, which the optimiser's next Jacobian
+    (at the same point, once the step is accepted) takes without a second run; worth it where the
+    experiments' ``predict`` at a point where ``sensitivity`` has run costs nothing (they keep its prediction)
+    and a run with sensitivities costs less than two without (the servo replays: 1.8), since a rejected step then
+    costs a run with sensitivities.
 
     The Jacobian is exact when every experiment has a ``sensitivity`` function, else forward differences (which,
     through an integrator's error control, can be too noisy to move a parameter that starts at zero)."""
@@ -235,13 +240,18 @@ def calibrate(experiments, free, signals, weights: dict | None = None, scales: d
     def values_of(z):
         return {**fixed, **{n: float(v) for n, v in zip(names, z * xs)}}
 
+    exact = all(e.sensitivity is not None for e in experiments)
+    ahead: dict = {}  # the Jacobian run with the last evaluation (together=True), by its point
+
     def fun(z):
+        if together and exact:
+            ahead.clear()
+            ahead[z.tobytes()] = jacobian_matrix(experiments, values_of(z), names, signals, weights, scales) * xs
         return residual_vector(experiments, values_of(z), signals, weights, scales)
 
-    exact = all(e.sensitivity is not None for e in experiments)
-
     def jac_fn(z):
-        return jacobian_matrix(experiments, values_of(z), names, signals, weights, scales) * xs
+        J = ahead.pop(z.tobytes(), None)
+        return J if J is not None else jacobian_matrix(experiments, values_of(z), names, signals, weights, scales) * xs
 
     z0 = np.array([f.start for f in free]) / xs
     lo = np.array([f.lower for f in free]) / xs

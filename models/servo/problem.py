@@ -308,7 +308,7 @@ class ServoProblem(Problem):
 
     #: each evaluation replays every fitted recording with exact sensitivities; a relative change of 1e-5 in cost
     #: or step is far below what the held-out scores resolve
-    fit_options = {"max_nfev": 20, "tol": 1e-5}
+    fit_options = {"max_nfev": 20, "tol": 1e-5, "together": True}
     #: the library spans the chain (14 candidates): each step refits the four whose fingerprints explain most of
     #: the residual, and scores the rest by their linearised step (a second step looks at them again)
     max_refits = 4
