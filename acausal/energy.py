@@ -170,11 +170,13 @@ class Balance:
         return self.table()
 
 
-def balance(res, acc: Accounts, k0: int = 0, k1: int = -1, energy=None) -> Balance:
+def balance(res, acc: Accounts, k0: int = 0, k1: int = -1, energy=None, change=None) -> Balance:
     """The energy balance of a :class:`~acausal.result.Result` between output samples ``k0`` and ``k1``;
     ``energy``: what gives a cumulative energy by name (default ``res.energy``; the trust check passes the run's
-    cumulative energies at the solver's steps, with ``k0 = 0, k1 = -1``)."""
+    cumulative energies at the solver's steps, with ``k0 = 0, k1 = -1``); ``change``: what gives a stored energy's
+    change between the two samples by name (default: from its values at the outputs)."""
     energy = energy or res.energy
+    change = change or (lambda n: float(np.asarray(res[n])[k1] - np.asarray(res[n])[k0]))
 
     def between(name):
         e = energy(name)
@@ -187,7 +189,7 @@ def balance(res, acc: Accounts, k0: int = 0, k1: int = -1, energy=None) -> Balan
     passed = {n: -sum(between(p) for p in ports) for n, ports in acc.heat.items()}  # heat out of the component
     return Balance(float(res.t[k0]), float(res.t[k1]), {n: between(n) for n in acc.sources}, boundary,
                    {n: between(n) - passed.get(n, 0.0) for n in acc.losses},
-                   {n: float(np.asarray(res[n])[k1] - np.asarray(res[n])[k0]) for n in acc.stored},
+                   {n: change(n) for n in acc.stored},
                    heat={(n, ports): passed[n] for n, ports in acc.heat.items()})
 
 

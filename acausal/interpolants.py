@@ -47,13 +47,18 @@ def _inner(sol):
 
 def _lsoda(sols, at, t, nx):
     """LSODA's Nordsieck form: y(t) = sum_j yh[:, j] ((t - t_n) / h)^j."""
-    sizes = np.fromiter((s.p.size for s in sols), dtype=int, count=len(sols))
+    yh = [s.yh for s in sols]
+    sizes = np.array([c.shape[1] for c in yh])
     J = int(sizes.max())
-    YH = np.zeros((len(sols), nx, J))
-    for r, s in enumerate(sols):  # each step's coefficients (orders differ)
-        YH[r, :, :sizes[r]] = s.yh[:nx]
-    T = np.fromiter((s.t for s in sols), dtype=float, count=len(sols))
-    H = np.fromiter((s.h for s in sols), dtype=float, count=len(sols))
+    # each step's coefficients (orders differ) side by side, then put into one zero-padded stack at once
+    flat = np.concatenate(yh, axis=1)[:nx]
+    step = np.repeat(np.arange(len(sols)), sizes)
+    order = np.arange(flat.shape[1]) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    YH = np.zeros((len(sols), J, nx))
+    YH[step, order] = flat.T
+    YH = YH.transpose(0, 2, 1)
+    T = np.array([s.t for s in sols])
+    H = np.array([s.h for s in sols])
     x = (t - T[at][:, None]) / H[at][:, None]
     P = np.ones(x.shape + (J,))
     if J > 1:

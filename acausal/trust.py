@@ -353,11 +353,15 @@ def _residual(res) -> tuple | None:
     if acc is None or not (acc.losses or acc.stored):
         return None
     from .energy import balance
-    b = balance(res, acc, 0, -1, energy=res._run_energy)  # the run's totals (on the scipy path: its steps' nodes)
+    # the run's totals (on the scipy path: its steps' Gauss nodes), the stores' change from their values at the
+    # run's two ends, and the swings on the same nodes: no evaluation at every output time
+    ends = res.ends(acc.stored)
+    b = balance(res, acc, 0, -1, energy=res._run_energy, change=lambda n: float(ends[n][1] - ends[n][0]))
     terms = list(b.sources.values()) + list(b.boundary.values()) + list(b.losses.values())
-    swing = [float(np.nanmax(res[n]) - np.nanmin(res[n])) for n in acc.stored]
+    run = res._run_samples()
+    swing = [float(np.nanmax(run[n]) - np.nanmin(run[n])) for n in acc.stored]
     sources = [float(np.nanmax(np.abs(res._run_energy(n)))) for n in acc.sources]
-    scale = max([abs(v) for v in terms] + swing + sources + _exchanged(res, acc.stored) + [0.0])
+    scale = max([abs(v) for v in terms] + swing + sources + _exchanged(run, acc.stored) + [0.0])
     if scale < ENERGY_FLOOR or not np.isfinite(scale):
         return None
     total = sum(b.sources.values()) + sum(b.boundary.values()) - sum(b.losses.values()) - sum(b.stored.values())

@@ -120,3 +120,18 @@ def test_flange_energy_through_an_algebraic_angle_is_integrated_not_differenced(
     b = res.energy_balance()
     assert "gear" not in [k for k, v in b.boundary.items() if abs(v) > b._roundoff]
     assert abs(b.residual) < 1e-7
+
+
+def test_a_results_ends_are_its_first_and_last_outputs_without_evaluating_the_rest():
+    """``Result.ends`` (the trust check's stored-energy change): computed variables, states and aliases at the
+    first and last output, the same before and after the outputs are evaluated."""
+    sim = compile_model(MotorGearLoad())
+    res = sim.simulate(0.2, method="LSODA", trust="off", n_points=51)
+    computed = ["L.energy", "rotor.energy", sim.state_names[0]]
+    early = res.ends(computed)
+    assert not res.evaluated()  # two times evaluated, not every output
+    names = computed + ["R.p.i", "src.i"]  # aliases: from the outputs
+    early = res.ends(names)
+    for n in names:
+        assert early[n] == pytest.approx((res[n][0], res[n][-1]), rel=1e-12, abs=1e-15), n
+    assert res.ends(names) == early
