@@ -21,6 +21,7 @@ its first use, so it never runs ahead of the block that defines its inputs.
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 import itertools
 import re
 
@@ -442,3 +443,20 @@ def pr_const(e):
 def _cse_symbols(prefix):
     for i in itertools.count():
         yield sp.Symbol(f"{prefix}{i}", real=True)
+
+
+class Functions(Mapping):
+    """A compiled model's numeric entry points by name (:meth:`CodeGenerator.entry`), each generated when first
+    asked for."""
+
+    def __init__(self, gen):
+        self._gen = gen
+
+    def __getitem__(self, name):
+        return self._gen.entry(name)
+
+    def __iter__(self):
+        return iter(self._gen.ENTRIES)
+
+    def __len__(self):
+        return len(self._gen.ENTRIES)

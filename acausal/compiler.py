@@ -13,17 +13,18 @@ import numpy as np
 import sympy as sp
 
 from .alias import eliminate_aliases
-from .codegen import CodeGenerator
+from .codegen import CodeGenerator, Functions
+from .compile_checks import check_signal_orders, check_symbols, resolve
 from .errors import ModelError, SignalError, StructureError, UnknownNameError
-from .flatten import FlatModel, flatten
+from .flatten import flatten
 from .parameter_values import bound_message, check_parameter, parameter_plan
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import solve_blocks
 from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
 from .structure.balance import unbalanced_note
+from .symbols import time
 from .time_events import time_events
-from .symbols import split_der, time
 
 
 def compile_model(model) -> "CompiledModel":
@@ -33,97 +34,21 @@ def compile_model(model) -> "CompiledModel":
     eliminate_aliases(flat)
     time_events(flat)
     system = EquationSystem.from_flat(flat)
-    _check_symbols(flat, system)
+    check_symbols(flat, system)
     try:
         system = check_balance(system)
     except StructureError as err:  # a component that does not balance its own unknowns is named first
         raise StructureError(unbalanced_note(model) + str(err)) from None
     system = reduce_index(system)
-    orders = _check_signal_orders(flat, system)
+    orders = check_signal_orders(flat, system)
     starts = {n: v.start for n, v in flat.variables.items()}
-    free = {n: (_resolve(nominal, flat), _resolve(scale, flat), origin)
+    free = {n: (resolve(nominal, flat), resolve(scale, flat), origin)
             for n, (nominal, scale, origin) in flat.indeterminates.items() if n not in flat.aliases}
     system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes), indeterminates=free)
-    zeros = [_resolve(ev.zero, flat) for ev in flat.events]
+    zeros = [resolve(ev.zero, flat) for ev in flat.events]
     gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs), zeros)
-    return CompiledModel(flat, system, gen, _Functions(gen), zeros, _time.perf_counter() - t0,
+    return CompiledModel(flat, system, gen, Functions(gen), zeros, _time.perf_counter() - t0,
                          energy_accounts(model), orders)
-
-
-class _Functions(Mapping):
-    """A compiled model's numeric entry points by name (:meth:`CodeGenerator.functions
-    <acausal.codegen.CodeGenerator.functions>`), generated when one is first asked for."""
-
-    def __init__(self, gen):
-        self._gen = gen
-
-    def __getitem__(self, name):
-        return self._gen.entry(name)
-
-    def __iter__(self):
-        return iter(self._gen.ENTRIES)
-
-    def __len__(self):
-        return len(self._gen.ENTRIES)
-
-
-def _resolve(expr, flat: FlatModel):
-    """Replace eliminated aliases in an expression by what they stand for."""
-    rep = {s: flat.aliases[s.name] for s in expr.free_symbols if s.name in flat.aliases}
-    return expr.xreplace(rep) if rep else expr
-
-
-def _check_symbols(flat, system):
-    """Every symbol of an equation or event is a variable, parameter, mode, input or time (ModelError naming
-    the equation's or event's component otherwise)."""
-    known = set(flat.parameters) | set(flat.discretes) | set(flat.inputs)
-    base = set(flat.variables)
-
-    def stranger(expr):
-        for s in sp.sympify(expr).free_symbols:
-            if not (s is time or split_der(s.name)[0] in base or s.name in known or s.name in flat.aliases):
-                return s.name
-        return None
-
-    for r, o in zip(system.residuals, system.origins):
-        name = stranger(r)
-        if name is not None:
-            raise ModelError(f"equation from {o} uses {name!r}, which is no variable, parameter or input of "
-                             "the model")
-    for ev in flat.events:
-        for e in [ev.zero, *ev.on_rising.values(), *ev.on_falling.values(), *ev.reinit.values()]:
-            name = stranger(e)
-            if name is not None:
-                raise ModelError(f"event of {ev.origin} uses {name!r}, which is no variable, parameter, mode or "
-                                 "input of the model")
-
-
-def _signal_orders(flat, system) -> dict:
-    """Input token -> ``(highest derivative order, origin)`` that the (index-reduced) equations and the event zero
-    functions read of it."""
-    need: dict = {}
-    exprs = list(zip(system.residuals, system.origins)) + [(_resolve(ev.zero, flat), ev.origin) for ev in flat.events]
-    for r, o in exprs:
-        if r.has(SignalCall):
-            for c in r.atoms(SignalCall):
-                tok, order = c.args[0].name, int(c.args[1])
-                if order > need.get(tok, (-1, ""))[0]:
-                    need[tok] = (order, o)
-    return need
-
-
-def _check_signal_orders(flat, system) -> dict:
-    """The derivatives of numeric inputs that the (index-reduced) equations use are ones their signals have;
-    returns token -> the highest order used."""
-    need = _signal_orders(flat, system)
-    for tok, (order, o) in need.items():
-        info = flat.inputs[tok]
-        mo = info.signal.max_order
-        if mo is not None and order > mo:
-            raise SignalError(
-                f"input {tok!r} of {info.owner}: index reduction needs its derivative of order {order} (for "
-                f"{o}), but its signal {type(info.signal).__name__} provides derivatives only up to order {mo}")
-    return {tok: order for tok, (order, _) in need.items()}
 
 
 class CompiledModel:
@@ -528,9 +453,9 @@ def _event_assignment_table(flat) -> list:
                 name = sym.name if hasattr(sym, "name") else str(sym)
                 if name not in flat.discretes:
                     raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
-                pairs.append((name, _resolve(sp.sympify(expr), flat)))
+                pairs.append((name, resolve(sp.sympify(expr), flat)))
             entry[direction] = pairs
-        entry["reinit"] = [(sym.name if hasattr(sym, "name") else str(sym), _resolve(sp.sympify(expr), flat))
+        entry["reinit"] = [(sym.name if hasattr(sym, "name") else str(sym), resolve(sp.sympify(expr), flat))
                            for sym, expr in ev.reinit.items()]
         out.append(entry)
     return out

@@ -5,10 +5,9 @@ import csv
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import cumulative_simpson
 
 from .errors import ModelError, UnknownNameError
-from .interpolants import states_at
+from .gauss import gauss_cumulative, integrate_cumulative, nodes_at
 from .signals import SignalCall
 from .symbols import der_name, split_der
 
@@ -373,41 +372,7 @@ class Result:
 
     def _nodes_at(self, cuts):
         """:meth:`_quadrature_nodes` with the steps also cut at the times ``cuts`` (None: the steps alone)."""
-        t = self.t
-        cm = self.model
-        if self._given_nodes is not None:
-            bps, Xn = self._given_nodes()
-            tn, half, wg = gauss_nodes(bps)
-            nx = len(cm.state_names)
-            sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), self.params, self.inputs,
-                         np.asarray(self.modes if np.ndim(self.modes) == 1 else self.modes[:, 0], dtype=float),
-                         events=[])
-            return (bps, tn.shape, half, wg, sub)
-        segs = self._segments
-        if segs:
-            starts = np.array([s[0] for s in segs])
-            bps = np.append(starts, segs[-1][1]) if cuts is None else np.union1d(np.append(starts, segs[-1][1]), cuts)
-            bps = bps[(bps >= t[0]) & (bps <= t[-1])]
-        else:
-            bps = t
-        a = bps[:-1]
-        tn, half, wg = gauss_nodes(bps)
-        nx = len(cm.state_names)
-        Xn = np.zeros((nx,) + tn.shape)
-        if segs:
-            which = np.clip(np.searchsorted(starts, a, side="right") - 1, 0, len(segs) - 1)
-            Xn = states_at(segs, which, tn, nx)
-            Dn = np.zeros((len(cm.discrete_names),) + tn.shape)
-            if Dn.size:
-                Dn[:] = np.asarray([segs[k][3] for k in which], dtype=float).T[:, :, None]
-        else:
-            Dn = self.modes if np.ndim(self.modes) == 1 else \
-                np.repeat(self.modes[:, np.searchsorted(t, a, side="right") - 1][:, :, None], 5, axis=2)
-        nd = len(cm.discrete_names)
-        Dflat = np.asarray(Dn, dtype=float).reshape(nd, tn.size) if np.ndim(Dn) > 1 else np.asarray(Dn, dtype=float)
-        sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), self.params, self.inputs, Dflat, events=[],
-                     exact_time_function=self._exact_time_function)
-        return (bps, tn.shape, half, wg, sub)
+        return nodes_at(self, cuts)
 
     def _run_samples(self) -> "Result":
         """The samples the run's totals come from (:meth:`_run_energy`): on the scipy path the steps' own Gauss nodes
@@ -448,7 +413,7 @@ class Result:
         key = ("run cumulative", what)
         if key not in self._cache:
             nodes = self._quadrature_nodes(steps_only=True)
-            self._cache[key] = sum(_gauss_cumulative(nodes, part) for part in self._through(what))
+            self._cache[key] = sum(gauss_cumulative(nodes, part) for part in self._through(what))
         return self._cache[key]
 
     def _integrate_with_states(self, names) -> None:
@@ -478,7 +443,7 @@ class Result:
         if not self._segments and not self._exact_time_function and self._given_nodes is None:
             return integrate_cumulative(self._integrand(what), t)
         nodes = self._quadrature_nodes()
-        return _gauss_cumulative(nodes, what)[np.searchsorted(nodes[0], t)]
+        return gauss_cumulative(nodes, what)[np.searchsorted(nodes[0], t)]
 
     # ------------------------------------------------------------------ export
     def to_csv(self, path, names=None) -> None:
@@ -521,36 +486,6 @@ class Result:
 
     def __repr__(self):
         return f"<Result {self.model.flat.name}: {self.t.size} samples, t = {self.t[0]:g}..{self.t[-1]:g} s>"
-
-
-def _gauss_cumulative(nodes, what) -> np.ndarray:
-    """The cumulative integral of ``what`` (:meth:`Result._integrand`) at the breakpoints of ``nodes`` (a
-    :meth:`Result._quadrature_nodes` set: 5-point Gauss-Legendre on every interval between them)."""
-    bps, shape, half, wg, sub = nodes
-    y = np.asarray(sub._integrand(what), dtype=float).reshape(shape)
-    return np.concatenate([[0.0], np.cumsum(half * (y @ wg))])
-
-
-def gauss_nodes(bps):
-    """5-point Gauss-Legendre nodes ``(intervals, 5)`` of the intervals between breakpoints ``bps``, their
-    half-widths and the weights."""
-    a, b = bps[:-1], bps[1:]
-    half, mid = (b - a) / 2, (a + b) / 2
-    return mid[:, None] + half[:, None] * _GAUSS_X[None, :], half, _GAUSS_W
-
-
-#: the 5-point Gauss-Legendre rule on [-1, 1]: nodes and weights (computed once: numpy's leggauss finds them by an
-#: eigenvalue problem, a tenth of the trust check's time when asked for every run)
-_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(5)
-_GAUSS_X.flags.writeable = _GAUSS_W.flags.writeable = False
-
-
-def integrate_cumulative(y, t):
-    """Cumulative integral of samples ``y(t)`` (Simpson; trapezoid for fewer than 3 samples)."""
-    y = np.asarray(y, dtype=float)
-    if t.size < 3:
-        return np.concatenate([[0.0], np.cumsum(np.diff(t) * (y[1:] + y[:-1]) / 2)])
-    return cumulative_simpson(y, x=t, initial=0.0)
 
 
 def _as_rows(vals, shape):

@@ -275,7 +275,7 @@ class CompiledPath:
         integrated when called (what :meth:`Result.energy <acausal.result.Result.energy>` needs for an integral
         that is not one of the quadratures)."""
         def states():
-            from ..result import gauss_nodes
+            from ..gauss import gauss_nodes
             tn, _, _ = gauss_nodes(t_out)
             Xn, _ = self.integrate(t_start, x0, tn.ravel(), p, d, u, rtol, atol, max_step, first_step)
             return t_out, Xn.reshape((len(x0),) + tn.shape)
