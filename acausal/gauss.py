@@ -42,16 +42,14 @@ def integrate_cumulative(y, t):
 def nodes_at(res, cuts) -> tuple:
     """The Gauss nodes of every solver step of result ``res`` (:meth:`Result._quadrature_nodes
     <acausal.result.Result>`), the steps also cut at the times ``cuts`` (None: the steps alone):
-    ``(breakpoints, node shape, half-widths, weights, a Result at the nodes)``."""
-    from .result import Result
-
+    ``(breakpoints, node shape, half-widths, weights, a result of the same class at the nodes)``."""
     t = res.t
     cm = res.model
     if res._given_nodes is not None:
         bps, Xn = res._given_nodes()
         tn, half, wg = gauss_nodes(bps)
         nx = len(cm.state_names)
-        sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs,
+        sub = type(res)(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs,
                      np.asarray(res.modes if np.ndim(res.modes) == 1 else res.modes[:, 0], dtype=float),
                      events=[])
         return (bps, tn.shape, half, wg, sub)
@@ -77,6 +75,6 @@ def nodes_at(res, cuts) -> tuple:
             np.repeat(res.modes[:, np.searchsorted(t, a, side="right") - 1][:, :, None], 5, axis=2)
     nd = len(cm.discrete_names)
     Dflat = np.asarray(Dn, dtype=float).reshape(nd, tn.size) if np.ndim(Dn) > 1 else np.asarray(Dn, dtype=float)
-    sub = Result(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs, Dflat, events=[],
+    sub = type(res)(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs, Dflat, events=[],
                  exact_time_function=res._exact_time_function)
     return (bps, tn.shape, half, wg, sub)
