@@ -100,3 +100,46 @@ def test_a_fit_with_sensitivities_run_together_takes_the_same_steps_with_one_run
     assert apart.nfev == with_sens.nfev
     assert runs_together["sensitivity"] == with_sens.nfev  # one run with sensitivities per evaluation, no more
     assert runs_apart["sensitivity"] >= 2  # the Jacobians of the separate fit were runs of their own
+
+
+class Wave(Decay):
+    """y = a exp(-k t) + 0.5 sin(c t) with c = 6 hidden: from c = 0 the fit ends at another optimum; from the
+    candidate's typical size 5.5 at the true one."""
+
+    def __init__(self):
+        rng = np.random.default_rng(11)
+        self.t = np.linspace(0.0, 4.0, 800)
+        self.y = 2.0 * np.exp(-1.3 * self.t) + 0.5 * np.sin(6.0 * self.t) + 0.01 * rng.standard_normal(self.t.size)
+        self.candidates = {"c": Candidate("c", "c", 0.0, (0.0, 20.0), 1.0, "y", "rad/s", typical=5.5)}
+        self.fit_options = {"max_nfev": 200, "tol": 1e-10}
+
+    def experiments(self, effects):
+        out = []
+        for k in range(4):
+            piece = (self.t >= k) & (self.t < k + 1) if k < 3 else self.t >= 3
+            t, y = self.t[piece], self.y[piece]
+
+            def predict(v, t=t, effects=effects):
+                wave = 0.5 * np.sin(v["c"] * t) if "c" in effects else 0.0
+                return {"y": v["a"] * np.exp(-v["k"] * t) + wave}
+            held = np.full(t.size, k == 3)
+            out.append(Experiment(f"piece{k}", t, {"y": y}, predict, ~held, held,
+                                  np.floor(10 * (t - t[0])).astype(int)))
+        return out
+
+
+def test_a_named_fit_is_settled_from_a_second_start_and_two_optima_are_said():
+    from acausal.identify.diagnose import settled
+
+    p = Wave()
+    scales = p.noise_scales(None)
+    base = fit_model(p, (), {}, scales)
+    from_zero = fit_model(p, ("c",), {**base.values, "c": 0.0}, scales)
+    assert abs(from_zero.values["c"] - 6.0) > 0.5  # a single start from zero ends elsewhere
+    notes = []
+    kept = settled(p, from_zero, "c", scales, notes)
+    assert abs(kept.values["c"] - 6.0) < 0.01 and kept.cal.cost < from_zero.cal.cost
+    assert len(notes) == 1 and "more than one optimum" in notes[0] and "c = 6" in notes[0]
+    # started where it ends anyway: one optimum, nothing said
+    again = []
+    assert abs(settled(p, kept, "c", scales, again).values["c"] - 6.0) < 0.01 and again == []

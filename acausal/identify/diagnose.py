@@ -4,7 +4,9 @@ Model-agnostic engine; a model supplies a :class:`Problem` (its experiments with
 the baseline parameters to fit, the candidates, regressors for the residual analysis). The steps:
 
 1. **Baseline**: calibrate the baseline parameters on the training strides (:func:`~.calibrate.calibrate`; a fit
-   that stops at the problem's evaluation limit is continued to its optimum, as is every model named later).
+   that stops at the problem's evaluation limit is continued to its optimum, as is every model named later; a
+   named candidate is also refitted from its typical size and the better of the two optima kept, the other
+   said: :func:`settled`).
 2. **Fingerprints**: for every candidate, the exact sensitivity of the predicted signals to its parameter at the
    value where the effect vanishes (``Candidate.zero``; for a hard limit, which has no first-order effect there,
    the secant to ``Candidate.probe``), at the calibrated baseline, stacked over signals and
@@ -71,6 +73,9 @@ from .verdict import Candidate, CandidateScore, Diagnosis, Fit, Problem, Step, T
 
 #: a hard limit whose probe changes no training sample by more than this many noise levels is not reached there
 UNREACHED = 1e-6
+#: two fits of one model whose training costs differ by less than this fraction are taken for the same optimum
+#: (a fit's own tolerance stops it short by up to about that much)
+SAME_OPTIMUM = 1e-3
 
 
 # ---------------------------------------------------------------------------------------------- fitting
@@ -103,6 +108,37 @@ def converged(problem: Problem, fit: Fit, scales: dict, rounds: int = 3) -> Fit:
             break
         fit = more
     return fit
+
+
+def settled(problem: Problem, fit: Fit, cid: str, scales: dict, notes: list) -> Fit:
+    """The model with candidate ``cid`` just named: ``fit`` (its refit) continued to its optimum
+    (:func:`converged`), and the same refit started once more with ``cid`` at its typical size
+    (``Candidate.typical``), also continued; the lower training cost is kept. A calibration objective can have
+    more than one optimum (a friction law that trades against the motor constant and the winding's resistance),
+    and which one a single start reaches can turn on tolerance-level differences of the replays. Where the two
+    starts end at different optima (costs apart by more than :data:`SAME_OPTIMUM`, sizes by more than a standard
+    error), a sentence saying so (both sizes and costs) is appended to ``notes``. The second start is continued
+    to its optimum only where it already does better than the first."""
+    first = converged(problem, fit, scales)
+    c = problem.candidates[cid]
+    start = dict(fit.cal.start)
+    if c.typical is None or c.parameter not in start or np.isclose(start[c.parameter], c.typical):
+        return first
+    try:
+        other = fit_model(problem, fit.effects, {**start, c.parameter: c.typical}, scales)
+        if other.cal.cost < first.cal.cost:  # only a start that does better is worth its continuation
+            other = converged(problem, other, scales)
+    except AcausalError:  # the second start leaves a parameter's range: the first stands
+        return first
+    p = c.parameter
+    kept, left = (first, other) if first.cal.cost <= other.cal.cost else (other, first)
+    apart = abs(other.values[p] - first.values[p]) > max(kept.cal.std.get(p, 0.0), 1e-12)
+    worse = (left.cal.cost - kept.cal.cost) / kept.cal.cost
+    if apart and worse > SAME_OPTIMUM and left.cal.success:  # two optima (not an iterate stopped short)
+        notes.append(f"{cid}: the fit has more than one optimum: {p} = {kept.values[p]:.4g} (kept) and "
+                     f"{p} = {left.values[p]:.4g} (training cost {100 * worse:.1f} % higher), reached from {p} = "
+                     f"{start[p]:g} and {c.typical:g}; a single start can end at either")
+    return kept
 
 
 def _assess(problem, effects, cal, exps, scales) -> Fit:
@@ -250,6 +286,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     match = {cid: _cos(fp[None], fp[cid]) for cid in ids}
     limit = len(ids) if max_effects is None else max_effects
     steps, causes = [], []
+    optima: list = []  # sentences: a named model whose fit has another optimum (settled)
     while len(causes) < limit:
         rest = _open(problem, ids, causes)
         fp_step = fp if not causes else fingerprints(problem, base, rest, scales, probes)
@@ -263,13 +300,13 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                 steps.append(Step(base, scores, first.id, "pair"))
                 steps.append(Step(first.fit, later, second.id, "pair"))
                 causes += [first.id, second.id]
-                base = converged(problem, second.fit, scales)
+                base = settled(problem, second.fit, second.id, scales, optima)
                 continue
         steps.append(Step(base, scores, best.id if best else None))
         if best is None:
             break
         causes.append(best.id)
-        base = converged(problem, best.fit, scales)
+        base = settled(problem, best.fit, best.id, scales, optima)
     drifted = {}
     if len(baseline.exps) >= 3:
         say("per-recording fit (drift)")
@@ -294,7 +331,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                 d.suspects.setdefault(cid, []).append(param)
     if len(causes) >= limit and steps and steps[-1].kind == "gain":
         d.left_out = [sc.id for sc in steps[-1].scores if sc.significant and sc.id not in causes]
-    d.warnings = screen(problem, d.final, scales, thresholds) + oversized(problem, d.final, causes, thresholds)
+    d.warnings = screen(problem, d.final, scales, thresholds) + oversized(problem, d.final, causes, thresholds) + optima
     for cid, params in d.suspects.items():
         d.warnings.append(f"{', '.join(params)} drift{'s' if len(params) == 1 else ''} over the session and "
                           f"{cid} explains such a drift, but it could not be named from these recordings: "
