@@ -117,8 +117,8 @@ def settled(problem: Problem, fit: Fit, cid: str, scales: dict, notes: list) -> 
     more than one optimum (a friction law that trades against the motor constant and the winding's resistance),
     and which one a single start reaches can turn on tolerance-level differences of the replays. Where the two
     starts end at different optima (costs apart by more than :data:`SAME_OPTIMUM`, sizes by more than a standard
-    error), a sentence saying so (both sizes and costs) is appended to ``notes``. The second start is continued
-    to its optimum only where it already does better than the first."""
+    error), a sentence saying so (both sizes, how much worse the other fits) is appended to ``notes``. The second
+    start is continued to its optimum only where it already does better than the first."""
     first = converged(problem, fit, scales)
     c = problem.candidates[cid]
     start = dict(fit.cal.start)
