@@ -88,7 +88,6 @@ class CodeGenerator(OnDemand):
         self._blocks: list[str] = []  # source of Newton residual functions
         self._labels: dict = {}  # Newton block (step index) -> description for error messages
         self._newton_args: dict = {}  # Newton block -> the outside symbols it takes
-        self._signal_orders: dict = {}  # token -> highest order used
         self.defined_by: dict = {}
         # the globals every generated function sees (the entry points and those generated on demand)
         self._namespace = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack,
@@ -117,7 +116,6 @@ class CodeGenerator(OnDemand):
             sym = sp.Symbol(ident, real=True)
             self.names[sym] = ident
             rep[call] = sym
-            self._signal_orders[token] = max(self._signal_orders.get(token, 0), order)
         return expr.xreplace(rep)
 
     def _slice(self, targets) -> list[int]:
@@ -394,12 +392,6 @@ class CodeGenerator(OnDemand):
         """The generated Python source of the entry points (and the Newton blocks they call)."""
         self.functions()
         return "\n\n".join(self._blocks + [self._entry_sources[k] for k in self.ENTRIES]) + "\n"
-
-    @property
-    def signal_orders(self) -> dict:
-        """Input token -> the highest derivative order the generated functions read of it."""
-        self.functions()
-        return self._signal_orders
 
     def _src_all_values(self) -> dict:
         items, _ = self._body(list(range(len(self.steps))))

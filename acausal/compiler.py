@@ -47,8 +47,7 @@ def compile_model(model) -> "CompiledModel":
     system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes), indeterminates=free)
     zeros = [resolve(ev.zero, flat) for ev in flat.events]
     gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs), zeros)
-    return CompiledModel(flat, system, gen, Functions(gen), zeros, _time.perf_counter() - t0,
-                         energy_accounts(model), orders)
+    return CompiledModel(flat, system, gen, _time.perf_counter() - t0, energy_accounts(model), orders)
 
 
 class CompiledModel:
@@ -64,7 +63,7 @@ class CompiledModel:
     (a run on the CasADi fixed step never uses them), so :attr:`compile_seconds` does not include them.
     """
 
-    def __init__(self, flat, system, gen, funcs, zeros, compile_seconds, accounts=None, signal_orders=None):
+    def __init__(self, flat, system, gen, compile_seconds, accounts=None, signal_orders=None):
         self.flat = flat
         #: input name -> the highest derivative order the equations and zero functions read of it
         self.signal_orders = dict(signal_orders or {})
@@ -73,8 +72,8 @@ class CompiledModel:
         self.blocks = system.blocks
         self.steps = system.steps
         self.generator = gen
-        self.funcs = funcs
-        self.event_zeros = zeros
+        self.funcs = Functions(gen)  # each printed when first asked for
+        self.event_zeros = gen.event_zeros
         self.compile_seconds = compile_seconds
         self.state_names = list(gen.states)
         self.unknown_names = list(gen.unknowns)

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from .components import Component, Connector, Discrete, Flow, Input, Parameter, Potential, Variable, _STATE_SELECT
+from .components import Component, Connector
+from .declarations import _STATE_SELECT, Discrete, Flow, Input, Parameter, Potential, Variable
 from .errors import ConnectError, ModelError
 from .signals import Signal
 from .symbols import split_der, var_symbol

@@ -50,8 +50,8 @@ def nodes_at(res, cuts) -> tuple:
         tn, half, wg = gauss_nodes(bps)
         nx = len(cm.state_names)
         sub = type(res)(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs,
-                     np.asarray(res.modes if np.ndim(res.modes) == 1 else res.modes[:, 0], dtype=float),
-                     events=[])
+                        np.asarray(res.modes if np.ndim(res.modes) == 1 else res.modes[:, 0], dtype=float),
+                        events=[])
         return (bps, tn.shape, half, wg, sub)
     segs = res._segments
     if segs:
@@ -76,5 +76,5 @@ def nodes_at(res, cuts) -> tuple:
     nd = len(cm.discrete_names)
     Dflat = np.asarray(Dn, dtype=float).reshape(nd, tn.size) if np.ndim(Dn) > 1 else np.asarray(Dn, dtype=float)
     sub = type(res)(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs, Dflat, events=[],
-                 exact_time_function=res._exact_time_function)
+                    exact_time_function=res._exact_time_function)
     return (bps, tn.shape, half, wg, sub)

@@ -367,19 +367,18 @@ class Result:
         steps_only = steps_only and bool(self._segments) and self._given_nodes is None
         key = ("nodes", steps_only)
         if key not in self._cache:
-            self._cache[key] = self._nodes_at(None if steps_only else self.t)
+            self._cache[key] = nodes_at(self, None if steps_only else self.t)
         return self._cache[key]
 
-    def _nodes_at(self, cuts):
-        """:meth:`_quadrature_nodes` with the steps also cut at the times ``cuts`` (None: the steps alone)."""
-        return nodes_at(self, cuts)
+    def _totals_on_steps(self) -> bool:
+        """Whether the run's totals come from the scipy path's steps' own Gauss nodes (:meth:`_run_energy`): not
+        where the compiled path integrated the energies with the states, nor without dense output."""
+        return bool(self._segments) and self._given_nodes is None and not self._integrals
 
     def _run_samples(self) -> "Result":
-        """The samples the run's totals come from (:meth:`_run_energy`): on the scipy path the steps' own Gauss nodes
-        (a Result there), else this result's outputs."""
-        if not self._segments or self._given_nodes is not None or self._integrals:
-            return self
-        return self._quadrature_nodes(steps_only=True)[4]
+        """The samples the run's totals come from: the steps' Gauss nodes (a Result there, :meth:`_totals_on_steps`),
+        else this result's outputs."""
+        return self._quadrature_nodes(steps_only=True)[4] if self._totals_on_steps() else self
 
     def ends(self, names) -> dict:
         """``name -> (value at the first output, value at the last)``, evaluated at those two times only where the
@@ -408,7 +407,7 @@ class Result:
         which the steps' own Gauss nodes give without the output times' cuts. Where the energies are not
         integrated on the scipy path's steps (the compiled path's quadratures, no dense output), the
         cumulative energy at the output times."""
-        if not self._segments or self._given_nodes is not None or self._integrals:
+        if not self._totals_on_steps():
             return self.energy(what)
         key = ("run cumulative", what)
         if key not in self._cache:
