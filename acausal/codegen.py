@@ -1,4 +1,5 @@
-"""Generate numeric Python functions from the solved blocks.
+"""Generate numeric Python functions from a compile's lowered program (:class:`~acausal.program.Program`): the
+numpy printer, one of three (the compiled path's CasADi translation and the FMU's C are the others).
 
 Generated functions all have the signature ``f(t, x, p, d, u)``: time, state vector, parameter vector, discrete
 modes, and the tuple of numeric input signals (each called as ``u[k](t, order)``). Every value broadcasts, so
@@ -15,14 +16,14 @@ On demand (never at compile time), :meth:`CodeGenerator.sensitivity_function` ge
 signature returning chosen outputs with their exact partial derivatives with respect to the states and to chosen
 parameters (forward differentiation seeded at the states and the parameters), for parameter sensitivities.
 
-Common subexpressions are eliminated (sympy ``cse``) per function; a shared subexpression is emitted just before
-its first use, so it never runs ahead of the block that defines its inputs.
+Common subexpressions are eliminated per function by the printers' one rule (:func:`acausal.program.lower`): a
+shared subexpression is emitted just before its first use, so it never runs ahead of the block that defines its
+inputs.
 """
 from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
-import itertools
 import re
 
 import numpy as np
@@ -33,8 +34,9 @@ from . import runtime
 from .errors import ModelError
 from .signals import SignalCall
 from .ondemand import OnDemand
-from .solve import Assign, LinearSolve, NewtonSolve, step_exprs, step_vars
-from .symbols import der_name, time, var_symbol
+from .solve import Assign, LinearSolve, NewtonSolve
+from .program import lower
+from .symbols import der_name, par_symbol, time, var_symbol
 
 
 class _Printer(NumPyPrinter):
@@ -63,22 +65,22 @@ class _Printer(NumPyPrinter):
 
 
 class CodeGenerator(OnDemand):
-    """Generates the numeric functions of a solved :class:`~acausal.structure.EquationSystem` (its states,
-    unknowns and steps) with the model's parameters, discrete modes and numeric inputs, all named in the order
-    the generated functions take them."""
+    """Generates the numeric functions of a :class:`~acausal.program.Program` (its states, unknowns, steps and
+    event zeros, with the parameters, discrete modes and numeric inputs named in the order the generated
+    functions take them); it reads nothing else."""
 
-    def __init__(self, system, params, discretes, input_tokens, event_zeros=()):
-        self.event_zeros = list(event_zeros)
+    def __init__(self, program):
+        self.program = program
+        self.event_zeros = program.zeros
         self._entries: dict = {}  # entry point name -> function, generated when first asked for (entry())
         self._entry_sources: dict = {}
-        self.states, self.params, self.discretes = list(system.states), list(params), list(discretes)
-        self.inputs, self.unknowns, self.steps = list(input_tokens), list(system.unknowns), list(system.steps)
+        self.states, self.params, self.discretes = list(program.states), list(program.params), list(program.discretes)
+        self.inputs, self.unknowns, self.steps = list(program.inputs), list(program.unknowns), list(program.steps)
         self.names: dict = {time: "t"}
         for i, n in enumerate(self.states):
             self.names[var_symbol(n)] = f"_x{i}"
         for i, n in enumerate(self.unknowns):
             self.names[var_symbol(n)] = f"_v{i}"
-        from .symbols import par_symbol
         for i, n in enumerate(self.params):
             self.names[par_symbol(n)] = f"_p{i}"
         for i, n in enumerate(self.discretes):
@@ -88,15 +90,11 @@ class CodeGenerator(OnDemand):
         self._blocks: list[str] = []  # source of Newton residual functions
         self._labels: dict = {}  # Newton block (step index) -> description for error messages
         self._newton_args: dict = {}  # Newton block -> the outside symbols it takes
-        self.defined_by: dict = {}
         # the globals every generated function sees (the entry points and those generated on demand)
         self._namespace = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack,
                            "_linsolve": runtime.linsolve, "_newton": runtime.newton, "_piecewise": runtime.piecewise,
                            "_labels": self._labels}
         self._on_demand: dict = {}  # value and sensitivity functions generated when first asked for (ondemand)
-        for k, st in enumerate(self.steps):
-            for v in step_vars(st):
-                self.defined_by[var_symbol(v)] = k
 
     # ------------------------------------------------------------------ helpers
     def _signal_symbols(self, expr):
@@ -119,21 +117,8 @@ class CodeGenerator(OnDemand):
         return expr.xreplace(rep)
 
     def _slice(self, targets) -> list[int]:
-        """Indices of the steps needed to compute the target symbols (in order)."""
-        need, todo = set(), list(targets)
-        seen = set()
-        while todo:
-            s = todo.pop()
-            if s in seen:
-                continue
-            seen.add(s)
-            k = self.defined_by.get(s)
-            if k is None or k in need:
-                continue
-            need.add(k)
-            for e in step_exprs(self.steps[k]):
-                todo.extend(e.free_symbols)
-        return sorted(need)
+        """Indices of the steps needed to compute the target symbols (in order): :meth:`Program.slice`."""
+        return self.program.slice(targets)
 
     # ------------------------------------------------------------------ body
     def _body(self, step_ids, with_jac=False, seeds=None):
@@ -229,16 +214,18 @@ class CodeGenerator(OnDemand):
         local = dict(self.names)
         for i, y in enumerate(ys):
             local[y] = f"_y[{i}]"
-        pr = _Printer(local)
-        reps, red = sp.cse(res + [x for row in J for x in row], symbols=_cse_symbols(f"_n{k}c"), optimizations=None)
-        for s, _ in reps:
-            local[s] = s.name
-        lines = [f"def _newton_block{k}(_y, {', '.join(args)}):" if args else f"def _newton_block{k}(_y):"]
-        for s, e in reps:
-            lines.append(f"    {s.name} = {pr.doprint(e)}")
         m = len(ys)
-        rr = ", ".join(pr.doprint(e) for e in red[:m])
-        jj = ", ".join("(" + ", ".join(pr.doprint(e) for e in red[m + i * m: m + (i + 1) * m]) + ",)" for i in range(m))
+        items = [("assign", f"_r{i}", r) for i, r in enumerate(res)]
+        items += [("assign", f"_j{i}_{j}", e) for i, row in enumerate(J) for j, e in enumerate(row)]
+        statements = lower(items, f"_n{k}c")
+        for kind, ident, _ in statements:
+            if kind == "temp":
+                local[ident] = ident.name
+        pr = _Printer(local)
+        lines = [f"def _newton_block{k}(_y, {', '.join(args)}):" if args else f"def _newton_block{k}(_y):"]
+        lines += [f"    {ident.name if kind == 'temp' else ident} = {pr.doprint(e)}" for kind, ident, e in statements]
+        rr = ", ".join(f"_r{i}" for i in range(m))
+        jj = ", ".join("(" + ", ".join(f"_j{i}_{j}" for j in range(m)) + ",)" for i in range(m))
         lines.append(f"    return ({rr},), ({jj},)")
         self._blocks.append("\n".join(lines))
         self._newton_args[k] = ext
@@ -324,36 +311,22 @@ class CodeGenerator(OnDemand):
                                   f"{scale})", set()))
 
     # ------------------------------------------------------------------ emission
-    def _render(self, fname, items, result_lines, extra_used=()):
-        exprs = [sp.sympify(e) for kind, _, e in items if kind == "assign"]
-        reps, red = sp.cse(exprs, symbols=_cse_symbols(f"_{fname}c"), optimizations=None) if exprs else ([], [])
-        rep_map = {s: e for s, e in reps}
+    def _render(self, fname, items, result_lines):
+        statements = lower(items, f"_{fname}c")  # common subexpressions as temporaries (the printers' one rule)
         names = dict(self.names)
-        for s, _ in reps:
-            names[s] = s.name
-        for kind, ident, _ in items:
-            if kind == "assign":
+        for kind, ident, _ in statements:
+            if kind == "temp":
+                names[ident] = ident.name
+            elif kind == "assign":
                 names.setdefault(sp.Symbol(ident, real=True), ident)
         pr = _Printer(names)
-        lines, emitted = [], set()
-
-        def emit_reps(expr):
-            for s in sorted(expr.free_symbols & rep_map.keys(), key=lambda s: int(s.name.rsplit("c", 1)[1])):
-                if s not in emitted:
-                    emit_reps(rep_map[s])
-                    emitted.add(s)
-                    lines.append(f"    {s.name} = {pr.doprint(rep_map[s])}")
-
-        it = iter(red)
-        used = set(extra_used)
-        for kind, ident, payload in items:
-            if kind == "assign":
-                e = next(it)
-                emit_reps(e)
-                used |= e.free_symbols
-                lines.append(f"    {ident} = {pr.doprint(e)}")
+        lines = []
+        for kind, ident, payload in statements:
+            if kind == "temp":
+                lines.append(f"    {ident.name} = {pr.doprint(payload)}")
+            elif kind == "assign":
+                lines.append(f"    {ident} = {pr.doprint(payload)}")
             else:
-                used |= payload
                 lines.append(f"    {ident}")
         # prologue: unpack what is used (states, parameters, modes, signals); signal arguments may use parameters
         text = "\n".join(lines) + "\n" + "\n".join(result_lines)
@@ -430,11 +403,6 @@ class CodeGenerator(OnDemand):
 
 def pr_const(e):
     return repr(float(e))
-
-
-def _cse_symbols(prefix):
-    for i in itertools.count():
-        yield sp.Symbol(f"{prefix}{i}", real=True)
 
 
 class Functions(Mapping):

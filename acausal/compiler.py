@@ -15,9 +15,10 @@ import sympy as sp
 from .alias import eliminate_aliases
 from .codegen import CodeGenerator, Functions
 from .compile_checks import check_signal_orders, check_symbols, resolve
+from .program import build_program
 from .errors import ModelError, SignalError, StructureError, UnknownNameError
 from .flatten import flatten
-from .parameter_values import bound_message, check_parameter, parameter_plan
+from .parameter_values import bound_message, check_parameter
 from .energy import accounts as energy_accounts
 from .signals import ParametricSignal, Signal, SignalCall
 from .solve import solve_blocks
@@ -45,9 +46,8 @@ def compile_model(model) -> "CompiledModel":
     free = {n: (resolve(nominal, flat), resolve(scale, flat), origin)
             for n, (nominal, scale, origin) in flat.indeterminates.items() if n not in flat.aliases}
     system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes), indeterminates=free)
-    zeros = [resolve(ev.zero, flat) for ev in flat.events]
-    gen = CodeGenerator(system, sorted(flat.parameters), sorted(flat.discretes), sorted(flat.inputs), zeros)
-    return CompiledModel(flat, system, gen, _time.perf_counter() - t0, energy_accounts(model), orders)
+    program = build_program(flat, system, orders, [resolve(ev.zero, flat) for ev in flat.events])
+    return CompiledModel(flat, system, program, _time.perf_counter() - t0, energy_accounts(model))
 
 
 class CompiledModel:
@@ -56,44 +56,39 @@ class CompiledModel:
     ``flat`` is the flattened model (aliases eliminated), ``reduction`` the solved equation system
     (:class:`~acausal.structure.EquationSystem`: equations after index reduction with their origins, states,
     dummy derivatives, BLT ``blocks`` and solved ``steps``, also reachable as :attr:`blocks` and :attr:`steps`),
-    ``generator`` the code generator and ``funcs`` the generated functions. ``accounts`` are the model's energy
+    ``program`` what every backend prints (:class:`~acausal.program.Program`: parameters, steps, events,
+    aliases, signal reads), ``generator`` its numpy code generator and ``funcs`` the generated functions. ``accounts`` are the model's energy
     accounts found by convention (:class:`~acausal.energy.Accounts`: losses, stored energies, sources, boundary,
     power sensors), which :meth:`Result.energy_balance <acausal.result.Result.energy_balance>` and
     :meth:`Result.sankey <acausal.result.Result.sankey>` use. The numeric functions are printed when first used
     (a run on the CasADi fixed step never uses them), so :attr:`compile_seconds` does not include them.
     """
 
-    def __init__(self, flat, system, gen, compile_seconds, accounts=None, signal_orders=None):
+    def __init__(self, flat, system, program, compile_seconds, accounts=None):
         self.flat = flat
+        self.program = program
         #: input name -> the highest derivative order the equations and zero functions read of it
-        self.signal_orders = dict(signal_orders or {})
+        self.signal_orders = dict(program.signal_orders)
         self.accounts = accounts
         self.reduction = system
         self.blocks = system.blocks
-        self.steps = system.steps
-        self.generator = gen
+        self.steps = list(program.steps)
+        self.generator = gen = CodeGenerator(program)
         self.funcs = Functions(gen)  # each printed when first asked for
-        self.event_zeros = gen.event_zeros
+        self.event_zeros = program.zeros
         self.compile_seconds = compile_seconds
-        self.state_names = list(gen.states)
-        self.unknown_names = list(gen.unknowns)
-        self.param_names = list(gen.params)
-        self.discrete_names = list(gen.discretes)
-        self.input_names = list(gen.inputs)
+        self.state_names = list(program.states)
+        self.unknown_names = list(program.unknowns)
+        self.param_names = list(program.params)
+        self.discrete_names = list(program.discretes)
+        self.input_names = list(program.inputs)
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
-        self._param_plan = parameter_plan(flat)
+        self._param_plan = program.parameters
         self._defaults = None  # the default parameter vector, once param_vector has built it
         self.derived: dict = {}  # what the stages after compilation work out from the model once, by their own keys
         # parameters bound to an expression of others: not overridable (they would disagree with the others)
-        self._bound = {name: binding for name, _, binding, _ in self._param_plan if binding is not None}
-        self._event_assign = _event_assignment_table(flat)
-        for ev, entry in zip(flat.events, self._event_assign):
-            for name, _ in entry["reinit"]:
-                if name not in self.state_names:
-                    raise ModelError(f"event of {ev.origin} reinitialises {name!r}, which is not a state of the "
-                                     f"compiled model (its states: {', '.join(self.state_names) or 'none'}); give it "
-                                     "state_select='prefer' or 'always' if its derivative is in the equations")
+        self._bound = program.bindings
         self._expr_cache: dict = {}  # sympy expression -> (numeric function, symbol names), see eval_expr
         self._compiled_path = None
 
@@ -197,12 +192,13 @@ class CompiledModel:
         """What event ``index`` (of :attr:`event_zeros`) assigns when its zero function crosses upwards
         (``rising``) or downwards: a list of ``(mode name, sympy expression)``, the expression in variables,
         parameters, modes and time (evaluate it with :meth:`eval_expr`)."""
-        return list(self._event_assign[index]["rising" if rising else "falling"])
+        ev = self.program.events[index]
+        return list(ev.rising if rising else ev.falling)
 
     def event_reinits(self, index: int) -> list:
         """The states event ``index`` restarts when its zero function rises (:class:`~acausal.components.Event`
         ``reinit``): a list of ``(state name, sympy expression)``."""
-        return list(self._event_assign[index]["reinit"])
+        return list(self.program.events[index].reinit)
 
     def eval_expr(self, expr, values=None, p=None, d=None, t=None):
         """Numeric value of ``expr``, a sympy expression of variables, parameters, discrete modes and time.
@@ -438,23 +434,3 @@ def _mapping(value, what: str) -> dict:
     if not isinstance(value, Mapping):
         raise ModelError(f"{what} must be a dict by name, got {type(value).__name__}")
     return dict(value)
-
-
-def _event_assignment_table(flat) -> list:
-    """Per event: ``{"rising": [(mode name, expression)], "falling": [...]}``, aliases resolved; assigning
-    anything but a discrete mode is a :class:`ModelError` naming the event's component."""
-    out = []
-    for ev in flat.events:
-        entry = {}
-        for direction, table in (("rising", ev.on_rising), ("falling", ev.on_falling)):
-            pairs = []
-            for sym, expr in table.items():
-                name = sym.name if hasattr(sym, "name") else str(sym)
-                if name not in flat.discretes:
-                    raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
-                pairs.append((name, resolve(sp.sympify(expr), flat)))
-            entry[direction] = pairs
-        entry["reinit"] = [(sym.name if hasattr(sym, "name") else str(sym), resolve(sp.sympify(expr), flat))
-                           for sym, expr in ev.reinit.items()]
-        out.append(entry)
-    return out

@@ -1,7 +1,7 @@
 """The solved equations of a compiled model as CasADi SX expressions.
 
-The steps a :class:`~acausal.compiler.CompiledModel` evaluates in Python (assignments, linear solves) are
-translated one sympy node at a time; shared subexpressions stay shared (the translation is memoised per node), so
+The steps of a compile's lowered program (:class:`~acausal.program.Program`: assignments, linear solves, Newton
+blocks) are translated one sympy node at a time; shared subexpressions stay shared (the translation is memoised per node), so
 the CasADi graph is as compact as the generated Python code. Numeric input signals enter through their closed
 forms (:meth:`Signal.table <acausal.signals.Signal.table>`: polynomial pieces looked up by CasADi interpolants
 with the numbers inside; :meth:`Signal.symbolic <acausal.signals.Signal.symbolic>`: an expression). A Newton
@@ -225,19 +225,19 @@ def translate(cm, exprs, signals: Signals, t, x, p, d, given: dict | None = None
     ``(names, symbols, residuals)`` is appended, so that the caller integrates them as the algebraic variables of
     a DAE (IDAS); without it the block raises :class:`Unsupported`. ``given`` maps variable symbols to values
     already known (those algebraic variables, when translating more expressions of the same model)."""
-    gen = cm.generator
+    program = cm.program
     env = {time: t}
-    for i, n in enumerate(cm.state_names):
+    for i, n in enumerate(program.states):
         env[var_symbol(n)] = x[i]
-    for i, n in enumerate(cm.param_names):
+    for i, n in enumerate(program.params):
         env[par_symbol(n)] = p[i]
-    for i, n in enumerate(cm.discrete_names):
+    for i, n in enumerate(program.discretes):
         env[par_symbol(n)] = d[i]
     env.update(given or {})
     conv = Converter(env, signals)
     exprs = [sp.sympify(e) for e in exprs]
-    for k in gen._slice({s for e in exprs for s in e.free_symbols}):
-        st = gen.steps[k]
+    for k in program.slice({s for e in exprs for s in e.free_symbols}):
+        st = program.steps[k]
         if isinstance(st, Assign):
             env[var_symbol(st.var)] = conv(st.expr)
         elif isinstance(st, LinearSolve):
