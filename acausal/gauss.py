@@ -39,20 +39,28 @@ def integrate_cumulative(y, t):
     return cumulative_simpson(y, x=t, initial=0.0)
 
 
-def nodes_at(res, cuts) -> tuple:
+def nodes_at(res, cuts, samples=None) -> tuple:
     """The Gauss nodes of every solver step of result ``res`` (:meth:`Result._quadrature_nodes
     <acausal.result.Result>`), the steps also cut at the times ``cuts`` (None: the steps alone):
-    ``(breakpoints, node shape, half-widths, weights, a result of the same class at the nodes)``."""
+    ``(breakpoints, node shape, half-widths, weights, a result of the same class at the nodes)``. ``samples``:
+    :func:`node_samples` of the same cuts, if already found."""
+    bps, tn, half, wg, Xn, Dn = samples or node_samples(res, cuts)
+    sub = type(res)(res.model, tn.ravel(), Xn, res.params, res.inputs, Dn, events=[],
+                    exact_time_function=res._given_nodes is None and res._exact_time_function)
+    return (bps, tn.shape, half, wg, sub)
+
+
+def node_samples(res, cuts) -> tuple:
+    """The samples :func:`nodes_at` builds its result from: ``(breakpoints, node times (intervals, 5),
+    half-widths, weights, states (n_states, nodes), modes (a vector, or n_modes x nodes))``."""
     t = res.t
     cm = res.model
+    nx = len(cm.state_names)
     if res._given_nodes is not None:
         bps, Xn = res._given_nodes()
         tn, half, wg = gauss_nodes(bps)
-        nx = len(cm.state_names)
-        sub = type(res)(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs,
-                        np.asarray(res.modes if np.ndim(res.modes) == 1 else res.modes[:, 0], dtype=float),
-                        events=[])
-        return (bps, tn.shape, half, wg, sub)
+        return (bps, tn, half, wg, Xn.reshape(nx, tn.size),
+                np.asarray(res.modes if np.ndim(res.modes) == 1 else res.modes[:, 0], dtype=float))
     segs = res._segments
     if segs:
         starts = np.array([s[0] for s in segs])
@@ -62,7 +70,6 @@ def nodes_at(res, cuts) -> tuple:
         bps = t
     a = bps[:-1]
     tn, half, wg = gauss_nodes(bps)
-    nx = len(cm.state_names)
     Xn = np.zeros((nx,) + tn.shape)
     if segs:
         which = np.clip(np.searchsorted(starts, a, side="right") - 1, 0, len(segs) - 1)
@@ -75,6 +82,4 @@ def nodes_at(res, cuts) -> tuple:
             np.repeat(res.modes[:, np.searchsorted(t, a, side="right") - 1][:, :, None], 5, axis=2)
     nd = len(cm.discrete_names)
     Dflat = np.asarray(Dn, dtype=float).reshape(nd, tn.size) if np.ndim(Dn) > 1 else np.asarray(Dn, dtype=float)
-    sub = type(res)(cm, tn.ravel(), Xn.reshape(nx, tn.size), res.params, res.inputs, Dflat, events=[],
-                    exact_time_function=res._exact_time_function)
-    return (bps, tn.shape, half, wg, sub)
+    return (bps, tn, half, wg, Xn.reshape(nx, tn.size), Dflat)

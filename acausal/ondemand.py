@@ -33,6 +33,28 @@ class OnDemand:
             self._on_demand[key] = self._define(fname, src)
         return self._on_demand[key]
 
+    def expressions_function(self, exprs):
+        """Generate (once per tuple of expressions, then cached) ``f(t, x, p, d, u) -> list``: the values of sympy
+        expressions of states, unknowns, parameters, modes, time and input signal calls (alias definitions, a
+        port's power), through the backward slice of the steps they need; what the trust check's energy balance
+        evaluates at the solver's Gauss nodes in one call."""
+        exprs = tuple(sp.sympify(e) for e in exprs)
+        key = ("expressions", exprs)
+        if key not in self._on_demand:
+            items, _ = self._body(self._slice({s for e in exprs for s in e.free_symbols}))
+            outs = []
+            for k, e in enumerate(exprs):
+                e = self._signal_symbols(e)
+                if isinstance(e, sp.Symbol) and e in self.names:
+                    outs.append(self.names[e])
+                else:
+                    items.append(("assign", f"_e{k}", e))
+                    outs.append(f"_e{k}")
+            fname = f"expressions{len(self._on_demand)}"
+            src = self._render(fname, items, [f"    return [{', '.join(outs)}{',' if len(outs) == 1 else ''}]"])
+            self._on_demand[key] = self._define(fname, src)
+        return self._on_demand[key]
+
     def sensitivity_function(self, wrt, bindings=None, outputs=None):
         """Generate (once per argument set, then cached) ``sens(t, x, p, d, u) -> (values, dx, dp)``.
 

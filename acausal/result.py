@@ -7,7 +7,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import ModelError, UnknownNameError
-from .gauss import gauss_cumulative, integrate_cumulative, nodes_at
+from .gauss import gauss_cumulative, integrate_cumulative, node_samples, nodes_at
 from .signals import SignalCall
 from .symbols import der_name, split_der
 
@@ -367,7 +367,16 @@ class Result:
         steps_only = steps_only and bool(self._segments) and self._given_nodes is None
         key = ("nodes", steps_only)
         if key not in self._cache:
-            self._cache[key] = nodes_at(self, None if steps_only else self.t)
+            self._cache[key] = nodes_at(self, None, self._node_samples(True)) if steps_only else \
+                nodes_at(self, self.t)
+        return self._cache[key]
+
+    def _node_samples(self, steps_only: bool = True):
+        """The times, states and modes at the Gauss nodes of the solver's steps (uncut: the run's totals;
+        :func:`~acausal.gauss.node_samples`), found once per Result."""
+        key = ("node samples", steps_only)
+        if key not in self._cache:
+            self._cache[key] = node_samples(self, None if steps_only else self.t)
         return self._cache[key]
 
     def _totals_on_steps(self) -> bool:

@@ -266,13 +266,10 @@ def _samples(size: int) -> np.ndarray:
 
 def _rows(values, length: int) -> np.ndarray:
     """Values of the generated code (arrays, or numbers for constants) as one float array of rows."""
-    try:
-        out = np.array(values, dtype=float)
-        if out.shape == (len(values), length):
-            return out
-    except ValueError:  # rows of different shapes (a constant among arrays)
-        pass
-    return np.array([np.broadcast_to(np.asarray(v, dtype=float), (length,)) for v in values])
+    out = np.empty((len(values), length))
+    for i, v in enumerate(values):
+        out[i] = v
+    return out
 
 
 def _solved(cm, name: str):
@@ -283,32 +280,6 @@ def _solved(cm, name: str):
     if expr is None:
         return None, set()
     return expr, {str(s) for s in expr.free_symbols if cm.has_parameter(str(s))}
-
-
-def _exchanged(res, stored) -> list:
-    """The energy moved between the forms inside each stored account: the largest swing of one additive term of
-    its solved equation (a pendulum's kinetic and potential energy trade 0.86 J while their sum, the account,
-    moves by what the integrator's error adds to it). The terms are found once per model and evaluated by
-    :meth:`~acausal.compiler.CompiledModel.eval_expr`."""
-    import sympy as sp
-
-    cm = res.model
-    terms = cm.derived.get("trust: energy terms")
-    if terms is None:
-        terms = [term for name in stored for expr in [_solved(cm, name)[0]] if isinstance(expr, sp.Add)
-                 for term in expr.args if term.free_symbols]
-        cm.derived["trust: energy terms"] = terms
-    out = []
-    for term in terms:
-        try:
-            values = {str(x): res[str(x)] for x in term.free_symbols
-                      if not cm.has_parameter(str(x)) and str(x) != "time"}
-            v = np.asarray(cm.eval_expr(term, values, res.params, None, res.t), dtype=float)
-        except (KeyError, AcausalError, ValueError, TypeError):  # a symbol the result does not carry: no scale
-            continue
-        if v.size and np.all(np.isfinite(v)):
-            out.append(float(np.max(v) - np.min(v)))
-    return out
 
 
 def integration_fault(res, rtol) -> bool:
@@ -348,24 +319,10 @@ TIGHTER = (100.0, 10_000.0)
 
 
 def _residual(res) -> tuple | None:
-    """(unaccounted energy [J], the largest energy that moved [J], their ratio), or None: no balance to check."""
-    acc = res.model.accounts
-    if acc is None or not (acc.losses or acc.stored):
-        return None
-    from .energy import balance
-    # the run's totals (on the scipy path: its steps' Gauss nodes), the stores' change from their values at the
-    # run's two ends, and the swings on the same nodes: no evaluation at every output time
-    ends = res.ends(acc.stored)
-    b = balance(res, acc, 0, -1, energy=res._run_energy, change=lambda n: float(ends[n][1] - ends[n][0]))
-    terms = list(b.sources.values()) + list(b.boundary.values()) + list(b.losses.values())
-    run = res._run_samples()
-    swing = [float(np.nanmax(run[n]) - np.nanmin(run[n])) for n in acc.stored]
-    sources = [float(np.nanmax(np.abs(res._run_energy(n)))) for n in acc.sources]
-    scale = max([abs(v) for v in terms] + swing + sources + _exchanged(run, acc.stored) + [0.0])
-    if scale < ENERGY_FLOOR or not np.isfinite(scale):
-        return None
-    total = sum(b.sources.values()) + sum(b.boundary.values()) - sum(b.losses.values()) - sum(b.stored.values())
-    return total, scale, abs(total) / scale
+    """(unaccounted energy [J], the largest energy that moved [J], their ratio), or None: no balance to check
+    (:func:`acausal.run_balance.residual`: the run's totals where it integrated them)."""
+    from .run_balance import residual
+    return residual(res, ENERGY_FLOOR)
 
 
 def _energy_balance(res, rtol, retry) -> list:
