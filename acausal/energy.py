@@ -260,9 +260,14 @@ def integrand_expr(cm, what: str):
     return value(what)
 
 
-def account_integrals(acc: Accounts) -> list:
-    """Every name whose energy the balance and the Sankey diagram integrate (sources, boundary ports, losses,
-    power sensors), once each."""
-    names = list(acc.sources) + [p for _, ports in acc.boundary for p in ports] + list(acc.losses) + list(acc.sensors) \
-        + [p for ports in acc.heat.values() for p in ports]
+def balance_integrals(acc: Accounts) -> list:
+    """Every name whose energy the balance integrates (sources, boundary ports, losses, heat ports), once each."""
+    names = list(acc.sources) + [p for _, ports in acc.boundary for p in ports] + list(acc.losses) + \
+        [p for ports in acc.heat.values() for p in ports]
     return list(dict.fromkeys(names))
+
+
+def account_integrals(acc: Accounts) -> list:
+    """Every name whose energy the balance and the Sankey diagram integrate (:func:`balance_integrals` and the
+    power sensors), once each."""
+    return list(dict.fromkeys(balance_integrals(acc) + list(acc.sensors)))

@@ -39,13 +39,6 @@ def residual(res, floor: float):
     return total, scale, abs(total) / scale
 
 
-def flows(acc) -> list:
-    """Every name the balance integrates (sources, boundary ports, losses, heat ports), once each."""
-    names = list(acc.sources) + [p for _, ports in acc.boundary for p in ports] + list(acc.losses) + \
-        [p for ports in acc.heat.values() for p in ports]
-    return list(dict.fromkeys(names))
-
-
 def plan(cm):
     """``(flow names, the generated function of [integrands, stored energies, their terms], that of the stored
     energies and their terms alone, number of terms)`` of compiled model ``cm``, found once per model; None where
@@ -53,11 +46,11 @@ def plan(cm):
     key = "trust: balance plan"
     if key in cm.derived:
         return cm.derived[key]
-    from .energy import integrand_expr
+    from .energy import balance_integrals, integrand_expr
     from .symbols import var_symbol
 
     acc = cm.accounts
-    names = flows(acc)
+    names = balance_integrals(acc)
     exprs = [integrand_expr(cm, n) for n in names]
     known = set(cm.state_names) | set(cm.unknown_names)
     stored = [var_symbol(n) if n in known else cm.flat.aliases.get(n) for n in acc.stored]
