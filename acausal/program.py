@@ -31,7 +31,7 @@ import sympy as sp
 from .errors import ModelError
 from .parameter_values import parameter_plan
 from .signals import SignalCall
-from .solve import NewtonSolve, step_exprs, step_vars
+from .solve import Assign, NewtonSolve, step_exprs, step_vars
 from .symbols import var_symbol
 
 
@@ -63,13 +63,14 @@ class Program:
     events: tuple  # EventRule per event, in zero-function order
     aliases: dict = field(default_factory=dict)
     signal_orders: dict = field(default_factory=dict)  # input -> the highest derivative order read
-    defined_by: dict = field(default_factory=dict, repr=False)  # variable symbol -> index of the step computing it
+    # derived from the steps (never given; dataclasses.replace derives them again): variable symbol -> index of the
+    # step computing it, and variable -> its assignment's expression (when first asked for)
+    defined_by: dict = field(init=False, repr=False, compare=False)
+    _assigned: dict | None = field(init=False, default=None, repr=False, compare=False)
 
     def __post_init__(self):
-        if not self.defined_by:
-            for k, st in enumerate(self.steps):
-                for v in step_vars(st):
-                    self.defined_by[var_symbol(v)] = k
+        object.__setattr__(self, "defined_by", {var_symbol(v): k for k, st in enumerate(self.steps)
+                                                for v in step_vars(st)})
 
     @property
     def zeros(self) -> list:
@@ -107,6 +108,13 @@ class Program:
             for e in step_exprs(self.steps[k]):
                 todo.extend(e.free_symbols)
         return sorted(need)
+
+    def assignment(self, name: str):
+        """The expression an explicit assignment computes variable ``name`` from, or None (a state, or a variable
+        of a linear or Newton block)."""
+        if self._assigned is None:
+            object.__setattr__(self, "_assigned", {st.var: st.expr for st in self.steps if isinstance(st, Assign)})
+        return self._assigned.get(str(name))
 
     def evaluation_order(self) -> list:
         """The variables the steps compute, in the order they compute them."""

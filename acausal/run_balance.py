@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import AcausalError, ModelError
+from .runtime import rows
 
 
 def residual(res, floor: float):
@@ -71,11 +72,10 @@ def energy_terms(cm, stored) -> list:
     """The additive terms of each stored account's solved equation (a pendulum's kinetic and potential energy),
     found once per model."""
     import sympy as sp
-    from .trust import _solved
 
     terms = cm.derived.get("trust: energy terms")
     if terms is None:
-        terms = [term for name in stored for expr in [_solved(cm, name)[0]] if isinstance(expr, sp.Add)
+        terms = [term for name in stored for expr in [cm.program.assignment(name)] if isinstance(expr, sp.Add)
                  for term in expr.args if term.free_symbols]
         cm.derived["trust: energy terms"] = terms
     return terms
@@ -85,8 +85,6 @@ def _from_plan(res, acc):
     """The balance's inputs from the model's generated functions (see the module's docstring), or None where
     the run's totals are not on the steps' nodes or in the quadratures. A total is passed as ``(0, total)``, a
     source's energy over the whole run (its largest excursion scales the balance)."""
-    from .trust import _rows
-
     found = plan(res.model)
     if found is None:
         return None
@@ -96,12 +94,12 @@ def _from_plan(res, acc):
     if res._totals_on_steps():
         _, tn, half, wg, Xn, Dn = res._node_samples()
         with np.errstate(all="ignore"):
-            rows = _rows(fn(tn.ravel(), Xn, res.params, Dn, res.inputs), tn.size)
-        pieces = (rows[:k].reshape((k,) + tn.shape) @ wg) * half  # each interval's integral
+            at_nodes = rows(fn(tn.ravel(), Xn, res.params, Dn, res.inputs), tn.size)
+        pieces = (at_nodes[:k].reshape((k,) + tn.shape) @ wg) * half  # each interval's integral
         totals = pieces.sum(axis=1).tolist()
         energy = {n: np.concatenate([[0.0], np.cumsum(pieces[i])]) if n in whole else (0.0, totals[i])
                   for i, n in enumerate(names)}
-        samples = rows[k:]
+        samples = at_nodes[k:]
     elif res._integrals and all(n in res._integrals for n in names):
         energy = {n: q - q[0] if n in whole else (0.0, float(q[-1] - q[0]))
                   for n in names for q in [res._integrals[n]]}
@@ -112,11 +110,11 @@ def _from_plan(res, acc):
     X = np.asarray(res.states, dtype=float)
     with np.errstate(all="ignore"):
         if samples is None:  # the compiled path: the stores at every output (their ends among them)
-            samples = _rows(stores(res.t, X, res.params, res.modes, res.inputs), res.t.size)
+            samples = rows(stores(res.t, X, res.params, res.modes, res.inputs), res.t.size)
             ends = samples[:m][:, pick]
         else:
             D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, pick]
-            ends = _rows(stores(res.t[pick], X[:, pick], res.params, D, res.inputs), 2)[:m]
+            ends = rows(stores(res.t[pick], X[:, pick], res.params, D, res.inputs), 2)[:m]
     change = dict(zip(acc.stored, (ends[:, 1] - ends[:, 0]).tolist()))
     with np.errstate(all="ignore"):
         top, low = samples.max(axis=1), samples.min(axis=1)  # NaN where a row has one

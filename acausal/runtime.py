@@ -16,6 +16,15 @@ from .errors import SimulationError
 LINE_SEARCH_HALVINGS = 10  # the damped Newton step is halved at most this often (down to 2**-10 of the full step)
 
 
+def rows(values, length: int) -> np.ndarray:
+    """Values of a generated function (arrays over ``length`` samples, or numbers for constants) as one float
+    array of rows."""
+    out = np.empty((len(values), length))
+    for i, v in enumerate(values):
+        out[i] = v
+    return out
+
+
 class Block:
     """An algebraic block as its failure messages name it: ``kind`` (``"linear"`` or ``"nonlinear"``), its
     variables ``vars`` (names), ``origins`` (the components its equations come from, e.g. ``"Resistor 'R'"``) and,

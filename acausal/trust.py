@@ -31,6 +31,7 @@ import warnings
 import numpy as np
 
 from .errors import AcausalError, SimulationError
+from .runtime import rows
 
 CONDITION_LIMIT = 0.1  # a variable may move by this fraction of its range when the states move by their tolerance
 SAMPLES = 21  # output times at which the conditioning is checked (evenly spread, both ends included)
@@ -94,7 +95,7 @@ def nonfinite(res) -> list:
         k = _samples(N)
         D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
         with np.errstate(all="ignore"):
-            vals = _rows(cm.generator.values_function(list(cm.unknown_names))(res.t[k], X[:, k], res.params, D,
+            vals = rows(cm.generator.values_function(list(cm.unknown_names))(res.t[k], X[:, k], res.params, D,
                                                                               res.inputs), k.size)
         bad = _first_nonfinite(cm.unknown_names, vals, res.t[k])
     if not bad:
@@ -196,7 +197,7 @@ def conditioning(res, rtol, atol) -> list:
         else:  # only the watched variables (a slice of the steps), at the outputs and the moved samples at once
             if np.ndim(res.modes) == 2:
                 D = np.concatenate([res.modes, D], axis=1)
-            both = _rows(cm.generator.values_function(names)(np.concatenate([res.t] + [t] * n),
+            both = rows(cm.generator.values_function(names)(np.concatenate([res.t] + [t] * n),
                                                              np.concatenate([X, Xs], axis=1), res.params, D,
                                                              res.inputs), N + n * m)
             R, vals = both[:, :N], both[:, N:]
@@ -264,19 +265,10 @@ def _samples(size: int) -> np.ndarray:
     return k
 
 
-def _rows(values, length: int) -> np.ndarray:
-    """Values of the generated code (arrays, or numbers for constants) as one float array of rows."""
-    out = np.empty((len(values), length))
-    for i, v in enumerate(values):
-        out[i] = v
-    return out
-
-
 def _solved(cm, name: str):
     """``(expression, its parameters)`` of the solved equation of ``name`` (the usual culprit of an
     ill-conditioned variable: a tiny resistance, a huge gain), or ``(None, set())`` when it is solved in a block."""
-    from .solve import Assign
-    expr = next((st.expr for st in cm.steps if isinstance(st, Assign) and str(st.var) == name), None)
+    expr = cm.program.assignment(name)
     if expr is None:
         return None, set()
     return expr, {str(s) for s in expr.free_symbols if cm.has_parameter(str(s))}

@@ -47,7 +47,7 @@ def test_the_numpy_printer_prints_the_program_it_is_given_and_nothing_else():
     cm = compile_model(Bridge6())
     program = cm.program
     assert len(program.events) == len(cm.event_zeros) > 0
-    flipped = replace(program, events=tuple(replace(ev, zero=-ev.zero) for ev in program.events), defined_by={})
+    flipped = replace(program, events=tuple(replace(ev, zero=-ev.zero) for ev in program.events))
     t = np.linspace(0.0, 0.02, 7)
     x = np.vstack([np.full_like(t, 3.0) for _ in cm.state_names])
     p, d, u = cm.param_vector(), cm.discrete_start(), cm.input_tuple()
