@@ -6,6 +6,8 @@ default) are polynomials whose coefficients are stacked here and evaluated in on
 interpolant is called step by step."""
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 from .quadratures import StatesOnly
@@ -21,8 +23,9 @@ def states_at(segments, which, tn, nx: int) -> np.ndarray:
     """The states (``nx`` rows) at ``tn`` (pieces x nodes): piece ``i`` lies in step ``segments[which[i]]``, a
     ``(t0, t1, interpolant, modes)`` of the scipy driver. Returns ``nx x pieces x nodes``."""
     Xn = np.zeros((nx,) + tn.shape)
-    used = np.unique(which)
-    inner = [_inner(segments[k][2]) for k in used]  # one pass over the steps: each step's interpolant
+    every = which.size == len(segments) and bool(np.all(which == np.arange(which.size)))  # each step once, in order
+    used = which if every else np.unique(which)
+    inner = [_inner(segments[k][2]) for k in used.tolist()]  # one pass over the steps: each step's interpolant
     kinds = [type(sol) for sol in inner]
     for kind in dict.fromkeys(kinds):
         rows = [r for r, kd in enumerate(kinds) if kd is kind] if len(set(kinds)) > 1 else range(len(kinds))
@@ -42,28 +45,35 @@ def states_at(segments, which, tn, nx: int) -> np.ndarray:
 
 
 def _inner(sol):
-    return sol.sol if isinstance(sol, StatesOnly) else sol
+    return sol.sol if type(sol) is StatesOnly else sol
+
+
+_YH, _T, _H = operator.attrgetter("yh"), operator.attrgetter("t"), operator.attrgetter("h")
+
+
+def _COLUMNS(a):
+    return a.shape[1]
 
 
 def _lsoda(sols, at, t, nx):
     """LSODA's Nordsieck form: y(t) = sum_j yh[:, j] ((t - t_n) / h)^j."""
-    yh = [s.yh for s in sols]
-    sizes = np.array([c.shape[1] for c in yh])
+    yh = list(map(_YH, sols))
+    sizes = np.fromiter(map(_COLUMNS, yh), dtype=int, count=len(yh))
     J = int(sizes.max())
     # each step's coefficients (orders differ) side by side, then put into one zero-padded stack at once
     flat = np.concatenate(yh, axis=1)[:nx]
     step = np.repeat(np.arange(len(sols)), sizes)
     order = np.arange(flat.shape[1]) - np.repeat(np.cumsum(sizes) - sizes, sizes)
-    YH = np.zeros((len(sols), J, nx))
-    YH[step, order] = flat.T
-    YH = YH.transpose(0, 2, 1)
-    T = np.array([s.t for s in sols])
-    H = np.array([s.h for s in sols])
-    x = (t - T[at][:, None]) / H[at][:, None]
-    P = np.ones(x.shape + (J,))
-    if J > 1:
-        P[..., 1:] = np.cumprod(np.broadcast_to(x[..., None], x.shape + (J - 1,)), axis=-1)
-    return np.matmul(YH[at], P.transpose(0, 2, 1)).transpose(1, 0, 2)
+    YH = np.zeros((J, nx, len(sols)))
+    YH[order, :, step] = flat.T
+    T = np.fromiter(map(_T, sols), dtype=float, count=len(sols))
+    H = np.fromiter(map(_H, sols), dtype=float, count=len(sols))
+    x = ((t - T[at][:, None]) / H[at][:, None])[None]  # (1, pieces, nodes)
+    C = YH[:, :, at, None]  # (J, nx, pieces, 1)
+    y = C[J - 1] * x  # Horner's rule
+    for j in range(J - 2, 0, -1):
+        y = (y + C[j]) * x
+    return y + C[0] if J > 1 else np.broadcast_to(C[0], (nx,) + t.shape).copy()
 
 
 def _bdf(sols, at, t, nx):
