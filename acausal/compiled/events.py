@@ -11,7 +11,8 @@ event's assignments, the cascade of mode changes and the restart follow the scip
 (:mod:`acausal.modes`), so both paths switch the same way.
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
-happens: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
+happens, up to :data:`WINDOW` outputs, or a :data:`WINDOWS_PER_RUN`-th of them where the outputs are dense (a
+1 kHz recording: every run restarts CVODES cold, and 64 outputs there are 64 ms): CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
 (capped at :data:`WINDOW_STEPS` steps) is retried on half the window; a single output interval that no run can
 cross (a crossing inside it, past which the old mode cannot be integrated) is gone in parts of what is left of
 it, halved after a run that fails and doubled after one that does not (at most :data:`INTERVAL_HALVINGS`
@@ -37,6 +38,7 @@ from ..modes import after_end, apply_hits, crossings, handle_event, restarts, se
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
 WINDOW = 64  # output times per CVODES run at most: an event restarts the run, so the work after it is not thrown away
+WINDOWS_PER_RUN = 16  # ... unless the outputs are dense: then a window may hold up to this part of them
 WINDOW_STEPS = 1_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
 LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tighter than the window's
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
@@ -66,7 +68,8 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     X, D = np.empty((n, N)), np.empty((len(d), N))
     Q = {name: np.zeros(N) for name in names}
     events = []
-    t, x, k_out, window = t_start, np.asarray(x0, dtype=float), 0, WINDOW
+    widest = max(WINDOW, N // WINDOWS_PER_RUN)  # output times per run at most (dense outputs: a part of the run)
+    t, x, k_out, window = t_start, np.asarray(x0, dtype=float), 0, widest
     halvings = 0  # > 0: the next output interval could not be crossed in one run; go a 2**-halvings part of it
     done = {name: 0.0 for name in names}  # integral from t_start to t
     off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
@@ -110,7 +113,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
             done = {name: done[name] + Qs[name][-1] for name in names}
             k_out += grid.size
             t, x = float(grid[-1]), Xs[:, -1].copy()
-            window = min(2 * window, WINDOW)
+            window = min(2 * window, widest)
             continue
         t_e, x_e, hits, d_new = hit
         # outputs before the event keep this segment's values (a part's end is no output: none)
