@@ -67,7 +67,16 @@ class InputInfo:
 class FlatEquation:
     residual: sp.Expr
     origin: str  # "Resistor 'R1'" or "connect(a, b)"
-    text: str = ""  # as the component wrote it ("R.v = R.R*R.i"); see FlatModel.written
+    written: tuple | str = ""  # as the component wrote it: its two sides, or the text; see text
+
+    @property
+    def text(self) -> str:
+        """The equation as the component wrote it ("R.v = R.R*R.i"; see FlatModel.written), printed when asked
+        for (printing every equation of a model took a fifth of its compile time)."""
+        if isinstance(self.written, tuple):
+            lhs, rhs = self.written
+            return f"{sp.sstr(lhs)} = {sp.sstr(rhs)}"
+        return self.written
 
 
 @dataclass
@@ -155,8 +164,8 @@ def flatten(model: Component) -> FlatModel:
         origin = c._describe()
         for eq in c.equations():
             res = _residual(eq, origin)
-            text = f"{sp.sstr(eq.lhs)} = {sp.sstr(eq.rhs)}" if isinstance(eq, sp.Equality) else f"0 = {sp.sstr(res)}"
-            flat.equations.append(FlatEquation(res, origin, text))
+            written = (eq.lhs, eq.rhs) if isinstance(eq, sp.Equality) else (sp.Integer(0), res)
+            flat.equations.append(FlatEquation(res, origin, written))
         for ev in c.events():
             flat.events.append(FlatEvent(sp.sympify(ev.zero), dict(ev.on_rising), dict(ev.on_falling), origin,
                                          dict(ev.reinit)))
@@ -282,12 +291,12 @@ def _connection_equations(m: Component, flat: FlatModel, is_root: bool):
             ref = var_symbol(members[0]._child_path(name))
             for p in members[1:]:
                 flat.equations.append(FlatEquation(var_symbol(p._child_path(name)) - ref, origin,
-                                                   f"{p._child_path(name)} = {ref}"))
+                                                   (var_symbol(p._child_path(name)), ref)))
         for name in flows:
             total = sum((-1 if id(p) in is_outside else 1) * var_symbol(p._child_path(name)) for p in members)
             flat.equations.append(FlatEquation(sp.sympify(total), origin if len(members) > 1 or id(members[0]) in connected
                                                else f"unconnected port {members[0]._path!r} (flow = 0)",
-                                               f"0 = {sp.sstr(total)}"))
+                                               (sp.Integer(0), total)))
 
 
 def _check_parameter_bindings(flat: FlatModel):

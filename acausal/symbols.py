@@ -85,7 +85,8 @@ def der(expr, order: int = 1):
     ``der(x)`` for a variable symbol ``x`` is the symbol ``der(x)``. Prescribed signals (sympy functions of
     ``time``) differentiate through sympy; see :mod:`acausal.signals`.
     """
-    expr = strict_expr(expr, f"der({expr!r})", "a variable or a sympy expression of variables (self.x, not 'x')")
+    if not isinstance(expr, sp.Basic):  # (a sympy expression needs no check: its repr cost a tenth of a compile)
+        expr = strict_expr(expr, f"der({expr!r})", "a variable or a sympy expression of variables (self.x, not 'x')")
     for _ in range(order):
         expr = _der1(expr)
     return expr
