@@ -68,7 +68,7 @@ def run_example(name: str, out_dir: str, results=None) -> dict:
 
 
 def cmd_paper(args) -> int:
-    from concurrent.futures import ProcessPoolExecutor
+    from .sweep import process_pool
 
     from acausal.models.ankle import paper as report  # the CLI is the one module of acausal/ that wires to models/
 
@@ -79,7 +79,7 @@ def cmd_paper(args) -> int:
     jobs = args.jobs or os.cpu_count() or 1
     print(f"acausal paper: {len(conditions)} conditions on {jobs} process(es)"
           f"{' (quick: reduced grid)' if args.quick else ''}", file=sys.stderr)
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    with process_pool(jobs) as pool:
         early = {name: pool.submit(run_example, name, str(out)) for name in SELF_CONTAINED}
         results = report.run_all(conditions, progress=not args.no_progress, executor=pool)
         t_sim = time.perf_counter() - t0
@@ -95,7 +95,7 @@ def cmd_paper(args) -> int:
 
 
 def cmd_infer(args) -> int:
-    from concurrent.futures import ProcessPoolExecutor
+    from .sweep import process_pool
 
     from acausal.models.ankle import fit_record, inference, presets  # the CLI wires verbs to models (design rule)
 
@@ -107,7 +107,7 @@ def cmd_infer(args) -> int:
             shown = ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
             print(f"  evaluation {n}: cost {cost:.3f} at {shown}", file=sys.stderr, flush=True)
 
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    with process_pool(jobs) as pool:
         record = inference.infer(executor=pool, progress=progress)
     paths = [fit_record.write(record, out / "paper_fit.json"), fit_record.write_tables(record, out)]
     if args.install:
@@ -242,7 +242,7 @@ def cmd_check(args) -> int:
 
 
 def _diagnose_servo(args, out: Path, candidates, progress):
-    from concurrent.futures import ProcessPoolExecutor
+    from .sweep import process_pool
 
     from acausal.models.servo import bam, problem as servo  # the CLI wires verbs to models (design rule exception)
     from acausal.models.servo.effects import load_candidates_file, parse_candidate
@@ -254,7 +254,7 @@ def _diagnose_servo(args, out: Path, candidates, progress):
     by, _, value = (args.split or "auto").partition("=")
     split = servo.Split(by=by.strip(), value=value.strip() or None)
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) as pool:
+    with process_pool(args.jobs or os.cpu_count() or 1) as pool:
         d, problem = servo.run(args.data, split=split, max_effects=args.max_effects, candidates=candidates,
                                progress=progress, executor=pool, extra=extra)
         bam_rows = bam.replay_all(problem.recordings, pool) if args.bam else None

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from importlib import resources
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from acausal.identify import load_recordings
 from acausal.models.servo import bam, problem as servo
 from acausal.models.servo.recording_format import SERVO_FORMAT
 from acausal.models.servo.report import write_json, write_report
+from acausal.sweep import process_pool
 
 
 def data_folder() -> Path:
@@ -46,7 +46,7 @@ def main(out_dir: Path, results=None, executor=None, recordings=None, candidates
     if executor == "serial":
         executor = None
     elif executor is None:
-        own = executor = ProcessPoolExecutor(max_workers=jobs or os.cpu_count() or 1)
+        own = executor = process_pool(jobs or os.cpu_count() or 1)
     try:
         d, problem = servo.run(recs, candidates=candidates, max_effects=max_effects, executor=executor)
         bam_rows = bam.replay_all(recs, executor)

@@ -26,12 +26,13 @@ import math
 import sys
 import textwrap
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from pathlib import Path
 
 from acausal import ModelError
 from acausal.cli_values import whole_number
 from acausal.fileio import atomic_write_text
+from acausal.sweep import process_pool
 
 from ..ankle.presets import preset as preset_overrides
 from ..ankle.protocol import POINTS, STAGES, Condition, StrideResult, sweep
@@ -83,7 +84,7 @@ def run_models(models, stride_times=DEFAULT_STRIDE_TIMES, precompressions=DEFAUL
     of ``jobs`` workers, all cores if None) and return one :class:`StrideResult` per run, in order."""
     conds = conditions(models, stride_times, precompressions, preset, strides, points_per_stride, overrides)
     if executor is None and jobs is not None:
-        with ProcessPoolExecutor(max_workers=max(1, min(int(jobs), len(conds)))) as pool:
+        with process_pool(min(int(jobs), len(conds))) as pool:
             return sweep(conds, executor=pool, progress=progress)
     return sweep(conds, executor=executor, progress=progress)
 
