@@ -12,7 +12,7 @@ event's assignments, the cascade of mode changes and the restart follow the scip
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens, up to :data:`WINDOW` outputs, or a :data:`WINDOWS_PER_RUN`-th of them where the outputs are dense (a
-1 kHz recording: every run restarts CVODES cold, and 64 outputs there are 64 ms): CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
+1 kHz recording: every run restarts CVODES cold, and 64 outputs there are 64 ms) until a window fails: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
 (capped at :data:`WINDOW_STEPS` steps) is retried on half the window; a single output interval that no run can
 cross (a crossing inside it, past which the old mode cannot be integrated) is gone in parts of what is left of
 it, halved after a run that fails and doubled after one that does not (at most :data:`INTERVAL_HALVINGS`
@@ -38,7 +38,8 @@ from ..modes import after_end, apply_hits, crossings, handle_event, restarts, se
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
 WINDOW = 64  # output times per CVODES run at most: an event restarts the run, so the work after it is not thrown away
-WINDOWS_PER_RUN = 16  # ... unless the outputs are dense: then a window may hold up to this part of them
+WINDOWS_PER_RUN = 16  # ... unless the outputs are dense: then a window may hold up to this part of them (until a
+# window fails, at WINDOW_STEPS or past a crossing: the windows then grow to half that one at most, not below WINDOW)
 WINDOW_STEPS = 1_000  # CVODES steps per run at most: a run that cannot go on (the old mode past a crossing) fails fast
 LOCATE_TOL = 1e-2  # the run that locates a crossing: tolerances this much tighter than the window's
 DENSE = 1024  # output times across an interval that shows a crossing (one run: the solver's steps)
@@ -68,7 +69,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     X, D = np.empty((n, N)), np.empty((len(d), N))
     Q = {name: np.zeros(N) for name in names}
     events = []
-    widest = max(WINDOW, N // WINDOWS_PER_RUN)  # output times per run at most (dense outputs: a part of the run)
+    widest = max(WINDOW, N // WINDOWS_PER_RUN)  # output times per run at most (dense outputs: more)
     t, x, k_out, window = t_start, np.asarray(x0, dtype=float), 0, widest
     halvings = 0  # > 0: the next output interval could not be crossed in one run; go a 2**-halvings part of it
     done = {name: 0.0 for name in names}  # integral from t_start to t
@@ -95,6 +96,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
         except SimulationError:
             if window > 1:
                 window //= 2  # the old mode may not go on far past a crossing: look closer
+                widest = max(WINDOW, min(widest, window))  # and a dense grid's wider windows stop growing there
             elif halvings < INTERVAL_HALVINGS:
                 halvings += 1  # not even to the next output: a part of the way
             else:
