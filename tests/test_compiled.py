@@ -440,3 +440,41 @@ def test_event_gear_with_a_zero_account_runs_on_the_compiled_path():
     assert res.solver.startswith("CVODES")
     assert res["a.w"][-1] == pytest.approx(0.5 / (0.01 + 0.02 / (0.9 * 2.0**2)), rel=1e-6)
     assert abs(res.energy_balance().residual) < 1e-6
+
+
+def test_a_dense_output_grid_is_crossed_in_wider_windows_with_the_same_events():
+    """An event run on a dense grid (a 1 kHz recording) may take a sixteenth of its outputs per window instead of 64
+    (every window restarts CVODES): fewer runs, the same events and states as the scipy path's BDF."""
+    import acausal.compiled.events as E
+    from .circuit_models import Bridge6
+
+    cm = compile_model(Bridge6())
+    kw = dict(n_points=4001, rtol=1e-8, atol=1e-10)
+    calls = []
+    real = cm.compiled_path.integrate
+
+    def counted(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    cm.compiled_path.integrate = counted
+    try:
+        dense = cm.simulate(0.04, **kw)
+        n_dense = len(calls)
+        calls.clear()
+        old = E.WINDOWS_PER_RUN
+        E.WINDOWS_PER_RUN = 10**9  # windows of 64 outputs at most, as on a sparse grid
+        try:
+            capped = cm.simulate(0.04, **kw)
+        finally:
+            E.WINDOWS_PER_RUN = old
+        n_capped = len(calls)
+    finally:
+        del cm.compiled_path.integrate
+    ref = cm.simulate(0.04, method="BDF", **kw)
+    assert dense.solver.startswith("CVODES") and n_dense < n_capped, (n_dense, n_capped)
+    assert [(i, r) for _, i, r in dense.events] == [(i, r) for _, i, r in ref.events] == \
+        [(i, r) for _, i, r in capped.events]
+    assert np.allclose([t for t, _, _ in dense.events], [t for t, _, _ in ref.events], atol=1e-9)
+    for n in cm.state_names:
+        assert np.max(np.abs(dense[n] - ref[n])) <= 1e-5 * np.ptp(ref[n]), n
