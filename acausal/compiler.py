@@ -46,7 +46,7 @@ def compile_model(model) -> "CompiledModel":
     free = {n: (resolve(nominal, flat), resolve(scale, flat), origin)
             for n, (nominal, scale, origin) in flat.indeterminates.items() if n not in flat.aliases}
     system = solve_blocks(blt_blocks(system), starts, modes=sorted(flat.discretes), indeterminates=free)
-    program = build_program(flat, system, orders, [resolve(ev.zero, flat) for ev in flat.events])
+    program = build_program(flat, system, orders)
     return CompiledModel(flat, system, program, _time.perf_counter() - t0, energy_accounts(model))
 
 
@@ -57,8 +57,8 @@ class CompiledModel:
     (:class:`~acausal.structure.EquationSystem`: equations after index reduction with their origins, states,
     dummy derivatives, BLT ``blocks`` and solved ``steps``, also reachable as :attr:`blocks` and :attr:`steps`),
     ``program`` what every backend prints (:class:`~acausal.program.Program`: parameters, steps, events,
-    aliases, signal reads), ``generator`` its numpy code generator and ``funcs`` the generated functions. ``accounts`` are the model's energy
-    accounts found by convention (:class:`~acausal.energy.Accounts`: losses, stored energies, sources, boundary,
+    aliases, signal reads), ``generator`` its numpy code generator and ``funcs`` the generated functions.
+    ``accounts`` are the model's energy accounts found by convention (:class:`~acausal.energy.Accounts`: losses, stored energies, sources, boundary,
     power sensors), which :meth:`Result.energy_balance <acausal.result.Result.energy_balance>` and
     :meth:`Result.sankey <acausal.result.Result.sankey>` use. The numeric functions are printed when first used
     (a run on the CasADi fixed step never uses them), so :attr:`compile_seconds` does not include them.

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SimulationError
+from .solve import step_vars
 
 
 def zero_parameters_hint(cm, p, names) -> str:
@@ -31,7 +32,7 @@ def non_finite_error(cm, t, x, p, d, u, where="rhs") -> SimulationError:
     except Exception:  # pragma: no cover - evaluation itself failed
         vals = []
     bad_state = [n for n, v in zip(cm.state_names, x) if not np.isfinite(v)]
-    order = {v: k for k, st in enumerate(cm.steps) for v in ([st.var] if hasattr(st, "var") else st.vars)}
+    order = {v: k for k, st in enumerate(cm.steps) for v in step_vars(st)}
     value = dict(zip(cm.unknown_names, vals))
     bad = sorted((n for n, v in value.items() if not np.all(np.isfinite(v))),
                  key=lambda n: (order.get(n, len(order)), n))

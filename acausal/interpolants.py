@@ -70,10 +70,10 @@ def _lsoda(sols, at, t, nx):
     H = np.fromiter(map(_H, sols), dtype=float, count=len(sols))
     x = ((t - T[at][:, None]) / H[at][:, None])[None]  # (1, pieces, nodes)
     C = YH[:, :, at, None]  # (J, nx, pieces, 1)
-    y = C[J - 1] * x  # Horner's rule
-    for j in range(J - 2, 0, -1):
-        y = (y + C[j]) * x
-    return y + C[0] if J > 1 else np.broadcast_to(C[0], (nx,) + t.shape).copy()
+    y = np.broadcast_to(C[J - 1], (nx,) + t.shape)  # Horner's rule
+    for j in range(J - 2, -1, -1):
+        y = y * x + C[j]
+    return np.array(y)
 
 
 def _bdf(sols, at, t, nx):

@@ -8,7 +8,7 @@ import sympy as sp
 
 from .describe import Listing
 from .errors import ModelError
-from .solve import Assign, LinearSolve, NewtonSolve
+from .solve import LinearSolve, NewtonSolve
 from .symbols import der, split_der, var_symbol
 
 
@@ -49,8 +49,6 @@ def rate_expr(cm, name):
     else:
         cache[name] = None
         return None
-    assigned = cm.derived.setdefault("assigned", {st.var: st.expr for st in cm.steps
-                                                  if isinstance(st, Assign)})
     d = der(expr)
     out = None
     for _ in range(16):
@@ -61,7 +59,7 @@ def rate_expr(cm, name):
         sub = {}
         for s in missing:
             base, order = split_der(s.name)
-            src = assigned.get(base) if order == 1 else None
+            src = cm.program.assignment(base) if order == 1 else None
             if src is None or src.has(sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside):
                 sub = None
                 break

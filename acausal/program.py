@@ -128,14 +128,14 @@ class Program:
                 f"{', '.join(sorted(set(st.origins)))})")
 
 
-def build_program(flat, system, signal_orders: dict, zeros) -> Program:
-    """The program of a flattened model (aliases eliminated) and its solved system (``system.steps``), with the
-    event ``zeros`` resolved in the model's variables (the events of ``flat``, in order). An event that assigns
-    anything but a mode, or reinitialises anything but a state, is a :class:`ModelError` naming its component."""
+def build_program(flat, system, signal_orders: dict) -> Program:
+    """The program of a flattened model (aliases eliminated) and its solved system (``system.steps``), every
+    expression in the model's variables (aliases resolved). An event that assigns anything but a mode, or
+    reinitialises anything but a state, is a :class:`ModelError` naming its component."""
     from .compile_checks import resolve
     states = tuple(system.states)
     events = []
-    for ev, zero in zip(flat.events, zeros):
+    for ev in flat.events:
         rules = {}
         for direction, table in (("rising", ev.on_rising), ("falling", ev.on_falling)):
             pairs = []
@@ -145,13 +145,14 @@ def build_program(flat, system, signal_orders: dict, zeros) -> Program:
                     raise ModelError(f"event of {ev.origin} assigns {name!r}, which is not a discrete mode")
                 pairs.append((name, resolve(sp.sympify(expr), flat)))
             rules[direction] = tuple(pairs)
-        reinit = tuple((getattr(sym, "name", str(sym)), resolve(sp.sympify(expr), flat)) for sym, expr in ev.reinit.items())
+        reinit = tuple((getattr(sym, "name", str(sym)), resolve(sp.sympify(expr), flat))
+                       for sym, expr in ev.reinit.items())
         for name, _ in reinit:
             if name not in states:
                 raise ModelError(f"event of {ev.origin} reinitialises {name!r}, which is not a state of the compiled "
                                  f"model (its states: {', '.join(states) or 'none'}); give it state_select='prefer' "
                                  "or 'always' if its derivative is in the equations")
-        events.append(EventRule(ev.origin, zero, rules["rising"], rules["falling"], reinit))
+        events.append(EventRule(ev.origin, resolve(ev.zero, flat), rules["rising"], rules["falling"], reinit))
     return Program(states, tuple(system.unknowns), tuple(sorted(flat.parameters)), tuple(sorted(flat.discretes)),
                    tuple(sorted(flat.inputs)), tuple(parameter_plan(flat)), tuple(flat.assertions),
                    tuple(system.steps), tuple(events), dict(flat.aliases), dict(signal_orders))

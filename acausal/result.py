@@ -8,6 +8,7 @@ import sympy as sp
 
 from .errors import ModelError, UnknownNameError
 from .gauss import gauss_cumulative, integrate_cumulative, node_samples, nodes_at
+from .runtime import as_rows
 from .signals import SignalCall
 from .symbols import der_name, split_der
 
@@ -60,7 +61,7 @@ class Result:
         """Every state and unknown by name (arrays over :attr:`t`), evaluated when first asked for."""
         if self._values is None:
             cm = self.model
-            values = dict(zip(cm.unknown_names, _as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
+            values = dict(zip(cm.unknown_names, as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
                                                                                 self.modes, self.inputs),
                                                          self.t.shape)))
             values.update(self._states_by_name)
@@ -75,7 +76,7 @@ class Result:
     def unknowns_at(self, t, X, D) -> list:
         """Every unknown (in ``unknown_names`` order) at other points of this run's parameters and inputs: times
         ``t``, states ``X`` and modes ``D`` (one column per time, or a constant vector); rows over ``t``."""
-        return _as_rows(self.model.funcs["all_values"](t, X, self.params, D, self.inputs), np.shape(t))
+        return as_rows(self.model.funcs["all_values"](t, X, self.params, D, self.inputs), np.shape(t))
 
     # ------------------------------------------------------------------ access
     def names(self, pattern: str | None = None, parameters: bool = False) -> list:
@@ -367,17 +368,15 @@ class Result:
         steps_only = steps_only and bool(self._segments) and self._given_nodes is None
         key = ("nodes", steps_only)
         if key not in self._cache:
-            self._cache[key] = nodes_at(self, None, self._node_samples(True)) if steps_only else \
-                nodes_at(self, self.t)
+            self._cache[key] = nodes_at(self, None, self._node_samples()) if steps_only else nodes_at(self, self.t)
         return self._cache[key]
 
-    def _node_samples(self, steps_only: bool = True):
-        """The times, states and modes at the Gauss nodes of the solver's steps (uncut: the run's totals;
+    def _node_samples(self):
+        """The times, states and modes at the Gauss nodes of the solver's steps, uncut (the run's totals;
         :func:`~acausal.gauss.node_samples`), found once per Result."""
-        key = ("node samples", steps_only)
-        if key not in self._cache:
-            self._cache[key] = node_samples(self, None if steps_only else self.t)
-        return self._cache[key]
+        if "node samples" not in self._cache:
+            self._cache["node samples"] = node_samples(self, None)
+        return self._cache["node samples"]
 
     def _totals_on_steps(self) -> bool:
         """Whether the run's totals come from the scipy path's steps' own Gauss nodes (:meth:`_run_energy`): not
@@ -495,7 +494,3 @@ class Result:
     def __repr__(self):
         return f"<Result {self.model.flat.name}: {self.t.size} samples, t = {self.t[0]:g}..{self.t[-1]:g} s>"
 
-
-def _as_rows(vals, shape):
-    return [v if type(v) is np.ndarray and v.shape == shape and v.dtype == float
-            else np.broadcast_to(np.asarray(v, dtype=float), shape) for v in vals]

@@ -25,6 +25,12 @@ def rows(values, length: int) -> np.ndarray:
     return out
 
 
+def as_rows(values, shape) -> list:
+    """The same as a list of float arrays of ``shape``, without a copy of a row that already is one."""
+    return [v if type(v) is np.ndarray and v.shape == shape and v.dtype == float
+            else np.broadcast_to(np.asarray(v, dtype=float), shape) for v in values]
+
+
 class Block:
     """An algebraic block as its failure messages name it: ``kind`` (``"linear"`` or ``"nonlinear"``), its
     variables ``vars`` (names), ``origins`` (the components its equations come from, e.g. ``"Resistor 'R'"``) and,

@@ -12,8 +12,9 @@ event's assignments, the cascade of mode changes and the restart follow the scip
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens, up to :data:`WINDOW` outputs, or a :data:`WINDOWS_PER_RUN`-th of them where the outputs are dense (a
-1 kHz recording: every run restarts CVODES cold, and 64 outputs there are 64 ms) until a window fails: CVODES continuing past a crossing in the old mode can run into steps it cannot take, and a failed run
-(capped at :data:`WINDOW_STEPS` steps) is retried on half the window; a single output interval that no run can
+1 kHz recording: every run restarts CVODES cold, and 64 outputs there are 64 ms) until a window fails: CVODES
+continuing past a crossing in the old mode can run into steps it cannot take, and a failed run (capped at
+:data:`WINDOW_STEPS` steps) is retried on half the window; a single output interval that no run can
 cross (a crossing inside it, past which the old mode cannot be integrated) is gone in parts of what is left of
 it, halved after a run that fails and doubled after one that does not (at most :data:`INTERVAL_HALVINGS`
 halvings), until a part shows the crossing. A crossing costs one more run, over its output
