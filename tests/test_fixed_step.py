@@ -97,14 +97,19 @@ def test_a_long_log_is_crossed_in_pieces_as_by_one_roll():
     from acausal.compiled.fixed_step import CHUNK, fixed_step
     t, sig = _log(6, n=2 * CHUNK + 45)
     cm = compile_model(RC(SampledSignal(t, sig)))
+    from acausal.compiled.fixed_step import FixedStep
     vals, sens = cm.sensitivities(t, ["R.R"], names=["C.v"], t_start=t[0], method="RK4", substeps=2)
     stepper = fixed_step(cm, 2, ("R.R",))
-    assert stepper.pieces(t.size - 1) == [CHUNK, CHUNK, 32, 8, 4]
-    assert sorted(stepper._rolls) == [4, 8, 32, CHUNK]
+    bindings = {}
+    on_vm = FixedStep(cm, 2, ("R.R",), bindings, native=False)  # the pieces are CasADi's (the C loop has none)
+    assert on_vm.backend == "CasADi" and on_vm.pieces(t.size - 1) == [CHUNK, CHUNK, 32, 8, 4]
     u = [SampledSignal(t, sig)]
     grid = np.asarray(t, dtype=float)
     y0 = np.concatenate([[0.0], np.zeros(1)])
     pd = np.concatenate([cm.param_vector({}), np.zeros(len(cm.discrete_names))])
+    X, S = on_vm.run(t[0], y0[:1], t, cm.param_vector({}), np.zeros(len(cm.discrete_names)), u)
+    assert sorted(on_vm._rolls) == [4, 8, 32, CHUNK]
+    assert np.abs(X[0, 1:] - vals["C.v"][1:]).max() < 1e-14
     whole = np.asarray(stepper.step.mapaccum("whole", t.size - 1)(y0, stepper.stage_values(grid, u), pd))
     i = cm.state_names.index("C.v")
     assert np.abs(vals["C.v"][1:] - whole[i]).max() < 1e-14
@@ -122,3 +127,54 @@ def test_fixed_step_refuses_what_it_cannot_run():
     from acausal.compiled.translate import Unsupported
     with pytest.raises(Unsupported, match="event zero functions"):
         fixed_step(rectifier, 4)
+
+
+def test_the_native_loop_takes_the_same_steps_as_casadi():
+    """Where a C compiler is found, the steps run in compiled C (:mod:`acausal.compiled.native`): the same numbers
+    as CasADi's unrolled step, states and sensitivities, on an uneven log of any length and any substep count;
+    without a compiler the fixed step stays on CasADi and says so."""
+    from acausal.ccompiler import which_compiler
+    from acausal.compiled.fixed_step import FixedStep, fixed_step
+    if which_compiler()[0] is None:
+        pytest.skip("no C compiler on this machine")
+    t, sig = _log(7, n=300)
+    cm = compile_model(RC(SampledSignal(t, sig)))
+    p, d, u = cm.param_vector({"R.R": 1.7}), np.zeros(len(cm.discrete_names)), [SampledSignal(t, sig)]
+    for k in (1, 3, 8):
+        c, vm = FixedStep(cm, k, ("R.R", "C.C"), {}), FixedStep(cm, k, ("R.R", "C.C"), {}, native=False)
+        assert c.backend == "C" and vm.backend == "CasADi"
+        (Xc, Sc), (Xv, Sv) = c.run(t[0], [0.2], t, p, d, u), vm.run(t[0], [0.2], t, p, d, u)
+        assert np.abs(Xc - Xv).max() <= 1e-14 * np.abs(Xv).max()
+        assert np.abs(Sc - Sv).max() <= 1e-14 * np.abs(Sv).max() and np.abs(Sv).max() > 0
+    assert fixed_step(cm, 3).backend == "C"
+
+
+def test_without_a_compiler_the_fixed_step_stays_on_casadi(monkeypatch, tmp_path):
+    from acausal.ccompiler import BuildError, shared_library
+    from acausal.compiled.fixed_step import FixedStep
+    monkeypatch.setenv("CC", "no-such-compiler-here")
+    monkeypatch.setenv("ACAUSAL_CACHE_DIR", str(tmp_path))
+    with pytest.raises(BuildError, match="no C compiler found.*CC environment variable"):
+        shared_library("int f(void) { return 1; }")
+    t, sig = _log(8, n=60)
+    cm = compile_model(RC(SampledSignal(t, sig)))
+    stepper = FixedStep(cm, 2, ("R.R",), {})
+    assert stepper.backend == "CasADi"
+    X, S = stepper.run(t[0], [0.0], t, cm.param_vector({}), np.zeros(len(cm.discrete_names)), [SampledSignal(t, sig)])
+    assert np.isfinite(X).all() and np.abs(S).max() > 0
+
+
+def test_a_library_is_built_once_per_source_and_a_refused_source_says_why(tmp_path, monkeypatch):
+    from acausal.ccompiler import BuildError, shared_library, which_compiler
+    if which_compiler()[0] is None:
+        pytest.skip("no C compiler on this machine")
+    monkeypatch.setenv("ACAUSAL_CACHE_DIR", str(tmp_path))
+    first = shared_library("int acausal_probe(void) { return 7; }\n")
+    assert first.parent == tmp_path / "native" and first.exists()
+    stamp = first.stat().st_mtime_ns
+    assert shared_library("int acausal_probe(void) { return 7; }\n") == first and first.stat().st_mtime_ns == stamp
+    import ctypes
+    assert ctypes.CDLL(str(first)).acausal_probe() == 7
+    with pytest.raises(BuildError, match="failed"):
+        shared_library("int broken(void) { return }\n")
+    assert sorted(p.suffix for p in (tmp_path / "native").iterdir()) == [first.suffix]  # no leftovers

@@ -8,19 +8,17 @@ import inspect
 import os
 import platform
 import re
-import shutil
 import subprocess
 import sys
 import tempfile
 import zipfile
 from pathlib import Path
 
+from ..ccompiler import COMPILERS, which_compiler
 from . import ccode
 from .ccode import ExportError
 from .model_description import documentation, model_description
 
-#: C compilers looked for, in order, when neither ``compiler=`` nor the ``CC`` environment variable names one
-COMPILERS = ("cc", "gcc", "clang")
 #: optimisation: -O1 compiles the generated functions about twice as fast as -O2 (closed-loop actuator: 0.26 s
 #: against 0.52 s); the importing tool's integrator, not the model's arithmetic, dominates an FMU's run time
 CFLAGS = ("-O1", "-fPIC", "-fvisibility=hidden", "-std=c99")
@@ -40,19 +38,13 @@ def platform_folder() -> tuple:
 
 
 def find_compiler(compiler: str | None = None) -> str:
-    """The C compiler to use: ``compiler``, else ``$CC``, else the first of :data:`COMPILERS` on the PATH; an
-    :class:`ExportError` saying what to install when there is none."""
-    wanted = compiler or os.environ.get("CC")
-    if wanted:
-        found = shutil.which(wanted)
-        if found is None:
-            origin = "compiler=" if compiler else "the CC environment variable"
-            raise ExportError(f"the C compiler {wanted!r} ({origin}) was not found on the PATH")
+    """The C compiler to use (:func:`acausal.ccompiler.which_compiler`: ``compiler``, else ``$CC``, else the first
+    of its list on the PATH); an :class:`ExportError` saying what to install when there is none."""
+    found, origin = which_compiler(compiler)
+    if found:
         return found
-    for name in COMPILERS:
-        found = shutil.which(name)
-        if found:
-            return found
+    if origin:
+        raise ExportError(f"the C compiler {compiler or os.environ.get('CC')!r} ({origin}) was not found on the PATH")
     raise ExportError("no C compiler found (looked for $CC, " + ", ".join(COMPILERS) + " on the PATH): an FMU's "
                       "binary is compiled from generated C. Install one (Debian/Ubuntu: apt-get install gcc; "
                       "Fedora: dnf install gcc; macOS: xcode-select --install), name it with compiler= or CC, or "

@@ -1,0 +1,89 @@
+"""The machine's C compiler: where it is looked for, and shared libraries built from generated C once per source.
+
+Two users: the FMU exporter (:mod:`acausal.export.fmu`, which turns a missing compiler into an error saying what
+to install) and the native fixed step (:mod:`acausal.compiled.native`, which falls back to CasADi's virtual
+machine without one). A library built here is cached on disk under the SHA-256 of its source, compiler and flags
+(:func:`cache_dir`), so each source is compiled once per machine, not once per process: a process pool's workers
+that replay the same model load the same file.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+#: C compilers looked for, in order, when neither the caller nor the ``CC`` environment variable names one
+COMPILERS = ("cc", "gcc", "clang")
+
+
+def which_compiler(compiler: str | None = None) -> tuple:
+    """``(path or None, what was looked for)``: ``compiler``, else ``$CC``, else the first of :data:`COMPILERS` on
+    the PATH. The second item names the origin of a compiler that was asked for and not found (``"compiler="`` or
+    ``"the CC environment variable"``), or is None when the search was the default one."""
+    wanted = compiler or os.environ.get("CC")
+    if wanted:
+        return shutil.which(wanted), ("compiler=" if compiler else "the CC environment variable")
+    for name in COMPILERS:
+        found = shutil.which(name)
+        if found:
+            return found, None
+    return None, None
+
+
+def cache_dir() -> Path:
+    """Where built libraries are kept: ``$ACAUSAL_CACHE_DIR``, else ``$XDG_CACHE_HOME/acausal``, else
+    ``~/.cache/acausal`` (each with a ``native/`` folder); a folder in the system's temporary directory where that
+    cannot be created. Deleting it is always safe (the libraries are rebuilt on first use)."""
+    base = os.environ.get("ACAUSAL_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "acausal")
+    folder = Path(base) / "native"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if os.access(folder, os.W_OK):
+            return folder
+    except OSError:
+        pass
+    folder = Path(tempfile.gettempdir()) / f"acausal-native-{os.getuid() if hasattr(os, 'getuid') else 0}"
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+class BuildError(RuntimeError):
+    """A shared library could not be built (no compiler, or the compiler refused the source: its message)."""
+
+
+def shared_library(source: str, flags=("-O1",), compiler: str | None = None) -> Path:
+    """The shared library built from C ``source`` with ``flags`` (cached by content: :func:`cache_dir`). Raises
+    :class:`BuildError` without a compiler or when it fails. Written to a temporary name and moved into place,
+    so processes building the same source at once do not read a half-written file."""
+    cc, origin = which_compiler(compiler)
+    if cc is None:
+        raise BuildError(f"no C compiler found ({origin or 'looked for $CC, ' + ', '.join(COMPILERS)})")
+    suffix = ".dylib" if sys.platform == "darwin" else ".so"
+    link = ("-dynamiclib",) if sys.platform == "darwin" else ("-shared",)
+    cmd = [cc, *link, "-fPIC", *flags]
+    key = hashlib.sha256("\0".join([*cmd, source]).encode()).hexdigest()[:32]
+    folder = cache_dir()
+    lib = folder / f"{key}{suffix}"
+    if lib.exists():
+        return lib
+    fd, tmp = tempfile.mkstemp(suffix=".c", dir=folder)
+    with os.fdopen(fd, "w") as fh:
+        fh.write(source)
+    out = tmp[:-2] + suffix
+    try:
+        run = subprocess.run([*cmd, "-o", out, tmp, "-lm"], capture_output=True, text=True, timeout=300)
+        if run.returncode != 0:
+            raise BuildError(f"{cc} failed (exit status {run.returncode}): {(run.stderr or run.stdout)[-800:]}")
+        os.replace(out, lib)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise BuildError(f"{cc} could not be run: {exc}") from None
+    finally:
+        for leftover in (tmp, out):
+            if os.path.exists(leftover):
+                os.remove(leftover)
+    return lib
