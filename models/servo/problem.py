@@ -50,10 +50,13 @@ CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 #: fifth of the cost of CVODES at rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain)
 #: is what needs more.
 SUBSTEPS = 4
-#: the most substeps tried before a recording's replays go to CVODES (RK4 with sensitivities at 16 substeps costs
-#: about a third of CVODES at rtol 1e-5 on an XL330 recording with load friction, at 32 as much; the play of
-#: ``backlash`` takes 8 to 16 with its flanks, ``effects.FLANKS``)
-MAX_SUBSTEPS = 32
+#: the most substeps tried before a recording's replays go to CVODES (:func:`max_substeps`): with the steps in C
+#: (:mod:`acausal.compiled.native`) RK4 with sensitivities at 128 substeps costs less than half of CVODES at rtol
+#: 1e-5 on an XL330 recording with load friction and play (230 ms against 525 ms, and nearer the tight solution:
+#: the play's replay at 16 substeps is within 2e-8 rad of one at 256, CVODES within 1.5e-4); on CasADi's virtual
+#: machine RK4 at 16 substeps costs about a third of CVODES, at 32 as much (the play of ``backlash`` takes 8 to 16
+#: with its flanks, ``effects.FLANKS``)
+MAX_SUBSTEPS = {"C": 128, "CasADi": 32}
 #: tolerances of a replay on CVODES (``substeps=None``): within 5e-5 rad of rtol 1e-8 on the XL330 set
 RTOL, ATOL = 1e-5, 1e-7
 
@@ -115,6 +118,13 @@ def replay_job(key, rec, values: dict, names=(), substeps: int | None = SUBSTEPS
     return (key, rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names), substeps)
 
 
+def max_substeps() -> int:
+    """The most substeps a replay takes before CVODES (:data:`MAX_SUBSTEPS` of the backend the fixed step runs
+    on here)."""
+    from acausal.compiled.native import available
+    return MAX_SUBSTEPS["C" if available() else "CasADi"]
+
+
 def fixed_step_runs(cm) -> bool:
     """Whether the replays of ``cm`` can take the fixed step (:mod:`acausal.compiled.fixed_step`): CasADi is
     installed and the model has neither events nor a Newton block."""
@@ -132,7 +142,7 @@ def replay(job: tuple) -> tuple:
     ``(len(names), N)``), or ``None`` when ``names`` is empty."""
     key, t, columns, params, x0, names, substeps = job
     cm = compiled(*key)
-    u = inputs_from(t, columns)
+    u = _inputs(t, columns)
     x0 = _starts(cm, x0)
     if substeps is not None and fixed_step_runs(cm):
         vals, S = cm.sensitivities(t, list(names), names=[READING], params=params, inputs=u, t_start=t[0],
@@ -145,6 +155,21 @@ def replay(job: tuple) -> tuple:
     vals, S = cm.sensitivities(t, list(names), names=[READING], params=params, inputs=u, t_start=t[0],
                                starts=x0, rtol=RTOL, atol=ATOL)
     return np.asarray(vals[READING]), np.asarray(S[READING])
+
+
+#: the inputs of the recordings a process replayed last (by content: the same objects for the same recording,
+#: so a fit's replays reuse their stage values, :meth:`~acausal.compiled.fixed_step.FixedStep.run`)
+_INPUTS: dict = {}
+
+
+def _inputs(t, columns: dict) -> dict:
+    """:func:`~.recording_format.inputs_from`, kept per content for the last 64 recordings of this process."""
+    key = (t.tobytes(), *((c, v.tobytes()) for c, v in sorted(columns.items())))
+    if key not in _INPUTS:
+        if len(_INPUTS) >= 64:
+            _INPUTS.pop(next(iter(_INPUTS)))
+        _INPUTS[key] = inputs_from(t, columns)
+    return _INPUTS[key]
 
 
 def _starts(cm, x0: dict) -> dict:
@@ -166,7 +191,7 @@ class ReplayBatch:
 
     **Substeps** (RK4 per sample interval) are chosen per recording and checked against ``tol`` [rad] by the
     difference between a replay and one at twice the substeps: on every recording at the first parameter set
-    asked for (from ``start``, doubled until the difference is within ``tol``; beyond :data:`MAX_SUBSTEPS`, that
+    asked for (from ``start``, doubled until the difference is within ``tol``; beyond :func:`max_substeps`, that
     recording goes to CVODES), then at every new parameter set asked for with sensitivities (a fit's accepted
     iterates) or for the held-out recordings, on the recording of the batch closest to its limit (its replay at
     twice the substeps runs in the same call as the batch), and on all of them again where that one fails: a
@@ -195,10 +220,11 @@ class ReplayBatch:
 
     def _check(self, ks: dict, values: dict) -> dict:
         """Substeps from ``ks`` (recording -> substeps) on, doubled per recording until its replay differs from
-        one at twice as many by ``tol`` at most (None beyond :data:`MAX_SUBSTEPS`: CVODES)."""
+        one at twice as many by ``tol`` at most (None beyond :func:`max_substeps`: CVODES)."""
         out = dict(ks)
         if not fixed_step_runs(compiled(*self.key)):  # e.g. a Newton block (a current limit behind a sagging bus)
             return {j: None for j in ks}
+        most = max_substeps()
         todo = [j for j, k in ks.items() if k is not None]
         coarse = dict(zip(todo, self._map([replay_job(self.key, self.recordings[j], values, (), ks[j])
                                            for j in todo])))
@@ -209,7 +235,7 @@ class ReplayBatch:
             for j in todo:
                 self.errors[j] = float(np.max(np.abs(coarse[j][0] - fine[j][0])))
                 if self.errors[j] > self.tol:
-                    out[j] = 2 * out[j] if 2 * out[j] <= MAX_SUBSTEPS else None
+                    out[j] = 2 * out[j] if 2 * out[j] <= most else None
                     if out[j] is not None:
                         failed.append(j)
             todo, coarse = failed, fine
