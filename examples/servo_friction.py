@@ -12,7 +12,7 @@ replayed in closed loop by :class:`~acausal.models.servo.model.ServoPendulum`. T
    and BAM's published parameter sets replayed on the same logs.
 
 Writes ``servo_friction/report.md`` (+ figures, CSV, ``diagnosis.json``). Run:
-``python examples/servo_friction.py`` (into ``results/``; about two minutes on two cores).
+``python examples/servo_friction.py`` (into ``results/``; under a minute on two cores).
 ``acausal diagnose DATA --model servo_pendulum`` does the same on any folder of recordings in this format.
 """
 from __future__ import annotations
