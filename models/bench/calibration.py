@@ -173,17 +173,39 @@ def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = Non
                       period=T)
 
 
-def experiments(recordings, effects=(), split: Split = Split(), fixed: dict | None = None) -> list:
-    return [experiment(r, effects, split, fixed) for r in recordings]
+def exact_sensitivity(cm, exp):
+    """``sensitivity(values, names)`` of the replay :class:`Experiment` ``exp`` on the compiled replay model ``cm``:
+    the predicted signals and their exact derivatives (:meth:`CompiledModel.sensitivities`), the Jacobian a fit
+    uses in place of finite differences."""
+    cols = {col: SIGNALS[col] for col in exp.measured if col in SIGNALS}
+    base, inputs, t = exp.info["params"], exp.info["inputs"], exp.t
+
+    def sens(values, names):
+        vals, S = cm.sensitivities(t, list(names), names=list(cols.values()), params={**base, **values},
+                                   inputs=inputs, t_start=t[0])
+        return ({c: np.asarray(vals[v]) for c, v in cols.items()}, {c: np.asarray(S[v]) for c, v in cols.items()})
+    return sens
+
+
+def experiments(recordings, effects=(), split: Split = Split(), fixed: dict | None = None,
+                exact: bool = False) -> list:
+    """:func:`experiment` of each recording; ``exact``: with :func:`exact_sensitivity` (exact Jacobians)."""
+    exps = [experiment(r, effects, split, fixed) for r in recordings]
+    if exact:
+        cm = replay_model(effects)
+        for e in exps:
+            e.sensitivity = exact_sensitivity(cm, e)
+    return exps
 
 
 def fit(recordings, params="R,J,b", signals=DEFAULT_SIGNALS, weights=None, effects=(), start=None,
-        split: Split = Split(), fixed: dict | None = None, loss: str = "soft_l1") -> tuple:
+        split: Split = Split(), fixed: dict | None = None, loss: str = "soft_l1", exact: bool = True) -> tuple:
     """Calibrate ``params`` on ``recordings`` (list of Recording, or a folder); returns
-    ``(Calibration, experiments)``."""
+    ``(Calibration, experiments)``. ``exact``: the fit's Jacobian from the replay's exact sensitivities (False:
+    finite differences)."""
     if not isinstance(recordings, (list, tuple)):
         recordings = load_recordings(recordings, ANKLE_FORMAT)
-    exps = experiments(recordings, effects, split, fixed)
+    exps = experiments(recordings, effects, split, fixed, exact)
     free = [free_parameter(n, start) for n in parameter_names(params)]
     cal = calibrate(exps, free, list(signals), weights=weights, fixed=fixed, loss=loss)
     unseen = [n for n in cal.names if not np.isfinite(cal.std[n])]

@@ -23,11 +23,11 @@ from acausal.identify import load_recordings
 from acausal.identify.calibrate import Free
 from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
-from .calibration import Split, experiment, free_parameter, replay_inputs, replay_model
+from .calibration import Split, exact_sensitivity, experiment, free_parameter, replay_inputs, replay_model
 from ..ankle.actuator import WINDING_G
 from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
-from .recording_format import ANKLE_FORMAT, SIGNALS
+from .recording_format import ANKLE_FORMAT
 from .session import carry_winding, check_session, free_winding_starts, is_session, own_start
 
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
@@ -78,7 +78,7 @@ class AnkleProblem(Problem):
             if self.exact:
                 cm = replay_model(key)
                 for e in exps:
-                    e.sensitivity = _sensitivity(cm, e)
+                    e.sensitivity = exact_sensitivity(cm, e)
             if "winding_temperature" in key and is_session(self.recordings):  # warm from the recording before
                 carry_winding(exps, replay_model(key))
             elif "winding_temperature" in key:  # no session times: each recording's own start temperature
@@ -169,17 +169,6 @@ class AnkleProblem(Problem):
             energy += float(np.trapezoid(p[inner], e.t[inner]))
             strides += float(e.t[inner][-1] - e.t[inner][0]) / self.period(e)
         return energy / strides
-
-
-def _sensitivity(cm, exp):
-    cols = {col: SIGNALS[col] for col in exp.measured if col in SIGNALS}
-    base, inputs, t = exp.info["params"], exp.info["inputs"], exp.t
-
-    def sens(values, names):
-        vals, S = cm.sensitivities(t, list(names), names=list(cols.values()), params={**base, **values},
-                                   inputs=inputs, t_start=t[0])
-        return ({c: np.asarray(vals[v]) for c, v in cols.items()}, {c: np.asarray(S[v]) for c, v in cols.items()})
-    return sens
 
 
 def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(),
