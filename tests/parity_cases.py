@@ -254,6 +254,7 @@ CASES = [
     doc("simulation-paths.md", "RC", 0.04, min_events=0),
     doc("simulation-paths.md", "DiodeDischarge", 0.1, args=(4.3,), label="DiodeDischarge(guess=4.3)",
         min_events=0),
+    doc("simulation-paths.md", "LoggedRC", 0.2, min_events=0),
     doc("writing-components.md", "Oscillator", 0.5, min_events=0),
     doc("writing-components.md", "Powered", 1.0, min_events=0),
     doc("writing-components.md", "TripCircuit", 0.5),
