@@ -7,7 +7,7 @@ interval ``[t_i, t_i+1]`` is crossed in ``substeps`` equal RK4 steps; a sampled 
 smooth inside every step, so its kinks cost nothing, where an error-controlled integrator must find each of them
 by failed steps. Where the machine has a C compiler the steps run in a compiled loop around CasADi's C code of
 the rate function (:mod:`acausal.compiled.native`: one library per model and set of sensitivity parameters, for
-every substep count and recording; the same numbers, about ten times faster: a 6-s servo replay with seven
+every substep count and recording; the same numbers, five to ten times faster: a 6-s servo replay with seven
 sensitivities at 16 substeps 14 ms against 71 ms). Without one, CasADi's virtual machine rolls the unrolled
 interval over the grid (``mapaccum``) in pieces of at most :data:`CHUNK` intervals: a few functions per model,
 step count and set of sensitivity parameters serve every recording, whatever its length.
@@ -118,7 +118,7 @@ def unsupported(cm) -> str | None:
 class FixedStep:
     """The RK4 roll-out of one compiled model, ``substeps`` steps per output interval, with the sensitivities to
     the parameters ``wrt`` (through their ``bindings``; none: the states alone). ``native``: take the steps in
-    compiled C (:mod:`acausal.compiled.native`, the same numbers about ten times faster) where a C compiler is
+    compiled C (:mod:`acausal.compiled.native`, the same numbers five to ten times faster) where a C compiler is
     found; ``backend`` says which runs (``"C"`` or ``"CasADi"``)."""
 
     def __init__(self, cm, substeps: int, wrt=(), bindings=None, native: bool = True):
