@@ -58,10 +58,11 @@ class CompiledModel:
     dummy derivatives, BLT ``blocks`` and solved ``steps``, also reachable as :attr:`blocks` and :attr:`steps`),
     ``program`` what every backend prints (:class:`~acausal.program.Program`: parameters, steps, events,
     aliases, signal reads), ``generator`` its numpy code generator and ``funcs`` the generated functions.
-    ``accounts`` are the model's energy accounts found by convention (:class:`~acausal.energy.Accounts`: losses, stored energies, sources, boundary,
-    power sensors), which :meth:`Result.energy_balance <acausal.result.Result.energy_balance>` and
-    :meth:`Result.sankey <acausal.result.Result.sankey>` use. The numeric functions are printed when first used
-    (a run on the CasADi fixed step never uses them), so :attr:`compile_seconds` does not include them.
+    ``accounts`` are the model's energy accounts found by convention (:class:`~acausal.energy.Accounts`: losses,
+    stored energies, sources, boundary, power sensors), which :meth:`Result.energy_balance
+    <acausal.result.Result.energy_balance>` and :meth:`Result.sankey <acausal.result.Result.sankey>` use. The
+    numeric functions are printed when first used (a run on the fixed step never uses them), so
+    :attr:`compile_seconds` does not include them.
     """
 
     def __init__(self, flat, system, program, compile_seconds, accounts=None):

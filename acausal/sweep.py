@@ -1,10 +1,10 @@
 """Sweeps: a function over many argument sets through any ``concurrent.futures.Executor``.
 
 The default executor is a process pool on all cores, each worker's BLAS on one thread (:func:`process_pool`).
-Anything with ``submit`` that returns futures works: a ``ThreadPoolExecutor``, a dask cluster (``distributed.Client(...).get_executor()``), ray's executor. The function
-and its arguments must be picklable for process and cluster executors (a module-level function, plain data).
-Results come back in the order of the arguments, so a sweep through a cluster gives exactly what the in-process
-run gives.
+Anything with ``submit`` that returns futures works: a ``ThreadPoolExecutor``, a dask cluster
+(``distributed.Client(...).get_executor()``), ray's executor. The function and its arguments must be picklable for
+process and cluster executors (a module-level function, plain data). Results come back in the order of the
+arguments, so a sweep through a cluster gives exactly what the in-process run gives.
 """
 from __future__ import annotations
 

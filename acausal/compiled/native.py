@@ -116,8 +116,10 @@ def rk4_driver(rate: ca.Function) -> NativeRK4 | None:
     """The compiled RK4 loop around ``rate`` (a CasADi function ``(t, y, pd, u) -> dy/dt``), or None where it
     cannot be built here (no C compiler, or the compiler refuses the source: the caller stays on CasADi's virtual
     machine)."""
+    if rate.name() != "rate":  # the driver calls it by that name
+        raise ValueError(f"native RK4: the rate function must be named 'rate', got {rate.name()!r}")
     cg = ca.CodeGenerator("acausal_rate", {"with_header": False})
-    cg.add(ca.Function("rate", rate.sx_in(), rate.call(rate.sx_in())) if rate.name() != "rate" else rate)
+    cg.add(rate)
     source = cg.dump() + DRIVER
     cc = which_compiler()[0]
     key = (cc, hashlib.sha256(source.encode()).hexdigest())

@@ -2,8 +2,8 @@
 
 The steps of a compile's lowered program (:class:`~acausal.program.Program`: assignments, linear solves, Newton
 blocks) are translated one sympy node at a time; shared subexpressions stay shared (the translation is memoised per
-node), so the CasADi graph is as compact as the generated Python code. Numeric input signals enter through their closed
-forms (:meth:`Signal.table <acausal.signals.Signal.table>`: polynomial pieces looked up by CasADi interpolants
+node), so the CasADi graph is as compact as the generated Python code. Numeric input signals enter through their
+closed forms (:meth:`Signal.table <acausal.signals.Signal.table>`: polynomial pieces looked up by CasADi interpolants
 with the numbers inside; :meth:`Signal.symbolic <acausal.signals.Signal.symbolic>`: an expression). A Newton
 block becomes algebraic variables with their residuals (a DAE for IDAS). What has no CasADi form raises
 :class:`Unsupported` with the reason, and the caller stays on the scipy path.
