@@ -107,8 +107,11 @@ def cmd_infer(args) -> int:
             shown = ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
             print(f"  evaluation {n}: cost {cost:.3f} at {shown}", file=sys.stderr, flush=True)
 
+    start = None
+    if args.start_from:
+        start = presets.paper_fit_record(Path(args.start_from))["preset"]
     with process_pool(jobs) as pool:
-        record = inference.infer(executor=pool, progress=progress)
+        record = inference.infer(executor=pool, progress=progress, start=start)
     paths = [fit_record.write(record, out / "paper_fit.json"), fit_record.write_tables(record, out)]
     if args.install:
         paths.append(fit_record.write(record, presets.PAPER_FIT_RECORD))
@@ -375,6 +378,9 @@ def build_parser() -> argparse.ArgumentParser:
                            "(the paper_fit preset; several minutes)")
     infer.add_argument("--out", required=True, help="output directory (paper_fit.json, inference.md)")
     infer.add_argument("--install", action="store_true", help="also replace the shipped paper_fit preset record")
+    infer.add_argument("--start-from", metavar="RECORD", default=None,
+                       help="start from an inference record's values (e.g. the shipped paper_fit.json after a change "
+                            "of targets) instead of the a-priori ones")
     infer.add_argument("--jobs", type=whole_number("--jobs"), default=None,
                        help="worker processes (default: all cores)")
     infer.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")

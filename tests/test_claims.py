@@ -76,6 +76,28 @@ def test_driver_loss_claim_is_the_papers_bowl(tmp_path):
     assert mixed["C3"]["holds"] == "no" and "long-stride branch not at 2 mm" in mixed["C3"]["note"]
 
 
+def test_the_fits_c3_targets_read_the_bowl_as_the_claim_does(tmp_path):
+    """``paper_fit`` is inferred on C3 (targets ``C3.short``, ``C3.long``): their residuals vanish on a grid where the
+    claim holds and not on one where it fails, read from the runs as the claim reads the CSV."""
+    from types import SimpleNamespace
+    from acausal.models.ankle.targets import BENCH, TARGETS
+
+    def runs_of(rows):
+        return {(BENCH, r["P_mm"] * 1e-3, r["stride_time_s"]): SimpleNamespace(
+            energy={k: r[f"E_{k}_J"] for k in POINTS},
+            loss_fraction={"driver": 1 - r["E_driver_J"] / r["E_source_J"]}) for r in rows}
+    c3 = {t.id: t for t in TARGETS if t.claim == "C3"}
+    assert set(c3) == {"C3.short", "C3.long"} and all(t.bound == "lower" for t in c3.values())
+    for driver, holds in ((lambda P, T: 0.3 + 0.1 * (T - 1.5) ** 2, "yes"),
+                          (lambda P, T: 0.3 + 0.05 * T, "no"),  # no short branch
+                          (lambda P, T: 0.3 + 0.1 * (T - 1.5) ** 2 * (1 if P == 8 else -1), "no")):  # long one falls
+        rows = _driver_grid(driver)
+        assert _claims(tmp_path, rows)["C3"]["holds"] == holds
+        runs = runs_of(rows)
+        z = [t.z(t.value(runs)) for t in c3.values()]
+        assert (max(map(abs, z)) == 0.0) == (holds == "yes"), (holds, z)
+
+
 def test_measured_claims_read_the_bench_not_the_replay(tmp_path):
     paper = PAPER["table1_energy"]
     replay_only = _claims(tmp_path, [_row(8, 2.0, paper, "replay")])

@@ -148,7 +148,7 @@ def test_claims_table_is_written_and_in_the_report(out):
     fitted = {r["id"] for r in rows if r["used_in_fit"] == "yes"}
     from acausal.models.ankle.fit_record import fitted_claims
     from acausal.models.ankle.presets import paper_fit_record
-    assert fitted == fitted_claims(paper_fit_record()) == {"C1", "C2", "C6", "C7", "C8", "C10"}
+    assert fitted == fitted_claims(paper_fit_record()) == {"C1", "C2", "C3", "C7", "C8", "C10"}
     assert all(r["used_in_fit"] == "no" for r in rows if r["preset"] == "library")
     text = (out / "report.md").read_text()
     assert "## Claims" in text and f"**{sum(h == 'yes' for h in held.values())} of 13 hold** with" in text

@@ -135,18 +135,23 @@ def test_golden_values(name):
 # ----------------------------------------------------- what opposes the claims that fail (README's claims table)
 def test_the_driver_loss_bowl_is_the_burnt_regenerated_energy():
     """C3/C4: on the bench the non-regenerative front end burns what the motor sends back (rect.loss_power); it grows
-    towards short strides and with precompression, against the constant draw growing towards long strides. At 18 mm
-    it falls from 1.5 to 2 s/stride by more than the constant draw adds over the extra half second."""
+    towards short strides and with precompression, against the constant draw growing towards long strides. At the
+    tuned 8 mm the draw wins from 1.5 s/stride on by far; at 18 mm the burnt energy falls from 1.5 to 2 s/stride by
+    about what the draw adds over the extra half second: there C3's long-stride branch holds only by the balance the
+    inference found (its target C3.long is active there, against C10's dip through the inertia)."""
     def bench(P, T):
         return run_condition(Condition(P, T, model="closed_loop", preset="paper_fit"))
     r = {(P, T): bench(P, T) for P in (0.008, 0.018) for T in (1.2, 1.5, 2.0)}
     burnt = {k: v.loss_energy["rect.loss_power"] for k, v in r.items()}
-    draw = r[(0.008, 2.0)].params["driver.P_q"]
+    lost = {k: v.energy["source"] - v.energy["driver"] for k, v in r.items()}
+    half = 0.5 * r[(0.008, 2.0)].params["driver.P_q"]  # what the draw adds from 1.5 to 2 s/stride [J]
     for P in (0.008, 0.018):
         assert burnt[(P, 1.2)] > burnt[(P, 1.5)] > burnt[(P, 2.0)] >= 0.0, (P, burnt)
     assert burnt[(0.018, 1.2)] > 1.5 * burnt[(0.008, 1.2)]  # grows with precompression at short strides (C4)
-    assert burnt[(0.018, 1.5)] - burnt[(0.018, 2.0)] > 0.5 * draw  # C3's 18 mm exception
-    assert burnt[(0.008, 1.5)] - burnt[(0.008, 2.0)] < 0.5 * draw  # but not at the tuned 8 mm: the bowl holds
+    assert burnt[(0.008, 1.5)] - burnt[(0.008, 2.0)] < 0.6 * half  # the tuned 8 mm: the bowl, by far
+    assert 0.9 * half < burnt[(0.018, 1.5)] - burnt[(0.018, 2.0)] < 1.1 * half  # 18 mm: a balance
+    assert lost[(0.018, 2.0)] >= lost[(0.018, 1.5)] - 1e-2  # ... that C3 reads as holding (its 0.01 J slack)
+    assert lost[(0.008, 2.0)] > lost[(0.008, 1.5)] + 0.5 * half
 
 
 def test_softer_springs_cost_more_copper_on_both_models():

@@ -2,17 +2,17 @@
 
 The unknowns (:data:`UNKNOWNS`) are run-time parameters of the registered actuator, each bounded by a physically
 plausible range with its source (``docs/parameters.md`` and the notes here). The targets
-(:mod:`acausal.models.ankle.targets`) are the paper's own numbers of claims C1 (Table 1: the five energies at
-8 mm, 2 s/stride) and C2 (Fig. 9: the smallest and largest driver loss over the 6 x 6 grid), C10 (Fig. 8: the
-driver output's dip at Table 1's point), C6 and C7 (Figs. 11-12: the gearing loss never under 50 % and over 65 %
-at high precompression and short strides, the output loss around 20 % on average and over 50 % at worst), all
-measured on the bench and so computed on the bench model (:data:`~acausal.models.ankle.protocol.BENCH`), each
-with a standard deviation of a third of the tolerance its claim is read with (:mod:`acausal.models.ankle.claims`),
-so a target met to 3 sigma is a claim that holds; "over" and "never under" are one-sided (no residual once met).
-C9 (Fig. 7) is not a target (see ``targets.TARGETS``). Every other claim is a
-prediction of the fitted model. C8 (where the motor can follow) is met by the planner's torque tolerance, chosen
-after the fit as the smallest one that satisfies it (:func:`choose_tolerance`), the fit repeated with it
-(:func:`infer`).
+(:mod:`acausal.models.ankle.targets`) are the paper's own numbers and statements of claims C1 (Table 1: the five
+energies at 8 mm, 2 s/stride), C2 (Fig. 9: the smallest and largest driver loss over the 6 x 6 grid), C10 (Fig. 8:
+the driver output's dip at Table 1's point), C3 (4.2.1: the driver loss a bowl over stride time at the tuned 8 mm,
+its loss per stride rising from 1.5 s/stride on) and C7 (Fig. 12: the output loss around 20 % on average and over
+50 % at worst), all measured on the bench and so computed on the bench model
+(:data:`~acausal.models.ankle.protocol.BENCH`), each with a standard deviation of a third of the tolerance its claim
+is read with (:mod:`acausal.models.ankle.claims`), so a target met to 3 sigma is a claim that holds; "over" and
+"rising" are one-sided (no residual once met). C6 (Fig. 11's gearing loss) and C9 (Fig. 7) are not targets (see
+``targets.TARGETS``). Every other claim is a prediction of the fitted model. C8 (where the motor can follow) is
+met by the planner's torque tolerance, chosen after the fit as the smallest one that satisfies it
+(:func:`choose_tolerance`), the fit repeated with it (:func:`infer`).
 
 Method: weighted least squares in the unknowns scaled to their ranges (``scipy.optimize.least_squares``, trust
 region with bounds), each residual evaluation a handful of protocol runs (:func:`acausal.models.ankle.protocol.
@@ -327,13 +327,16 @@ def feed_forward_trials(values: dict, executor=None, fractions=FEED_FORWARDS) ->
 FIRST_TOLERANCE = 3.0
 
 
-def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15) -> dict:
+def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, start: dict | None = None) -> dict:
     """The whole inference: fit at :data:`FIRST_TOLERANCE`, choose the planner's torque tolerance for C8 on the
     fitted values and, if it differs from the one fitted with, refit with it and choose again on the refitted values
     (a refit moves the duties a little), until the tolerance chosen is the one the values were fitted with (at
-    most three rounds). Returns the JSON record."""
-    first = fit(fixed={"torque_tolerance": FIRST_TOLERANCE}, executor=executor, progress=progress,
-                max_nfev=max_nfev)
+    most three rounds). ``start``: the values the first pass starts from (default each unknown's a-priori
+    ``start``), e.g. an earlier record's preset after a change of targets; its ``torque_tolerance``, if any, is then
+    the first pass's. Returns the JSON record (``started_from``: "a priori" or "given values")."""
+    start = dict(start or {})
+    first = fit(fixed={"torque_tolerance": start.pop("torque_tolerance", FIRST_TOLERANCE)}, start=start or None,
+                executor=executor, progress=progress, max_nfev=max_nfev)
     final, tried = first, []
     for _ in range(3):
         tol, trials = choose_tolerance(final.values, executor)
@@ -348,4 +351,5 @@ def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15) -
     record["tolerance_trials"] = tried
     record["feed_forward_trials"] = feed_forward_trials(final.values, executor)
     record["first_pass"] = first.to_json()
+    record["started_from"] = "given values" if start else "a priori"
     return record

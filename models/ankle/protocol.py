@@ -49,6 +49,33 @@ def in_corner(P_mm: float, T: float) -> bool:
     return P_mm >= CORNER[0] - 1e-6 and T <= CORNER[1] + 1e-9
 
 
+#: C3 (paper 4.2.1): the driver "was tuned when the precompression was set to around 8 mm" [mm], where the bowl of
+#: its loss over stride time is read, and its optimum is "a walking duration of 1.5 sec/stride" [s], from which on
+#: its constant draw makes "the energy loss per stride higher at slower walking velocities"
+TUNED_P_MM, BOWL_FROM = 8.0, 1.5
+
+
+def driver_bowl(lost: dict, fraction: dict) -> dict:
+    """C3's reading of the driver's loss over the bench grid. ``lost``: {(P [mm], T [s]): energy lost in the driver
+    per stride [J]}; ``fraction``: the same as a fraction of the source energy. Returns ``T_min`` (the stride time
+    of the smallest fraction at :data:`TUNED_P_MM`), ``short`` (the fraction at the shortest stride less the
+    smallest at the longer ones: > 0 where the bowl rises towards short strides), ``long`` (the smallest rise of
+    the loss per stride [J] from one stride time to the next from :data:`BOWL_FROM` on, over every
+    precompression: >= 0 where the long-stride branch holds) and ``long_by_P`` (that smallest rise per
+    precompression)."""
+    Ps, Ts = sorted({P for P, _ in lost}), sorted({T for _, T in lost})
+    tuned = next(P for P in Ps if math.isclose(P, TUNED_P_MM))
+    row = {T: fraction[(tuned, T)] for T in Ts if (tuned, T) in fraction}
+    T_min = min(row, key=row.get)
+    short = row[Ts[0]] - min(v for T, v in row.items() if T > Ts[0])
+    long_by_P = {}
+    for P in Ps:
+        steps = [lost[(P, b)] - lost[(P, a)] for a, b in zip(Ts, Ts[1:])
+                 if a >= BOWL_FROM - 1e-9 and (P, a) in lost and (P, b) in lost]
+        long_by_P[P] = min(steps, default=math.inf)
+    return dict(T_min=T_min, short=short, long=min(long_by_P.values()), long_by_P=long_by_P)
+
+
 def follows_as_in_the_paper(duty: dict) -> dict:
     """C8's reading of the required duties of the 36-condition replay grid, ``{(P [mm], T [s]): duty}``: how many
     conditions the motor follows (duty <= :data:`D_MAX`), the duties at 18 mm and 1.2 / 3 s, and whether it holds."""
