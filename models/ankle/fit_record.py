@@ -37,7 +37,7 @@ def markdown(record: dict) -> str:
            "of the range and not on a bound):", "",
            md_table(["parameter", "value", "sd", "range", "a priori", "identified", "range's source"], rows), "",
            f"Targets (z = weighted residual; cost {record['cost']:.2f} after {record['evaluations']} evaluations, "
-           f"started from {record.get('started_from', 'a priori')} values):",
+           f"started from: {record.get('started_from', 'a priori')}):",
            "", md_table(["target", "paper", "simulated", "sigma", "z"], targets)]
     if trials:
         out += ["", "Planner torque tolerance for C8 (required duty at 18 mm):", "",
