@@ -165,3 +165,38 @@ def test_softer_springs_cost_more_copper_on_both_models():
         m = design.efficiency_map(1.2, preset, overrides=over, ks=ks, Ps=Ps_, executor="serial")
         cu = {(k, P): m.at(k, P, "E_copper_J") for k in ks for P in Ps_}
         assert cu[(130e3, 0.007)] < cu[(60e3, 0.007)] < cu[(60e3, 0.004)], (preset, cu)
+
+
+def test_motor_loss_falls_from_2_to_5_mm_whatever_the_planners_band():
+    """C5: at 2 mm the MACCEPA is soft (T ~ alpha^3): with a tight torque band (1 N m) the plan moves the arm far and
+    fast there, the motor runs faster than at 5 mm and draws more current (its inertia torque); the fitted 6 N m band
+    takes the slowest arm path in the band, the motor then runs slower than at 5 mm, at a lower efficiency, as the
+    paper's own explanation has it (4.2.2). Either way the motor loss at 2 mm is above that at 5 mm (2 s/stride)."""
+    def run(P, tol):
+        r = run_condition(Condition(P, 2.0, model="closed_loop", preset="paper_fit",
+                                    overrides={"torque_tolerance": tol}), traces=("motor.i", "motor.w"))
+        return (r.loss_fraction["motor"], np.mean(np.abs(r.traces["motor.w"])),
+                np.sqrt(np.mean(r.traces["motor.i"] ** 2)))
+    for tol in (1.0, 6.0):
+        (loss2, w2, i2), (loss5, w5, i5) = run(0.002, tol), run(0.005, tol)
+        assert loss2 > loss5 + 0.01 and i2 > i5, (tol, loss2, loss5, i2, i5)
+        assert (w2 > 1.05 * w5) if tol == 1.0 else (w2 < w5), (tol, w2, w5)
+
+
+def test_r_inflation_is_the_drivers_losses(tmp_path):
+    """C13: Eq. 4 (ideal driver and gears) calibrated on recordings of the fitted chain inflates R by about 4x,
+    beyond the paper's 2.86x; with the chain's driver made lossless (no constant draw, conduction or switching
+    loss), the same calibration gives about 3x, within the claim's 25 %: the rest of the inflation is the driver's
+    losses, which show in the supply current that makes R identifiable."""
+    from acausal.models.ankle.published import PAPER
+    from acausal.models.bench import calibration
+    from acausal.models.bench.virtual import BenchCondition, run_bench, truth_body_mass
+    conds = [BenchCondition(P, T, strides=3, body_mass=truth_body_mass("paper_fit"))
+             for P in (0.005, 0.015) for T in (1.2, 2.0)]
+    paper = PAPER["table2_R"][1] / PAPER["table2_R"][0]
+    ratio = {}
+    for name, truth in (("fitted", None), ("lossless", {"driver.P_q": 0.0, "driver.R_on": 0.0, "driver.k_sw": 0.0})):
+        run_bench(tmp_path / name, conds, seed=2014, chain="paper_fit", truth=truth, executor="serial")
+        ratio[name] = calibration.fit(tmp_path / name, "R,J,b")[0].values["motor.R"] / PAPER["table2_R"][0]
+    assert ratio["fitted"] > 1.25 * paper and abs(ratio["lossless"] / paper - 1) <= 0.25, ratio
+    assert ratio["fitted"] - ratio["lossless"] > 0.5, ratio
