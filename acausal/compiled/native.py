@@ -75,12 +75,6 @@ _LOADED: dict = {}
 _REFUSED: dict = {}
 
 
-def available() -> bool:
-    """Whether the fixed step can take the native loop here: a C compiler is found (a source it refuses still
-    falls back, per function)."""
-    return which_compiler()[0] is not None
-
-
 class NativeRK4:
     """The compiled RK4 loop of one rate function (``ny`` values: states, then sensitivities by columns; ``m``
     inputs); call with the start ``y0``, the stage columns, the parameter and mode vector and the substeps."""

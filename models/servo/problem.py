@@ -118,11 +118,12 @@ def replay_job(key, rec, values: dict, names=(), substeps: int | None = SUBSTEPS
     return (key, rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names), substeps)
 
 
-def max_substeps() -> int:
-    """The most substeps a replay takes before CVODES (:data:`MAX_SUBSTEPS` of the backend the fixed step runs
-    on here)."""
-    from acausal.compiled.native import available
-    return MAX_SUBSTEPS["C" if available() else "CasADi"]
+def max_substeps(cm) -> int:
+    """The most substeps a replay of ``cm`` takes before CVODES: :data:`MAX_SUBSTEPS` of the backend its fixed
+    step runs on (:attr:`FixedStep.backend <acausal.compiled.fixed_step.FixedStep.backend>`: C where the machine's
+    compiler built its loop, else CasADi's virtual machine)."""
+    from acausal.compiled.fixed_step import fixed_step
+    return MAX_SUBSTEPS[fixed_step(cm, SUBSTEPS).backend]
 
 
 def fixed_step_runs(cm) -> bool:
@@ -222,9 +223,10 @@ class ReplayBatch:
         """Substeps from ``ks`` (recording -> substeps) on, doubled per recording until its replay differs from
         one at twice as many by ``tol`` at most (None beyond :func:`max_substeps`: CVODES)."""
         out = dict(ks)
-        if not fixed_step_runs(compiled(*self.key)):  # e.g. a Newton block (a current limit behind a sagging bus)
+        cm = compiled(*self.key)
+        if not fixed_step_runs(cm):  # e.g. a Newton block (a current limit behind a sagging bus)
             return {j: None for j in ks}
-        most = max_substeps()
+        most = max_substeps(cm)
         todo = [j for j, k in ks.items() if k is not None]
         coarse = dict(zip(todo, self._map([replay_job(self.key, self.recordings[j], values, (), ks[j])
                                            for j in todo])))

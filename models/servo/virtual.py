@@ -68,7 +68,8 @@ def record(folder, hidden: dict | None = None, truth: dict | None = None, seed: 
             res = cm.simulate(t[-1], t_start=t[0], t_eval=t, params=p, inputs=inputs_from(t, columns),
                               starts=_starts(cm, {"pendulum.phi": 0.0, "pendulum.w": 0.0}), rtol=1e-8, atol=1e-10)
             pos = np.round(np.asarray(res[READING]) / STEP) * STEP
-            meta = {"kp": np.asarray(kp).item(), "controller": {"error_gain_per_rad": OTHER_GAIN, "vendor_note": "simulated"},
+            meta = {"kp": np.asarray(kp).item(),  # a numpy gain as a plain number (JSON)
+                    "controller": {"error_gain_per_rad": OTHER_GAIN, "vendor_note": "simulated"},
                     "mass_kg": RIG["mass_kg"], "arm_length_m": RIG["arm_length_m"], "arm_mass_kg": None,
                     "trajectory_name": traj, "actuator": "a simulated 12 V servo", "rig": {"type": "pendulum"},
                     "hidden": {k: float(v) for k, v in hidden.items()}}
