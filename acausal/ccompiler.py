@@ -56,8 +56,9 @@ class BuildError(RuntimeError):
     """A shared library could not be built (no compiler, or the compiler refused the source: its message)."""
 
 
-def shared_library(source: str, flags=("-O1",), compiler: str | None = None) -> Path:
-    """The shared library built from C ``source`` with ``flags`` (cached by content: :func:`cache_dir`). Raises
+def shared_library(source: str, flags=("-O1",), compiler: str | None = None, libs=()) -> Path:
+    """The shared library built from C ``source`` with ``flags``, linked with ``libs`` (``-l`` options, after the
+    source) (cached by content: :func:`cache_dir`). Raises
     :class:`BuildError` without a compiler or when it fails. Written to a temporary name and moved into place,
     so processes building the same source at once do not read a half-written file."""
     cc, origin = which_compiler(compiler)
@@ -66,7 +67,7 @@ def shared_library(source: str, flags=("-O1",), compiler: str | None = None) -> 
     suffix = ".dylib" if sys.platform == "darwin" else ".so"
     link = ("-dynamiclib",) if sys.platform == "darwin" else ("-shared",)
     cmd = [cc, *link, "-fPIC", *flags]
-    key = hashlib.sha256("\0".join([*cmd, source]).encode()).hexdigest()[:32]
+    key = hashlib.sha256("\0".join([*cmd, *libs, source]).encode()).hexdigest()[:32]
     folder = cache_dir()
     lib = folder / f"{key}{suffix}"
     if lib.exists():
@@ -76,7 +77,7 @@ def shared_library(source: str, flags=("-O1",), compiler: str | None = None) -> 
         fh.write(source)
     out = tmp[:-2] + suffix
     try:
-        run = subprocess.run([*cmd, "-o", out, tmp, "-lm"], capture_output=True, text=True, timeout=300)
+        run = subprocess.run([*cmd, "-o", out, tmp, *libs, "-lm"], capture_output=True, text=True, timeout=300)
         if run.returncode != 0:
             raise BuildError(f"{cc} failed (exit status {run.returncode}): {(run.stderr or run.stdout)[-800:]}")
         os.replace(out, lib)

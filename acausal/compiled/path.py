@@ -90,14 +90,17 @@ class CompiledPath:
         self._last = (u, self._rhs[layout])
         return self._last[1]
 
-    def _build_rhs(self, u):
+    def _build_rhs(self, u, signals=None):
+        """The right-hand side pieces of the run's signals ``u`` (a dict, see the cache comment), or why it has no
+        CasADi form. ``signals``: a function of the time symbol returning the :class:`~.translate.Signals` to
+        translate with (default: the tables' numbers inside the expressions)."""
         import casadi as ca
 
         from .translate import Signals, Unsupported, state_derivatives, translate
         cm = self.cm
         try:
-            sig = Signals(cm, u)
             t = ca.SX.sym("t")
+            sig = Signals(cm, u) if signals is None else signals(t)
             x = ca.SX.sym("x", len(cm.state_names))
             p = ca.SX.sym("p", len(cm.param_names))
             d = ca.SX.sym("d", len(cm.discrete_names))

@@ -18,7 +18,18 @@ def integrate(run):
 
     cm, t_start, t_out, p, d, u = run.cm, run.t_start, run.t_out, run.p, run.d.copy(), run.u
     if cm.event_zeros:
+        from ..compiled import native_events
         from ..compiled.events import simulate_with_events
+        if native_events.enabled():
+            names = account_integrals(cm.accounts) if run.dense_output and cm.accounts is not None else []
+            runner, sig = native_events.segment_runner(cm, u, cm.compiled_path.integrable(names, u) if names else [])
+            if runner is not None:
+                try:
+                    return native_events.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, d, u,
+                                                         run.rtol, run.atol, run.max_step, run.first_step,
+                                                         run.max_events, run.dense_output, run.starts)
+                except SimulationError:
+                    d = run.d.copy()  # the CasADi path runs it from the start (and says where it fails)
         return simulate_with_events(cm, t_start, run.x0.copy(), t_out, p, d, u, run.rtol, run.atol, run.max_step,
                                     run.first_step, run.max_events, run.dense_output, run.starts)
     path = cm.compiled_path

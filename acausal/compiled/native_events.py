@@ -1,0 +1,278 @@
+"""State events in native code: a run with state events integrated by SUNDIALS IDAS itself, its crossings found
+inside the integration, the model's functions printed as C by CasADi (``native_dae.c`` holds the loop).
+
+Each segment between two events is one call into the library: IDAS steps from a consistent start (the algebraic
+variables from the Python Newton solve of their blocks, as on the CasADi path), checks the zero functions at the end
+of each step and at :data:`SUBSTEPS` interior points of it (IDAS's interpolating polynomial), writes the outputs it
+passes, and stops at the first crossing, located on that polynomial. The event itself (its assignments, the cascade
+of mode changes, the thresholds watched from there) is the scipy path's own (:mod:`acausal.modes`), so all paths
+switch the same way; a crossing that changes no mode is passed and the next segment starts from it.
+
+This removes what made events expensive on the CasADi path (:mod:`acausal.compiled.events`): there, every run of
+the integrator starts cold and costs about a millisecond whatever its length, and a crossing costs several runs
+(windows, the locating run, the integrals up to it). Here a segment costs one start, and the steps themselves run
+in compiled code. Table inputs (recordings, gait tables) are evaluated in C from their numbers passed at run time,
+so one library serves every recording of a model.
+
+Needs a C compiler and SUNDIALS's headers and libraries (IDAS 6: Debian's ``libsundials-dev``); without them, or for
+a model whose functions have no CasADi form, :func:`segment_runner` returns None and the run stays on the CasADi
+path. ``ACAUSAL_NATIVE_EVENTS=0`` in the environment keeps every run there.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..ccompiler import BuildError, shared_library, which_compiler
+from ..errors import SimulationError
+from ..modes import after_end, apply_hits, check_zeros, handle_event, restarts, settle_modes, zeros
+from .translate import Signals, Unsupported
+
+SUBSTEPS = 8  # interior points of a solver step at which the zero functions are also checked (as the scipy path)
+MAX_NUM_STEPS = 1_000_000  # solver steps per segment at most
+MAX_PASSES = 100_000  # crossings that change no mode, per run, at most (each restarts the integration past it)
+SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
+LIBS = ("-lsundials_idas", "-lsundials_nvecserial", "-lsundials_sunmatrixdense", "-lsundials_sunlinsoldense")
+OUTSIDE = {"extend": 0, "hold": 1, "periodic": 2}  # how a table continues beyond its breaks (native_dae.c)
+_SOURCE = Path(__file__).with_name("native_dae.c")
+_REFUSED: dict = {}  # source digest -> why the compiler refused it (tried once per process)
+_DOUBLES = ctypes.POINTER(ctypes.c_double)
+_LONGS = ctypes.POINTER(ctypes.c_long)
+_INTS = ctypes.POINTER(ctypes.c_int)
+
+
+def enabled() -> bool:
+    """Whether runs with state events may take the native loop (``ACAUSAL_NATIVE_EVENTS=0`` says no)."""
+    return os.environ.get("ACAUSAL_NATIVE_EVENTS", "1") != "0" and which_compiler()[0] is not None
+
+
+class RuntimeSignals(Signals):
+    """:class:`~.translate.Signals` whose table lookups become symbols (``slots``: one per table, derivative order
+    and argument), their values computed in C from the numbers of the run's tables at the arguments (expressions of
+    time and parameters: ``arguments``); a table read at an argument that depends on the states raises
+    :class:`Unsupported`."""
+
+    def __init__(self, cm, u, t):
+        super().__init__(cm, u)
+        self.t = t
+        self.slots: list = []  # (table input index, derivative order)
+        self.arguments: list = []  # the argument of each slot (CasADi, of time and parameters)
+        self.symbols: list = []
+
+    def _table(self, k, order, arg):
+        import casadi as ca
+        for j, (key, a) in enumerate(zip(self.slots, self.arguments)):
+            if key == (k, order) and ca.is_equal(a, arg, 64):
+                return self.symbols[j]
+        self.slots.append((k, order))
+        self.arguments.append(arg)
+        self.symbols.append(ca.SX.sym(f"s{len(self.slots) - 1}"))
+        return self.symbols[-1]
+
+    def tables(self):
+        """``(table fields, slots, numbers)`` of the run: per table input used, its pieces, degree, how it continues
+        outside, the offsets of its breaks and rows in the numbers, and its row width (``native_dae.c``)."""
+        used = sorted({k for k, _ in self.slots})
+        fields, data, where = [], [], {}
+        offset = 0
+        for k in used:
+            _, (n, g, outside, _, _), breaks, rows = self.forms[k]
+            where[k] = len(fields) // 6
+            fields += [n, g, OUTSIDE[outside], offset, offset + breaks.size, rows.shape[1]]
+            data += [breaks.ravel(), rows.ravel()]
+            offset += breaks.size + rows.size
+        slots = [v for k, order in self.slots for v in (where[k], order)]
+        numbers = np.concatenate(data) if data else np.zeros(1)
+        return (np.array(fields or [0], dtype=np.int64), np.array(slots or [0], dtype=np.int64),
+                np.ascontiguousarray(numbers, dtype=float))
+
+
+class SegmentRunner:
+    """The compiled segment loop of one model, one signal layout and one set of quadratures."""
+
+    def __init__(self, path, fn, n, nz, names, ng, entry):
+        self.path, self.fn, self.n, self.nz, self.ng = str(path), fn, n, nz, ng
+        self.names = [name for name in names if not isinstance(name, tuple)]  # the integrals a Result gets
+        self.nq, self.nv = len(names), len(names) - len(self.names)  # then the zero functions' variations
+        self.entry = entry  # z_index and the caches the algebraic start needs
+
+    def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
+        """One segment: ``(status, outputs written, X, Q, t_event, y_event, q_event, directions, message)``."""
+        fields, slots, numbers = sig.tables()
+        ny, nq, N = self.n + self.nz, self.nq, t_out.size
+        X, Q = np.empty((N, ny)), np.empty((N, max(nq, 1)))
+        y_e, q_e = np.empty(ny), np.empty(max(nq, 1))
+        dirs = np.zeros(max(self.ng, 1), dtype=np.int32)
+        written, t_e = ctypes.c_long(0), ctypes.c_double(np.nan)
+        msg = ctypes.create_string_buffer(512)
+        args = [np.ascontiguousarray(a, dtype=float) for a in (y0, pd, off if len(off) else [0.0], t_out,
+                                                                g0 if len(g0) else [0.0])]
+        status = self.fn(self.n, self.nz, nq, self.nv, self.ng, len(sig.slots), float(t0),
+                         *[a.ctypes.data_as(_DOUBLES) for a in args[:3]], args[4].ctypes.data_as(_DOUBLES),
+                         np.ascontiguousarray(mute if len(mute) else [0], dtype=np.int32).ctypes.data_as(_INTS),
+                         fields.ctypes.data_as(_LONGS), slots.ctypes.data_as(_LONGS), numbers.ctypes.data_as(_DOUBLES),
+                         N, args[3].ctypes.data_as(_DOUBLES), float(rtol), float(atol),
+                         float(max_step), float(first_step or 0.0), MAX_NUM_STEPS, SUBSTEPS,
+                         X.ctypes.data_as(_DOUBLES), Q.ctypes.data_as(_DOUBLES), ctypes.byref(written),
+                         ctypes.byref(t_e), y_e.ctypes.data_as(_DOUBLES), q_e.ctypes.data_as(_DOUBLES),
+                         dirs.ctypes.data_as(_INTS), msg, len(msg))
+        k = written.value
+        nr = len(self.names)
+        return status, k, X[:k].T, Q[:k, :nr].T, t_e.value, y_e, q_e[:nr], dirs[:self.ng], msg.value.decode(
+            errors="replace")
+
+
+def segment_runner(cm, u, integrals):
+    """``(runner, signals)`` for runs of ``cm`` with signals ``u`` and the quadratures ``integrals`` (those with a
+    compiled form), or ``(None, why not)``. Built once per model, layout and quadratures (the library once per
+    machine: :func:`acausal.ccompiler.shared_library` caches it by its source)."""
+    path = cm.compiled_path
+    store = path.__dict__.setdefault("_native", {})
+    try:
+        layout = tuple((f[0], f[1][:4] if f[0] == "table" else f[1]) for f in
+                       (Signals.layout(cm, u)))
+    except Unsupported as exc:
+        return None, str(exc)
+    key = (layout, tuple(integrals))
+    if key not in store:
+        store[key] = _build(cm, u, integrals)
+    runner = store[key][0]
+    if runner is None:
+        return None, store[key][1]
+    sig = RuntimeSignals(cm, u, None)  # this run's numbers, the slots of the build
+    sig.slots = list(store[key][1].slots)
+    return runner, sig
+
+
+def _build(cm, u, integrals):
+    import casadi as ca
+    path = cm.compiled_path
+    made: list = []
+
+    def signals(t):
+        made.append(RuntimeSignals(cm, u, t))
+        return made[-1]
+    entry = path._build_rhs(u, signals)
+    if isinstance(entry, str):
+        return None, entry
+    sig = made[0]
+    zeros = path._zero_functions(entry)
+    if isinstance(zeros, str):
+        return None, zeros
+    names, qexpr = path._quadratures(entry, tuple(integrals), variation=True)  # the variations last
+    t, x, z, pds = entry["t"], entry["x"], entry["z"], entry["pds"]
+    y = ca.vertcat(x, z)
+    s = ca.vertcat(*sig.symbols) if sig.symbols else ca.SX(0, 1)
+    ins = [t, y, pds, s]
+    arguments = ca.vertcat(*sig.arguments) if sig.arguments else ca.SX(0, 1)
+    if ca.depends_on(arguments, y) or ca.depends_on(arguments, s):
+        return None, "a table input is read at an argument that depends on the states"
+    f, alg = ca.densify(entry["f"]), ca.densify(entry["alg"])
+    funcs = [ca.Function("acausal_dae", ins, [f, alg]),
+             ca.Function("acausal_jac", ins, [ca.densify(ca.jacobian(ca.vertcat(f, alg), y))]),
+             ca.Function("acausal_quad", ins, [ca.SX(0, 1) if qexpr is None else ca.densify(qexpr)]),
+             ca.Function("acausal_zeros", ins, [ca.densify(zeros[0])]),
+             ca.Function("acausal_arguments", [t, pds], [ca.densify(arguments)])]
+    cg = ca.CodeGenerator("acausal_model", {"with_header": False})
+    for fn in funcs:
+        cg.add(fn)
+    source = _SOURCE.read_text() + "\n" + cg.dump()
+    digest = hashlib.sha256(source.encode()).hexdigest()
+    if digest in _REFUSED:
+        return None, _REFUSED[digest]
+    try:
+        lib = shared_library(source, flags=("-O2",), libs=LIBS)
+    except BuildError as exc:
+        _REFUSED[digest] = f"the native event loop could not be built: {exc}"
+        return None, _REFUSED[digest]
+    fn = ctypes.CDLL(str(lib)).acausal_segment
+    fn.argtypes = ([ctypes.c_long] * 6 + [ctypes.c_double] + [_DOUBLES] * 4 + [_INTS, _LONGS, _LONGS, _DOUBLES, ctypes.c_long,
+                   _DOUBLES] + [ctypes.c_double] * 4 + [ctypes.c_long] * 2 + [_DOUBLES, _DOUBLES, _LONGS, _DOUBLES,
+                   _DOUBLES, _DOUBLES, _INTS, ctypes.c_char_p, ctypes.c_long])
+    fn.restype = ctypes.c_int
+    return SegmentRunner(lib, fn, x.numel(), z.numel(), names, int(zeros[0].numel()), entry), sig
+
+
+FAILURES = {-1: "IDAS failed", -2: "a model function failed", -4: f"more than {MAX_NUM_STEPS} steps",
+            -5: "out of memory"}
+
+
+def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
+                    dense_output, starts=None):
+    """The run of a model with state events on the native loop (see the module); returns the Result. Raises
+    :class:`SimulationError` where IDAS fails (the caller then runs it on the CasADi path)."""
+    from ..result import Result
+    from ..simulation.initial import initialize
+
+    path = cm.compiled_path
+    names = runner.names
+    x_start, d_start = x0, d
+    d = settle_modes(cm, t_start, x0, p, d, u)
+    x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
+    n, N = len(x0), t_out.size
+    X, D = np.empty((n, N)), np.empty((len(d), N))
+    Q = {name: np.zeros(N) for name in names}
+    done = np.zeros(len(names))
+    events: list = []
+    t, x, k_out, passes = t_start, np.asarray(x0, dtype=float), 0, 0
+    off = np.zeros(len(cm.event_zeros))
+    mute = np.zeros(len(cm.event_zeros), dtype=np.int32)  # passed crossings at the start: no crossing leaving 0
+    while True:
+        while k_out < N and t_out[k_out] <= t + SAME_TIME_ULPS * np.spacing(abs(t)):
+            X[:, k_out], D[:, k_out] = x, d
+            for j, name in enumerate(names):
+                Q[name][k_out] = done[j]
+            k_out += 1
+        if k_out == N:
+            break
+        z0 = path._algebraic_start(runner.entry, t, x, p, d, u) if runner.nz else np.zeros(0)
+        g0 = zeros(cm, t, x, p, d, u, off=off)  # the start's signs as the other paths see them (an exact 0 in Python
+        # may be a round-off off it in C: leaving it is then a crossing at the start, as there)
+        status, k, Xs, Qs, t_e, y_e, q_e, dirs, said = runner.run(
+            sig, t, np.concatenate([x, z0]), np.concatenate([p, d]), g0, mute, off, t_out[k_out:], rtol, atol,
+            max_step, first_step)
+        if status < 0:
+            if status == -3:  # a zero function without a sign: the scipy path's message, naming its event
+                check_zeros(cm, t_e, np.array([float(v) for v in cm.funcs["zeros"](t_e, y_e[:n], p, d, u)]) - off, d)
+            raise SimulationError(f"native event loop (IDAS): the segment from t = {t:g} s failed: "
+                                  f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
+        X[:, k_out:k_out + k], D[:, k_out:k_out + k] = Xs[:n], d[:, None]
+        for j, name in enumerate(names):
+            Q[name][k_out:k_out + k] = done[j] + Qs[j]
+        k_out += k
+        if status == 0:
+            break
+        hits = [(t_e, int(i), bool(dirs[i] > 0)) for i in np.flatnonzero(dirs)]
+        x_e = y_e[:n].copy()
+        done = done + q_e
+        d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
+        if np.array_equal(d_new, d) and not restarts(cm, hits):
+            passes += 1
+            if passes > MAX_PASSES:
+                raise SimulationError(f"native event loop: more than {MAX_PASSES} crossings that change no mode by "
+                                      f"t = {t_e:.9g} s")
+            mute = (dirs != 0).astype(np.int32)  # a zero function left at exactly 0 there leaves it unseen
+            t, x = t_e, x_e
+            continue
+        x_e, d, off = handle_event(cm, events, hits, t_e, x_e, p, d, d_new, u, max_events)
+        mute[:] = 0
+        after_end(t_out, t_e, X, D, x_e, d)
+        t, x = t_e, x_e
+
+    def later(more):  # the same run again, those integrated with the states
+        more = path.integrable(list(more), u)
+        if not more:
+            return {}
+        again, why = segment_runner(cm, u, more)
+        if again is None:
+            return {}
+        run = simulate_native(cm, again, why, t_start, x_start, t_out, p, d_start, u, rtol, atol, max_step,
+                              first_step, max_events, False, starts)
+        return run._integrals
+
+    return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
+                  solver="IDAS (compiled path, native: the model compiled to C, events located in its steps)")
