@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <cvodes/cvodes.h>
 #include <idas/idas.h>
 #include <nvector/nvector_serial.h>
 #include <sunlinsol/sunlinsol_dense.h>
@@ -130,6 +131,17 @@ static int call(Model* m, int (*fn)(const casadi_real**, casadi_real**, casadi_i
   return 0;
 }
 
+static int rate_quadrature(double t, N_Vector yy, N_Vector rq, void* data) {
+  Model* m = (Model*)data;
+  return call(m, acausal_quad, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+}
+
+static int quadrature(double t, N_Vector yy, N_Vector yp, N_Vector rq, void* data) {
+  Model* m = (Model*)data;
+  (void)yp;
+  return call(m, acausal_quad, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+}
+
 static int residual(double t, N_Vector yy, N_Vector yp, N_Vector rr, void* data) {
   Model* m = (Model*)data;
   double *y = N_VGetArrayPointer(yy), *dy = N_VGetArrayPointer(yp), *r = N_VGetArrayPointer(rr);
@@ -155,10 +167,24 @@ static int jacobian(double t, double cj, N_Vector yy, N_Vector yp, N_Vector rr, 
   return 0;
 }
 
-static int quadrature(double t, N_Vector yy, N_Vector yp, N_Vector rq, void* data) {
+/* the ODE's right-hand side, Jacobian and quadratures for CVODES (a model without algebraic variables) */
+static int rate(double t, N_Vector yy, N_Vector dy, void* data) {
   Model* m = (Model*)data;
-  (void)yp;
-  return call(m, acausal_quad, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+  double* r = N_VGetArrayPointer(dy);
+  long i;
+  if (call(m, acausal_dae, t, N_VGetArrayPointer(yy), r, m->g)) return -1;
+  for (i = 0; i < m->n; i++) if (!isfinite(r[i])) return 1; /* recoverable: CVODES tries a smaller step */
+  return 0;
+}
+
+static int rate_jacobian(double t, N_Vector yy, N_Vector fy, SUNMatrix J, void* data, N_Vector t1, N_Vector t2,
+                         N_Vector t3) {
+  Model* m = (Model*)data;
+  long n = m->n, j;
+  (void)fy; (void)t1; (void)t2; (void)t3;
+  if (call(m, acausal_jac, t, N_VGetArrayPointer(yy), m->jac, 0)) return -1;
+  for (j = 0; j < n; j++) memcpy(SUNDenseMatrix_Column(J, j), m->jac + j * n, sizeof(double) * n);
+  return 0;
 }
 
 /* Solve the n x n system A x = b in place (A by columns; Gaussian elimination with partial pivoting); -1 when A is
@@ -215,10 +241,11 @@ static void consistent(Model* m, double t, double* y) {
   }
 }
 
-/* the zero functions at (t, y), relative to their thresholds (y's algebraic variables made consistent first) */
-static int zeros_at(Model* m, double t, double* y, double* out) {
+/* the zero functions at (t, y), relative to their thresholds; y interpolated within a step (between the solver's
+ * points) has its algebraic variables made consistent first */
+static int zeros_at(Model* m, double t, double* y, double* out, int interpolated) {
   long i;
-  consistent(m, t, y);
+  if (interpolated) consistent(m, t, y);
   if (call(m, acausal_zeros, t, y, out, 0)) return -1;
   for (i = 0; i < m->ng; i++) out[i] -= m->off[i];
   return 0;
@@ -267,16 +294,42 @@ static void on_error(int code, const char* module, const char* function, char* m
     snprintf(message_buffer, (size_t)message_size, "%s %s (%d): %s", module, function, code, msg);
 }
 
-/* the state at t within the last step (IDAS's interpolating polynomial), or at the step's end t_cur itself; a step
- * so short that IDAS takes t for outside it (a few units in the last place) gives its end values */
+/* the solver: CVODES for a model without algebraic variables (an ODE), IDAS for one with them (a DAE) */
+static int ode;
+
+static int get_dky(void* mem, double t, N_Vector out) {
+  return ode ? CVodeGetDky(mem, t, 0, out) : IDAGetDky(mem, t, 0, out);
+}
+
+/* the state at t within the last step (the solver's interpolating polynomial), or at the step's end t_cur itself;
+ * a step so short that the solver takes t for outside it (a few units in the last place) gives its end values */
 static void state_at(void* mem, double t, double t_cur, N_Vector y_cur, N_Vector out) {
-  if (t == t_cur || IDAGetDky(mem, t, 0, out) < 0) N_VScale(1.0, y_cur, out);
+  if (t == t_cur || get_dky(mem, t, out) < 0) N_VScale(1.0, y_cur, out);
+}
+
+static int get_quad_dky(void* mem, double t, N_Vector out) {
+  return ode ? CVodeGetQuadDky(mem, t, 0, out) : IDAGetQuadDky(mem, t, 0, out);
+}
+
+static int get_quad(void* mem, N_Vector out) {
+  double t_q;
+  return ode ? CVodeGetQuad(mem, &t_q, out) : IDAGetQuad(mem, &t_q, out);
 }
 
 /* the quadratures at t within the last step, as state_at */
 static void quad_at(void* mem, double t, double t_cur, N_Vector out) {
-  double t_q;
-  if (t == t_cur || IDAGetQuadDky(mem, t, 0, out) < 0) IDAGetQuad(mem, &t_q, out);
+  if (t == t_cur || get_quad_dky(mem, t, out) < 0) get_quad(mem, out);
+}
+
+/* The quadratures' error test: each step's error within rtol of what the integral gained in the step before (plus
+ * atol), not rtol of the whole integral so far (SUNDIALS's relative tolerance, which lets the error grow with the
+ * run: an energy off by 3e-5 at rtol 1e-6 over a second of a 45 Hz source); the integral's error is then rtol of
+ * its own size, as Gauss-Legendre on the scipy path's steps gives, and the CasADi event path's runs of at most
+ * 64-187 outputs gave by restarting their integrals. */
+static void quad_tolerances(void* mem, const double* gain, double rtol, double atol, N_Vector tol) {
+  long i, nq = N_VGetLength(tol);
+  for (i = 0; i < nq; i++) N_VGetArrayPointer(tol)[i] = atol + rtol * gain[i];
+  if (ode) CVodeQuadSVtolerances(mem, 0.0, tol); else IDAQuadSVtolerances(mem, 0.0, tol);
 }
 
 static int crossed(double a, double b) {
@@ -301,13 +354,14 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   casadi_int sz_arg = 4, sz_res = 2, sz_iw = 0, sz_w = 0, a, r, iw_, w_;
   SUNContext ctx = NULL;
   void* mem = NULL;
-  N_Vector yy = NULL, yp = NULL, id = NULL, yq = NULL, tmp = NULL, tmpq = NULL;
+  N_Vector yy = NULL, yp = NULL, id = NULL, tmp = NULL, yq = NULL, tmpq = NULL, tolq = NULL;
   SUNMatrix A = NULL;
   SUNLinearSolver LS = NULL;
   Model m;
   int* muted = NULL;
-  double *ga = NULL, *gb = NULL, *gt = NULL, *gm = NULL, *te = NULL, *v_prev = NULL, *buf = NULL;
-  double t_prev, t_cur, t_q, t_end = t_out[n_out - 1] - t0;  /* times since t0 from here on */
+  double *ga = NULL, *gb = NULL, *gt = NULL, *gm = NULL, *te = NULL, *v_prev = NULL, *qgain = NULL;
+  double* buf = NULL;
+  double t_prev, t_cur, t_end = t_out[n_out - 1] - t0;  /* times since t0 from here on */
 
   memset(&m, 0, sizeof(m));
   message_buffer = msg; message_size = msg_size;
@@ -324,7 +378,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     if (iw_ > sz_iw) sz_iw = iw_;
     if (w_ > sz_w) sz_w = w_;
   }
-  sz = 2 * ns + n + nz + ny * ny + nq + ng + 6 * ng + ny + 1 + ny + nz * nz + nz + n;
+  sz = 2 * ns + n + nz + ny * ny + nq + ng + 6 * ng + ny + 1 + ny + nz * nz + nz + n + nq + ng + 1;
   m.arg = malloc(sizeof(*m.arg) * sz_arg);
   m.res = malloc(sizeof(*m.res) * sz_res);
   m.iw = malloc(sizeof(*m.iw) * (sz_iw + 1));
@@ -334,8 +388,8 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   m.s = buf; m.at = m.s + ns; m.f = m.at + ns; m.g = m.f + n; m.jac = m.g + nz; m.quad = m.jac + ny * ny; m.zero = m.quad + nq;
   m.znew = m.zero + ng; m.gz = m.znew + ny; m.dz = m.gz + nz * nz;
   m.dz0 = m.dz + nz;
-  ga = m.dz0 + n; gb = ga + ng; gt = gb + ng; gm = gt + ng; te = gm + ng; v_prev = te + ng;
-  memset(v_prev, 0, sizeof(double) * ng);
+  ga = m.dz0 + n; gb = ga + ng; gt = gb + ng; gm = gt + ng; te = gm + ng; v_prev = te + ng; qgain = v_prev + ng;
+  memset(v_prev, 0, sizeof(double) * (ng + nq));
   muted = calloc(ng + 1, sizeof(int));
   if (!muted) { status = -5; goto done; }
   for (i = 0; i < ng; i++) muted[i] = mute[i];
@@ -350,32 +404,50 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     N_VGetArrayPointer(yp)[i] = i < n ? m.f[i] : 0.0;
     N_VGetArrayPointer(id)[i] = i < n ? 1.0 : 0.0;
   }
-  mem = IDACreate(ctx);
+  ode = nz == 0;
+  mem = ode ? CVodeCreate(CV_BDF, ctx) : IDACreate(ctx);
   if (!mem) { status = -5; goto done; }
-  IDASetErrHandlerFn(mem, on_error, NULL);
-  if (IDAInit(mem, residual, 0.0, yy, yp) || IDASStolerances(mem, rtol, atol) || IDASetUserData(mem, &m)) {
-    status = -1; goto done;
-  }
   A = SUNDenseMatrix(ny, ny, ctx);
   LS = SUNLinSol_Dense(yy, A, ctx);
-  if (!A || !LS || IDASetLinearSolver(mem, LS, A) || IDASetJacFn(mem, jacobian)) { status = -1; goto done; }
-  IDASetStopTime(mem, t_end);
-  IDASetMaxNumSteps(mem, 1000000);
-  if (isfinite(max_step)) IDASetMaxStep(mem, max_step);
-  IDASetInitStep(mem, first_step > 0 ? first_step : first_step_guess(&m, y0, rtol, atol, t_end));
-  if (nz) { IDASetId(mem, id); IDASetSuppressAlg(mem, SUNTRUE); }
+  if (!A || !LS) { status = -5; goto done; }
+  double h0 = first_step > 0 ? first_step : first_step_guess(&m, y0, rtol, atol, t_end);
   if (nq) {
-    yq = N_VNew_Serial(nq, ctx); tmpq = N_VNew_Serial(nq, ctx);
-    if (!yq || !tmpq) { status = -5; goto done; }
+    yq = N_VNew_Serial(nq, ctx); tmpq = N_VNew_Serial(nq, ctx); tolq = N_VNew_Serial(nq, ctx);
+    if (!yq || !tmpq || !tolq) { status = -5; goto done; }
     N_VConst(0.0, yq);
-    if (IDAQuadInit(mem, quadrature, yq) || IDAQuadSStolerances(mem, rtol, atol) || IDASetQuadErrCon(mem, SUNTRUE)) {
-      status = -1; goto done;
-    }
+  }
+  if (ode) {
+    CVodeSetErrHandlerFn(mem, on_error, NULL);
+    if (CVodeInit(mem, rate, 0.0, yy) || CVodeSStolerances(mem, rtol, atol) || CVodeSetUserData(mem, &m) ||
+        CVodeSetLinearSolver(mem, LS, A) || CVodeSetJacFn(mem, rate_jacobian)) { status = -1; goto done; }
+    CVodeSetMaxNumSteps(mem, 1000000);
+    if (isfinite(max_step)) CVodeSetMaxStep(mem, max_step);
+    CVodeSetInitStep(mem, h0);
+    if (nq && (CVodeQuadInit(mem, rate_quadrature, yq) || CVodeQuadSStolerances(mem, rtol, atol) ||
+               CVodeSetQuadErrCon(mem, SUNTRUE))) { status = -1; goto done; }
+  } else {
+    IDASetErrHandlerFn(mem, on_error, NULL);
+    if (IDAInit(mem, residual, 0.0, yy, yp) || IDASStolerances(mem, rtol, atol) || IDASetUserData(mem, &m) ||
+        IDASetLinearSolver(mem, LS, A) || IDASetJacFn(mem, jacobian)) { status = -1; goto done; }
+    IDASetMaxNumSteps(mem, 1000000);
+    if (isfinite(max_step)) IDASetMaxStep(mem, max_step);
+    IDASetInitStep(mem, h0);
+    IDASetId(mem, id);
+    IDASetSuppressAlg(mem, SUNTRUE);
+    if (nq && (IDAQuadInit(mem, quadrature, yq) || IDAQuadSStolerances(mem, rtol, atol) ||
+               IDASetQuadErrCon(mem, SUNTRUE))) { status = -1; goto done; }
   }
   memcpy(ga, g0, sizeof(double) * ng);  /* the start's values, as the caller has them */
   t_prev = 0.0;
+  long stop_k = -1;  /* the output the solver must not step past (its stop time): the steps end at every output */
   while (k < n_out) {
-    flag = IDASolve(mem, t_end, &t_cur, yy, yp, IDA_ONE_STEP);
+    if (stop_k != k) {
+      double stop = t_out[k] - t0;
+      if (stop > t_prev) { if (ode) CVodeSetStopTime(mem, stop); else IDASetStopTime(mem, stop); }
+      stop_k = k;
+    }
+    if (nq) quad_tolerances(mem, qgain, rtol, atol, tolq);
+    flag = ode ? CVode(mem, t_end, yy, &t_cur, CV_ONE_STEP) : IDASolve(mem, t_end, &t_cur, yy, yp, IDA_ONE_STEP);
     if (flag < 0) { status = m.failed ? -2 : -1; goto done; }
     if (++steps > max_steps) { status = -4; goto done; }
     /* a crossing in (t_prev, t_cur]: the first sub-interval [ta, tb] of the step that shows one (ga: the zero
@@ -384,10 +456,18 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
      * have gone to zero and back */
     long hit = 0, suspect = 0, j;
     double ta = t_prev, tb = t_cur;
+    if (nq) { /* the integrals after the step, and what they gained in it */
+      for (i = 0; i < nq; i++) qgain[i] = -N_VGetArrayPointer(yq)[i];
+      get_quad(mem, yq);
+      /* the scale of the next step's error: the step's gain, or its length times the integrand at its end if more (an
+       * integrand through zero gains little in a step, and its own size still bounds the next one's) */
+      if ((ode ? CVodeGetQuadDky(mem, t_cur, 1, tmpq) : IDAGetQuadDky(mem, t_cur, 1, tmpq)) < 0) N_VConst(0.0, tmpq);
+      for (i = 0; i < nq; i++)
+        qgain[i] = fmax(fabs(qgain[i] + N_VGetArrayPointer(yq)[i]), (t_cur - t_prev) * fabs(N_VGetArrayPointer(tmpq)[i]));
+    }
     if (ng) {
       N_VScale(1.0, yy, tmp);
-      if (zeros_at(&m, t_cur, N_VGetArrayPointer(tmp), gb)) { status = -2; goto done; }
-      if (nv) { IDAGetQuad(mem, &t_q, yq); }
+      if (zeros_at(&m, t_cur, N_VGetArrayPointer(tmp), gb, 0)) { status = -2; goto done; }
       for (i = 0; i < ng; i++) {
         if (!isfinite(gb[i])) suspect = 1;
         else if (CROSSES(i, ga, gb)) suspect = 1;
@@ -400,7 +480,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     for (j = 1; suspect && j <= substeps + 1; j++) {
       double tj = j <= substeps ? t_prev + (t_cur - t_prev) * j / (substeps + 1) : t_cur;
       state_at(mem, tj, t_cur, yy, tmp);
-      if (zeros_at(&m, tj, N_VGetArrayPointer(tmp), gt)) { status = -2; goto done; }
+      if (zeros_at(&m, tj, N_VGetArrayPointer(tmp), gt, tj != t_cur)) { status = -2; goto done; }
       for (i = 0; i < ng; i++) {
         if (!isfinite(gt[i])) {
           *t_event = t0 + tj; memcpy(y_event, N_VGetArrayPointer(tmp), sizeof(double) * ny); status = -3; goto done;
@@ -429,7 +509,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
             tm = hi - fhi * (hi - lo) / (fhi - flo);
             if (!(tm > lo && tm < hi)) tm = 0.5 * (lo + hi);
             state_at(mem, tm, t_cur, yy, tmp);
-            if (zeros_at(&m, tm, N_VGetArrayPointer(tmp), gm)) { status = -2; goto done; }
+            if (zeros_at(&m, tm, N_VGetArrayPointer(tmp), gm, 1)) { status = -2; goto done; }
             fm = gm[i];
             if (fm == 0) { lo = hi = tm; break; }
             if ((fm < 0) == (fhi < 0)) { hi = tm; fhi = fm; if (side == -1) flo /= 2; side = -1; }
@@ -454,7 +534,10 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     while (k < n_out && t_out[k] - t0 <= t_stop) {
       state_at(mem, t_out[k] - t0, t_cur, yy, tmp);
       memcpy(X + k * ny, N_VGetArrayPointer(tmp), sizeof(double) * ny);
-      if (nq) { quad_at(mem, t_out[k] - t0, t_cur, tmpq); memcpy(Q + k * nq, N_VGetArrayPointer(tmpq), sizeof(double) * nq); }
+      if (nq) {
+        quad_at(mem, t_out[k] - t0, t_cur, tmpq);
+        memcpy(Q + k * nq, N_VGetArrayPointer(tmpq), sizeof(double) * nq);
+      }
       k++;
     }
     if (hit) {
@@ -473,7 +556,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   }
 done:
   *written = k;
-  if (mem) IDAFree(&mem);
+  if (mem) { if (ode) CVodeFree(&mem); else IDAFree(&mem); }
   if (LS) SUNLinSolFree(LS);
   if (A) SUNMatDestroy(A);
   if (yy) N_VDestroy(yy);
@@ -482,6 +565,7 @@ done:
   if (tmp) N_VDestroy(tmp);
   if (yq) N_VDestroy(yq);
   if (tmpq) N_VDestroy(tmpq);
+  if (tolq) N_VDestroy(tolq);
   if (ctx) SUNContext_Free(&ctx);
   free(m.arg); free(m.res); free(m.iw); free(m.w); free(buf); free(muted);
   message_buffer = NULL;

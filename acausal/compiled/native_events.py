@@ -30,13 +30,14 @@ import numpy as np
 from ..ccompiler import BuildError, shared_library, which_compiler
 from ..errors import SimulationError
 from ..modes import after_end, apply_hits, check_zeros, handle_event, restarts, settle_modes, zeros
+from .path import VARIATION_SCALE
 from .translate import Signals, Unsupported
 
 SUBSTEPS = 8  # interior points of a solver step at which the zero functions are also checked (as the scipy path)
 MAX_NUM_STEPS = 1_000_000  # solver steps per segment at most
 MAX_PASSES = 100_000  # crossings that change no mode, per run, at most (each restarts the integration past it)
 SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
-LIBS = ("-lsundials_idas", "-lsundials_nvecserial", "-lsundials_sunmatrixdense", "-lsundials_sunlinsoldense")
+LIBS = ("-lsundials_cvodes", "-lsundials_idas", "-lsundials_nvecserial", "-lsundials_sunmatrixdense", "-lsundials_sunlinsoldense")
 OUTSIDE = {"extend": 0, "hold": 1, "periodic": 2}  # how a table continues beyond its breaks (native_dae.c)
 _SOURCE = Path(__file__).with_name("native_dae.c")
 _REFUSED: dict = {}  # source digest -> why the compiler refused it (tried once per process)
@@ -73,6 +74,12 @@ class RuntimeSignals(Signals):
         self.symbols.append(ca.SX.sym(f"s{len(self.slots) - 1}"))
         return self.symbols[-1]
 
+    def tables_of_run(self):
+        """:meth:`tables`, once per run (a segment per event asks again)."""
+        if getattr(self, "_tables", None) is None:
+            self._tables = self.tables()
+        return self._tables
+
     def tables(self):
         """``(table fields, slots, numbers)`` of the run: per table input used, its pieces, degree, how it continues
         outside, the offsets of its breaks and rows in the numbers, and its row width (``native_dae.c``)."""
@@ -94,15 +101,16 @@ class RuntimeSignals(Signals):
 class SegmentRunner:
     """The compiled segment loop of one model, one signal layout and one set of quadratures."""
 
-    def __init__(self, path, fn, n, nz, names, ng, entry):
+    def __init__(self, path, fn, n, nz, names, rows, nq, ng, entry):
         self.path, self.fn, self.n, self.nz, self.ng = str(path), fn, n, nz, ng
-        self.names = [name for name in names if not isinstance(name, tuple)]  # the integrals a Result gets
-        self.nq, self.nv = len(names), len(names) - len(self.names)  # then the zero functions' variations
+        self.names = list(names)  # the integrals a Result gets
+        self.rows = np.asarray(rows, dtype=int)  # each name's row among the integrated quadratures (-1: zero)
+        self.nq, self.nv = nq, ng if nq else 0  # integrated: the distinct integrands, then the zero functions' variations
         self.entry = entry  # z_index and the caches the algebraic start needs
 
     def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
         """One segment: ``(status, outputs written, X, Q, t_event, y_event, q_event, directions, message)``."""
-        fields, slots, numbers = sig.tables()
+        fields, slots, numbers = sig.tables_of_run()
         ny, nq, N = self.n + self.nz, self.nq, t_out.size
         X, Q = np.empty((N, ny)), np.empty((N, max(nq, 1)))
         y_e, q_e = np.empty(ny), np.empty(max(nq, 1))
@@ -121,9 +129,10 @@ class SegmentRunner:
                          ctypes.byref(t_e), y_e.ctypes.data_as(_DOUBLES), q_e.ctypes.data_as(_DOUBLES),
                          dirs.ctypes.data_as(_INTS), msg, len(msg))
         k = written.value
-        nr = len(self.names)
-        return status, k, X[:k].T, Q[:k, :nr].T, t_e.value, y_e, q_e[:nr], dirs[:self.ng], msg.value.decode(
-            errors="replace")
+        rows, known = np.maximum(self.rows, 0), (self.rows >= 0)
+        Qn = np.where(known[:, None], Q[:k, rows].T, 0.0)  # one row per name (a structurally zero one: zeros)
+        qn = np.where(known, q_e[rows], 0.0)
+        return status, k, X[:k].T, Qn, t_e.value, y_e, qn, dirs[:self.ng], msg.value.decode(errors="replace")
 
 
 def segment_runner(cm, u, integrals):
@@ -163,7 +172,22 @@ def _build(cm, u, integrals):
     zeros = path._zero_functions(entry)
     if isinstance(zeros, str):
         return None, zeros
-    names, qexpr = path._quadratures(entry, tuple(integrals), variation=True)  # the variations last
+    names, qexpr = path._quadratures(entry, tuple(integrals))
+    # integrated: each distinct integrand once (a power sensor and the source it measures), none that is zero (an
+    # ideal sensor's port), then the zero functions' total variations (scaled, VARIATION_SCALE)
+    rows, distinct = [], []
+    for i in range(len(names)):
+        q = qexpr[i]
+        if q.is_zero():
+            rows.append(-1)
+            continue
+        same = [j for j, e in enumerate(distinct) if ca.is_equal(e, q, 64)]
+        rows.append(same[0] if same else len(distinct))
+        if not same:
+            distinct.append(q)
+    integrated = distinct + ([VARIATION_SCALE * ca.fabs(zeros[1][i]) for i in range(zeros[1].numel())]
+                             if distinct else [])
+    qexpr = ca.cse(ca.vertcat(*integrated)) if integrated else None
     t, x, z, pds = entry["t"], entry["x"], entry["z"], entry["pds"]
     y = ca.vertcat(x, z)
     s = ca.vertcat(*sig.symbols) if sig.symbols else ca.SX(0, 1)
@@ -194,7 +218,8 @@ def _build(cm, u, integrals):
                    _DOUBLES] + [ctypes.c_double] * 4 + [ctypes.c_long] * 2 + [_DOUBLES, _DOUBLES, _LONGS, _DOUBLES,
                    _DOUBLES, _DOUBLES, _INTS, ctypes.c_char_p, ctypes.c_long])
     fn.restype = ctypes.c_int
-    return SegmentRunner(lib, fn, x.numel(), z.numel(), names, int(zeros[0].numel()), entry), sig
+    return SegmentRunner(lib, fn, x.numel(), z.numel(), names, rows, len(integrated), int(zeros[0].numel()),
+                         entry), sig
 
 
 FAILURES = {-1: "IDAS failed", -2: "a model function failed", -4: f"more than {MAX_NUM_STEPS} steps",

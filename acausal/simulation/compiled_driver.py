@@ -1,6 +1,8 @@
 """The compiled backend: the run integrated by SUNDIALS CVODES (IDAS for a Newton block) through CasADi
-(:mod:`acausal.compiled`), the step loop in compiled code; a model with state events runs in windows between its
-crossings (:mod:`acausal.compiled.events`)."""
+(:mod:`acausal.compiled`), the step loop in compiled code. A model with state events runs in the native event loop
+(:mod:`acausal.compiled.native_events`: IDAS in C, the crossings found in its steps) where it can be built, else
+in windows between its crossings on CasADi's integrators (:mod:`acausal.compiled.events`), which also takes a run
+the native loop fails on."""
 from __future__ import annotations
 
 import numpy as np
