@@ -35,7 +35,7 @@ class _Rectifier(Model):
 
 def _native_or_skip(cm, inputs=None):
     res = cm.simulate(0.01, n_points=3, inputs=inputs, trust="off")
-    if not res.solver.startswith("IDAS (compiled path, native"):
+    if "compiled path, native" not in res.solver:
         pytest.skip(f"the native event loop is not built here (no C compiler or no libsundials-dev): {res.solver}")
     return res
 
@@ -50,7 +50,7 @@ def test_one_library_serves_every_recording_of_a_model():
         inputs = {"src.v_ref": _recording(amplitude, phase)}
         fast = cm.simulate(0.06, n_points=121, inputs=inputs, **TIGHT)
         ref = cm.simulate(0.06, n_points=121, inputs=inputs, method="BDF", trust="off", **TIGHT)
-        assert fast.solver.startswith("IDAS (compiled path, native"), fast.solver
+        assert fast.solver.startswith("CVODES (compiled path, native"), fast.solver  # an ODE: CVODES
         assert [e[1:] for e in fast.events] == [e[1:] for e in ref.events] and len(ref.events) >= 4
         assert np.allclose([e[0] for e in fast.events], [e[0] for e in ref.events], atol=1e-8)
         assert np.max(np.abs(fast["C.v"] - ref["C.v"])) < 1e-6 * np.ptp(ref["C.v"])
@@ -64,7 +64,7 @@ def test_a_run_from_a_negative_start_keeps_its_energy_integrals():
     cm = compile_model(_Rectifier())
     _native_or_skip(cm)
     res = cm.simulate(0.04, t_start=-0.02, n_points=81, rtol=1e-9, atol=1e-11, trust="off")
-    assert res.solver.startswith("IDAS (compiled path, native"), res.solver
+    assert "compiled path, native" in res.solver, res.solver
     assert res.events and abs(res.energy_balance().residual) < 1e-6
     ref = cm.simulate(0.04, t_start=-0.02, n_points=81, method="BDF", trust="off", rtol=1e-9, atol=1e-11)
     assert res.energy("R.loss_power")[-1] == pytest.approx(ref.energy("R.loss_power")[-1], rel=1e-5)
@@ -77,7 +77,7 @@ def test_without_the_library_the_casadi_event_path_runs_it(monkeypatch):
     monkeypatch.setattr(native_events, "LIBS", ("-lacausal_no_such_library",))
     monkeypatch.setattr(native_events, "_REFUSED", {})
     res = cm.simulate(0.06, n_points=121, **TIGHT)
-    assert res.solver.startswith("CVODES (compiled path"), res.solver
+    assert res.solver.startswith("CVODES (compiled path, CasADi"), res.solver
     runner, why = native_events.segment_runner(cm, res.inputs, [])
     assert runner is None and "could not be built" in why
     ref = cm.simulate(0.06, n_points=121, method="BDF", trust="off", **TIGHT)

@@ -1,6 +1,7 @@
 /* The native event loop of acausal (acausal/compiled/native_events.py): one segment of a run with state events,
- * integrated by SUNDIALS IDAS (variable-order BDF) from a consistent start until the last output time or the first
- * zero crossing, whichever comes first.
+ * integrated by SUNDIALS (variable-order BDF: CVODES for an ODE, IDAS where there are algebraic variables) from a
+ * consistent start until the last output time or the first zero crossing, whichever comes first. The steps end at
+ * every output time; the energy integrals are quadratures whose error test is scaled by what each step adds.
  *
  * The model is y = (x, z): n states x with x' = f(t, x, z), and nz algebraic variables z with 0 = g(t, x, z) (the
  * Newton blocks; nz = 0 for an ODE). Its functions are CasADi's generated C, appended to this file by the caller:
@@ -12,9 +13,9 @@
  * with pd the parameters and modes, and s the values of the table inputs at their arguments (piecewise
  * polynomials, their numbers passed at run time, so that one compiled library serves every recording).
  *
- * Crossings are looked for at the end of every solver step and at `substeps` interior points of it (IDAS's own
- * interpolating polynomial): a zero function that leaves zero and comes back within one step shows at an interior
- * point. The first crossing is located by the Illinois method on that polynomial; crossings within 1e-9 (relative)
+ * Crossings are looked for at the end of every solver step, and at `substeps` interior points of it (the solver's
+ * interpolating polynomial) where a zero function crossed or its total variation over the step (the last nv
+ * quadratures) says it may have left zero and come back. The first crossing is located by the Illinois method on that polynomial; crossings within 1e-9 (relative)
  * of the first are taken together, at the latest of their times (acausal.modes.together), a hair past the root
  * when the root itself is still on the old side (acausal.modes.crossings).
  */
@@ -341,11 +342,12 @@ static int crossed(double a, double b) {
 #define CROSSES(i, a, b) (crossed((a)[i], (b)[i]) && !(muted[i] && (a)[i] == 0))
 
 /* Returns 0 (the last output reached), 1 (a crossing: t_event, y_event, q_event, dirs), or a failure: -1 IDAS
- * (message in msg), -2 a generated function failed, -3 a zero function not finite (at t_event, y_event), -4 the
+ * or CVODES (message in msg), -2 a generated function failed, -3 a zero function not finite (at t_event, y_event), -4 the
  * step limit, -5 out of memory. Outputs at times <= the crossing are written to X (ny per output) and Q (nq per
  * output, integrals from t0); *written says how many. */
-int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double t0, const double* y0, const double* pd,
-                    const double* off, const double* g0, const int* mute, const long* tables, const long* slots, const double* tdata, long n_out,
+int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double t0, const double* y0,
+                    const double* pd, const double* off, const double* g0, const int* mute, const long* tables,
+                    const long* slots, const double* tdata, long n_out,
                     const double* t_out, double rtol, double atol, double max_step, double first_step,
                     long max_steps, long substeps, double* X, double* Q, long* written, double* t_event,
                     double* y_event, double* q_event, int* dirs, char* msg, long msg_size) {
@@ -385,7 +387,8 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   m.w = malloc(sizeof(*m.w) * (sz_w + 1));
   buf = malloc(sizeof(double) * sz);
   if (!m.arg || !m.res || !m.iw || !m.w || !buf) { status = -5; goto done; }
-  m.s = buf; m.at = m.s + ns; m.f = m.at + ns; m.g = m.f + n; m.jac = m.g + nz; m.quad = m.jac + ny * ny; m.zero = m.quad + nq;
+  m.s = buf; m.at = m.s + ns; m.f = m.at + ns; m.g = m.f + n; m.jac = m.g + nz; m.quad = m.jac + ny * ny;
+  m.zero = m.quad + nq;
   m.znew = m.zero + ng; m.gz = m.znew + ny; m.dz = m.gz + nz * nz;
   m.dz0 = m.dz + nz;
   ga = m.dz0 + n; gb = ga + ng; gt = gb + ng; gm = gt + ng; te = gm + ng; v_prev = te + ng; qgain = v_prev + ng;
@@ -463,7 +466,8 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
        * integrand through zero gains little in a step, and its own size still bounds the next one's) */
       if ((ode ? CVodeGetQuadDky(mem, t_cur, 1, tmpq) : IDAGetQuadDky(mem, t_cur, 1, tmpq)) < 0) N_VConst(0.0, tmpq);
       for (i = 0; i < nq; i++)
-        qgain[i] = fmax(fabs(qgain[i] + N_VGetArrayPointer(yq)[i]), (t_cur - t_prev) * fabs(N_VGetArrayPointer(tmpq)[i]));
+        qgain[i] = fmax(fabs(qgain[i] + N_VGetArrayPointer(yq)[i]),
+                        (t_cur - t_prev) * fabs(N_VGetArrayPointer(tmpq)[i]));
     }
     if (ng) {
       N_VScale(1.0, yy, tmp);
@@ -503,7 +507,8 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
         if (ga[i] == 0) { te[i] = ta; }       /* leaving an exact zero: the direction at the bracket's end decides */
         else if (gb[i] == 0) { te[i] = tb; }  /* reaching zero at the bracket's end */
         else {                                /* Illinois on the interpolating polynomial */
-          double lo = ta, hi = tb, flo = ga[i], fhi = gb[i], tol = 1e-13 * (fabs(t0 + tb) > 1 ? fabs(t0 + tb) : 1), tm, fm;
+          double lo = ta, hi = tb, flo = ga[i], fhi = gb[i], tm, fm;
+          double tol = 1e-13 * (fabs(t0 + tb) > 1 ? fabs(t0 + tb) : 1);
           int side = 0, it;
           for (it = 0; it < 200 && hi - lo > tol; it++) {
             tm = hi - fhi * (hi - lo) / (fhi - flo);

@@ -1,10 +1,13 @@
-"""State events in native code: a run with state events integrated by SUNDIALS IDAS itself, its crossings found
-inside the integration, the model's functions printed as C by CasADi (``native_dae.c`` holds the loop).
+"""State events in native code: a run with state events integrated by SUNDIALS itself (CVODES for an ODE, IDAS where
+Newton blocks are algebraic variables), its crossings found inside the integration, the model's functions printed as
+C by CasADi (``native_dae.c`` holds the loop).
 
-Each segment between two events is one call into the library: IDAS steps from a consistent start (the algebraic
-variables from the Python Newton solve of their blocks, as on the CasADi path), checks the zero functions at the end
-of each step and at :data:`SUBSTEPS` interior points of it (IDAS's interpolating polynomial), writes the outputs it
-passes, and stops at the first crossing, located on that polynomial. The event itself (its assignments, the cascade
+Each segment between two events is one call into the library: the solver steps from a consistent start (the
+algebraic variables from the Python Newton solve of their blocks, as on the CasADi path), its steps ending at every
+output time; it checks the zero functions at the end of each step, and at :data:`SUBSTEPS` interior points of it
+(the solver's interpolating polynomial, the algebraic variables made consistent there) where one crossed or where its
+total variation over the step says it may have bounced; it writes the outputs it passes, and stops at the first
+crossing, located on that polynomial. The event itself (its assignments, the cascade
 of mode changes, the thresholds watched from there) is the scipy path's own (:mod:`acausal.modes`), so all paths
 switch the same way; a crossing that changes no mode is passed and the next segment starts from it.
 
@@ -14,7 +17,11 @@ the integrator starts cold and costs about a millisecond whatever its length, an
 in compiled code. Table inputs (recordings, gait tables) are evaluated in C from their numbers passed at run time,
 so one library serves every recording of a model.
 
-Needs a C compiler and SUNDIALS's headers and libraries (IDAS 6: Debian's ``libsundials-dev``); without them, or for
+The energy integrals are quadratures whose error test is scaled by what each step adds to them (not by the whole
+integral so far, which lets a long run's energies drift by many times ``rtol``), so an energy's relative error stays
+near ``rtol``; each distinct integrand is integrated once, none that is structurally zero.
+
+Needs a C compiler and SUNDIALS's headers and libraries (6.x: Debian's ``libsundials-dev``); without them, or for
 a model whose functions have no CasADi form, :func:`segment_runner` returns None and the run stays on the CasADi
 path. ``ACAUSAL_NATIVE_EVENTS=0`` in the environment keeps every run there.
 """
@@ -37,7 +44,8 @@ SUBSTEPS = 8  # interior points of a solver step at which the zero functions are
 MAX_NUM_STEPS = 1_000_000  # solver steps per segment at most
 MAX_PASSES = 100_000  # crossings that change no mode, per run, at most (each restarts the integration past it)
 SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
-LIBS = ("-lsundials_cvodes", "-lsundials_idas", "-lsundials_nvecserial", "-lsundials_sunmatrixdense", "-lsundials_sunlinsoldense")
+LIBS = ("-lsundials_cvodes", "-lsundials_idas", "-lsundials_nvecserial", "-lsundials_sunmatrixdense",
+        "-lsundials_sunlinsoldense")
 OUTSIDE = {"extend": 0, "hold": 1, "periodic": 2}  # how a table continues beyond its breaks (native_dae.c)
 _SOURCE = Path(__file__).with_name("native_dae.c")
 _REFUSED: dict = {}  # source digest -> why the compiler refused it (tried once per process)
@@ -105,7 +113,7 @@ class SegmentRunner:
         self.path, self.fn, self.n, self.nz, self.ng = str(path), fn, n, nz, ng
         self.names = list(names)  # the integrals a Result gets
         self.rows = np.asarray(rows, dtype=int)  # each name's row among the integrated quadratures (-1: zero)
-        self.nq, self.nv = nq, ng if nq else 0  # integrated: the distinct integrands, then the zero functions' variations
+        self.nq, self.nv = nq, ng if nq else 0  # integrated: the distinct integrands, then the zeros' variations
         self.entry = entry  # z_index and the caches the algebraic start needs
 
     def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
@@ -214,22 +222,22 @@ def _build(cm, u, integrals):
         _REFUSED[digest] = f"the native event loop could not be built: {exc}"
         return None, _REFUSED[digest]
     fn = ctypes.CDLL(str(lib)).acausal_segment
-    fn.argtypes = ([ctypes.c_long] * 6 + [ctypes.c_double] + [_DOUBLES] * 4 + [_INTS, _LONGS, _LONGS, _DOUBLES, ctypes.c_long,
-                   _DOUBLES] + [ctypes.c_double] * 4 + [ctypes.c_long] * 2 + [_DOUBLES, _DOUBLES, _LONGS, _DOUBLES,
-                   _DOUBLES, _DOUBLES, _INTS, ctypes.c_char_p, ctypes.c_long])
+    fn.argtypes = ([ctypes.c_long] * 6 + [ctypes.c_double] + [_DOUBLES] * 4 + [_INTS, _LONGS, _LONGS, _DOUBLES,
+                   ctypes.c_long, _DOUBLES] + [ctypes.c_double] * 4 + [ctypes.c_long] * 2
+                   + [_DOUBLES, _DOUBLES, _LONGS, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, ctypes.c_char_p, ctypes.c_long])
     fn.restype = ctypes.c_int
     return SegmentRunner(lib, fn, x.numel(), z.numel(), names, rows, len(integrated), int(zeros[0].numel()),
                          entry), sig
 
 
-FAILURES = {-1: "IDAS failed", -2: "a model function failed", -4: f"more than {MAX_NUM_STEPS} steps",
+FAILURES = {-1: "the solver failed", -2: "a model function failed", -4: f"more than {MAX_NUM_STEPS} steps",
             -5: "out of memory"}
 
 
 def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
                     dense_output, starts=None):
     """The run of a model with state events on the native loop (see the module); returns the Result. Raises
-    :class:`SimulationError` where IDAS fails (the caller then runs it on the CasADi path)."""
+    :class:`SimulationError` where the solver fails (the caller then runs it on the CasADi path)."""
     from ..result import Result
     from ..simulation.initial import initialize
 
@@ -263,7 +271,7 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
         if status < 0:
             if status == -3:  # a zero function without a sign: the scipy path's message, naming its event
                 check_zeros(cm, t_e, np.array([float(v) for v in cm.funcs["zeros"](t_e, y_e[:n], p, d, u)]) - off, d)
-            raise SimulationError(f"native event loop (IDAS): the segment from t = {t:g} s failed: "
+            raise SimulationError(f"native event loop: the segment from t = {t:g} s failed: "
                                   f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
         X[:, k_out:k_out + k], D[:, k_out:k_out + k] = Xs[:n], d[:, None]
         for j, name in enumerate(names):
@@ -300,4 +308,5 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
         return run._integrals
 
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
-                  solver="IDAS (compiled path, native: the model compiled to C, events located in its steps)")
+                  solver=f"{'IDAS' if runner.nz else 'CVODES'} (compiled path, native: the model compiled to C, "
+                         "events located in its steps)")
