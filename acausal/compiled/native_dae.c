@@ -1,7 +1,7 @@
 /* The native event loop of acausal (acausal/compiled/native_events.py): one segment of a run with state events,
  * integrated by SUNDIALS (variable-order BDF: CVODES for an ODE, IDAS where there are algebraic variables) from a
  * consistent start until the last output time or the first zero crossing, whichever comes first. The steps end at
- * every output time; the energy integrals are quadratures whose error test is scaled by what each step adds.
+ * every output time; the energy integrals are quadratures whose error test is scaled by the step's largest flow.
  *
  * The model is y = (x, z): n states x with x' = f(t, x, z), and nz algebraic variables z with 0 = g(t, x, z) (the
  * Newton blocks; nz = 0 for an ODE). Its functions are CasADi's generated C, appended to this file by the caller:
@@ -322,14 +322,17 @@ static void quad_at(void* mem, double t, double t_cur, N_Vector out) {
   if (t == t_cur || get_quad_dky(mem, t, out) < 0) get_quad(mem, out);
 }
 
-/* The quadratures' error test: each step's error within rtol of what the integral gained in the step before (plus
- * atol), not rtol of the whole integral so far (SUNDIALS's relative tolerance, which lets the error grow with the
- * run: an energy off by 3e-5 at rtol 1e-6 over a second of a 45 Hz source); the integral's error is then rtol of
- * its own size, as Gauss-Legendre on the scipy path's steps gives, and the CasADi event path's runs of at most
- * 64-187 outputs gave by restarting their integrals. */
-static void quad_tolerances(void* mem, const double* gain, double rtol, double atol, N_Vector tol) {
+/* The quadratures' error test: each step's error within rtol of the largest gain of an energy integral in the step
+ * before (plus atol), not rtol of each whole integral so far (SUNDIALS's relative tolerance, which lets the error
+ * grow with the run: an energy off by 3e-5 at rtol 1e-6 over a second of a 45 Hz source). The energies' errors are
+ * then rtol of the largest flow, the scale of the balance they enter (a gain: what the step added, or its length
+ * times the integrand at its end if more); the zero functions' variations (the last nv) keep their own scale. The
+ * CasADi event path's integrals came out as accurate by restarting with every run of at most 64-187 outputs. */
+static void quad_tolerances(void* mem, const double* gain, long nv, double rtol, double atol, N_Vector tol) {
   long i, nq = N_VGetLength(tol);
-  for (i = 0; i < nq; i++) N_VGetArrayPointer(tol)[i] = atol + rtol * gain[i];
+  double largest = 0;
+  for (i = 0; i < nq - nv; i++) largest = fmax(largest, gain[i]);
+  for (i = 0; i < nq; i++) N_VGetArrayPointer(tol)[i] = atol + rtol * (i < nq - nv ? largest : gain[i]);
   if (ode) CVodeQuadSVtolerances(mem, 0.0, tol); else IDAQuadSVtolerances(mem, 0.0, tol);
 }
 
@@ -449,7 +452,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
       if (stop > t_prev) { if (ode) CVodeSetStopTime(mem, stop); else IDASetStopTime(mem, stop); }
       stop_k = k;
     }
-    if (nq) quad_tolerances(mem, qgain, rtol, atol, tolq);
+    if (nq) quad_tolerances(mem, qgain, nv, rtol, atol, tolq);
     flag = ode ? CVode(mem, t_end, yy, &t_cur, CV_ONE_STEP) : IDASolve(mem, t_end, &t_cur, yy, yp, IDA_ONE_STEP);
     if (flag < 0) { status = m.failed ? -2 : -1; goto done; }
     if (++steps > max_steps) { status = -4; goto done; }

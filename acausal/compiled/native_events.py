@@ -17,9 +17,10 @@ the integrator starts cold and costs about a millisecond whatever its length, an
 in compiled code. Table inputs (recordings, gait tables) are evaluated in C from their numbers passed at run time,
 so one library serves every recording of a model.
 
-The energy integrals are quadratures whose error test is scaled by what each step adds to them (not by the whole
-integral so far, which lets a long run's energies drift by many times ``rtol``), so an energy's relative error stays
-near ``rtol``; each distinct integrand is integrated once, none that is structurally zero.
+The energy integrals are quadratures whose error test is scaled by the largest energy flow of each step (not by
+each whole integral so far, which lets a long run's energies drift by many times ``rtol``), so the energies' errors
+stay near ``rtol`` of the balance they enter; each distinct integrand is integrated once, none that is structurally
+zero.
 
 Needs a C compiler and SUNDIALS's headers and libraries (6.x: Debian's ``libsundials-dev``); without them, or for
 a model whose functions have no CasADi form, :func:`segment_runner` returns None and the run stays on the CasADi
