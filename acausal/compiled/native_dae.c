@@ -15,9 +15,10 @@
  *
  * Crossings are looked for at the end of every solver step, and at `substeps` interior points of it (the solver's
  * interpolating polynomial) where a zero function crossed or its total variation over the step (the last nv
- * quadratures) says it may have left zero and come back. The first crossing is located by the Illinois method on that polynomial; crossings within 1e-9 (relative)
- * of the first are taken together, at the latest of their times (acausal.modes.together), a hair past the root
- * when the root itself is still on the old side (acausal.modes.crossings).
+ * quadratures) says it may have left zero and come back. The first crossing is located by the Illinois method on
+ * that polynomial; crossings within 1e-9 (relative) of the first are taken together, at the latest of their times
+ * (acausal.modes.together), a hair past the root when the root itself is still on the old side
+ * (acausal.modes.crossings). One translation unit (the generated functions are appended to it), hence its length.
  */
 #include <math.h>
 #include <stdio.h>
@@ -286,40 +287,42 @@ static double first_step_guess(Model* m, const double* y0, double rtol, double a
   return isfinite(h1) && h1 > 0 ? h1 : 0.0;
 }
 
-static char* message_buffer;
-static long message_size;
+/* where a call's solver messages go (the caller's buffer: each call its own) */
+typedef struct {
+  char* text;
+  long size;
+} Messages;
 
 static void on_error(int code, const char* module, const char* function, char* msg, void* data) {
-  (void)data;
-  if (message_buffer && message_size > 0)
-    snprintf(message_buffer, (size_t)message_size, "%s %s (%d): %s", module, function, code, msg);
+  Messages* box = (Messages*)data;
+  if (box && box->text && box->size > 0)
+    snprintf(box->text, (size_t)box->size, "%s %s (%d): %s", module, function, code, msg);
 }
 
 /* the solver: CVODES for a model without algebraic variables (an ODE), IDAS for one with them (a DAE) */
-static int ode;
-
-static int get_dky(void* mem, double t, N_Vector out) {
+/* the solver's interpolation and quadratures: ode says CVODES (an ODE), else IDAS */
+static int get_dky(void* mem, int ode, double t, N_Vector out) {
   return ode ? CVodeGetDky(mem, t, 0, out) : IDAGetDky(mem, t, 0, out);
 }
 
 /* the state at t within the last step (the solver's interpolating polynomial), or at the step's end t_cur itself;
  * a step so short that the solver takes t for outside it (a few units in the last place) gives its end values */
-static void state_at(void* mem, double t, double t_cur, N_Vector y_cur, N_Vector out) {
-  if (t == t_cur || get_dky(mem, t, out) < 0) N_VScale(1.0, y_cur, out);
+static void state_at(void* mem, int ode, double t, double t_cur, N_Vector y_cur, N_Vector out) {
+  if (t == t_cur || get_dky(mem, ode, t, out) < 0) N_VScale(1.0, y_cur, out);
 }
 
-static int get_quad_dky(void* mem, double t, N_Vector out) {
+static int get_quad_dky(void* mem, int ode, double t, N_Vector out) {
   return ode ? CVodeGetQuadDky(mem, t, 0, out) : IDAGetQuadDky(mem, t, 0, out);
 }
 
-static int get_quad(void* mem, N_Vector out) {
+static int get_quad(void* mem, int ode, N_Vector out) {
   double t_q;
   return ode ? CVodeGetQuad(mem, &t_q, out) : IDAGetQuad(mem, &t_q, out);
 }
 
 /* the quadratures at t within the last step, as state_at */
-static void quad_at(void* mem, double t, double t_cur, N_Vector out) {
-  if (t == t_cur || get_quad_dky(mem, t, out) < 0) get_quad(mem, out);
+static void quad_at(void* mem, int ode, double t, double t_cur, N_Vector out) {
+  if (t == t_cur || get_quad_dky(mem, ode, t, out) < 0) get_quad(mem, ode, out);
 }
 
 /* The quadratures' error test: each step's error within rtol of the largest gain of an energy integral in the step
@@ -328,7 +331,8 @@ static void quad_at(void* mem, double t, double t_cur, N_Vector out) {
  * then rtol of the largest flow, the scale of the balance they enter (a gain: what the step added, or its length
  * times the integrand at its end if more); the zero functions' variations (the last nv) keep their own scale. The
  * CasADi event path's integrals came out as accurate by restarting with every run of at most 64-187 outputs. */
-static void quad_tolerances(void* mem, const double* gain, long nv, double rtol, double atol, N_Vector tol) {
+static void quad_tolerances(void* mem, int ode, const double* gain, long nv, double rtol, double atol,
+                            N_Vector tol) {
   long i, nq = N_VGetLength(tol);
   double largest = 0;
   for (i = 0; i < nq - nv; i++) largest = fmax(largest, gain[i]);
@@ -345,9 +349,10 @@ static int crossed(double a, double b) {
 #define CROSSES(i, a, b) (crossed((a)[i], (b)[i]) && !(muted[i] && (a)[i] == 0))
 
 /* Returns 0 (the last output reached), 1 (a crossing: t_event, y_event, q_event, dirs), or a failure: -1 IDAS
- * or CVODES (message in msg), -2 a generated function failed, -3 a zero function not finite (at t_event, y_event), -4 the
- * step limit, -5 out of memory. Outputs at times <= the crossing are written to X (ny per output) and Q (nq per
- * output, integrals from t0); *written says how many. */
+ * or CVODES (message in msg), -2 a generated function failed, -3 a zero function not finite (at t_event,
+ * y_event), -4 the step limit, -5 out of memory. Outputs at times <= the crossing are written to X (ny per
+ * output) and Q (nq per output, integrals from t0); *written says how many. Nothing is kept between calls (the
+ * messages go to msg through the solver's own handler data), so threads may run segments at once. */
 int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double t0, const double* y0,
                     const double* pd, const double* off, const double* g0, const int* mute, const long* tables,
                     const long* slots, const double* tdata, long n_out,
@@ -355,7 +360,8 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
                     long max_steps, long substeps, double* X, double* Q, long* written, double* t_event,
                     double* y_event, double* q_event, int* dirs, char* msg, long msg_size) {
   long ny = n + nz, i, k = 0, steps = 0, sz;
-  int status = 0, flag;
+  int status = 0, flag, ode = nz == 0;  /* ode: CVODES, else IDAS */
+  Messages box = {msg, msg_size};
   casadi_int sz_arg = 4, sz_res = 2, sz_iw = 0, sz_w = 0, a, r, iw_, w_;
   SUNContext ctx = NULL;
   void* mem = NULL;
@@ -369,7 +375,6 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   double t_prev, t_cur, t_end = t_out[n_out - 1] - t0;  /* times since t0 from here on */
 
   memset(&m, 0, sizeof(m));
-  message_buffer = msg; message_size = msg_size;
   if (msg_size > 0) msg[0] = 0;
   *written = 0;
   m.n = n; m.nz = nz; m.nq = nq; m.ng = ng; m.ns = ns; m.pd = pd; m.off = off; m.tables = tables; m.slots = slots;
@@ -410,7 +415,6 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     N_VGetArrayPointer(yp)[i] = i < n ? m.f[i] : 0.0;
     N_VGetArrayPointer(id)[i] = i < n ? 1.0 : 0.0;
   }
-  ode = nz == 0;
   mem = ode ? CVodeCreate(CV_BDF, ctx) : IDACreate(ctx);
   if (!mem) { status = -5; goto done; }
   A = SUNDenseMatrix(ny, ny, ctx);
@@ -423,7 +427,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     N_VConst(0.0, yq);
   }
   if (ode) {
-    CVodeSetErrHandlerFn(mem, on_error, NULL);
+    CVodeSetErrHandlerFn(mem, on_error, &box);
     if (CVodeInit(mem, rate, 0.0, yy) || CVodeSStolerances(mem, rtol, atol) || CVodeSetUserData(mem, &m) ||
         CVodeSetLinearSolver(mem, LS, A) || CVodeSetJacFn(mem, rate_jacobian)) { status = -1; goto done; }
     CVodeSetMaxNumSteps(mem, 1000000);
@@ -432,7 +436,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     if (nq && (CVodeQuadInit(mem, rate_quadrature, yq) || CVodeQuadSStolerances(mem, rtol, atol) ||
                CVodeSetQuadErrCon(mem, SUNTRUE))) { status = -1; goto done; }
   } else {
-    IDASetErrHandlerFn(mem, on_error, NULL);
+    IDASetErrHandlerFn(mem, on_error, &box);
     if (IDAInit(mem, residual, 0.0, yy, yp) || IDASStolerances(mem, rtol, atol) || IDASetUserData(mem, &m) ||
         IDASetLinearSolver(mem, LS, A) || IDASetJacFn(mem, jacobian)) { status = -1; goto done; }
     IDASetMaxNumSteps(mem, 1000000);
@@ -452,7 +456,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
       if (stop > t_prev) { if (ode) CVodeSetStopTime(mem, stop); else IDASetStopTime(mem, stop); }
       stop_k = k;
     }
-    if (nq) quad_tolerances(mem, qgain, nv, rtol, atol, tolq);
+    if (nq) quad_tolerances(mem, ode, qgain, nv, rtol, atol, tolq);
     flag = ode ? CVode(mem, t_end, yy, &t_cur, CV_ONE_STEP) : IDASolve(mem, t_end, &t_cur, yy, yp, IDA_ONE_STEP);
     if (flag < 0) { status = m.failed ? -2 : -1; goto done; }
     if (++steps > max_steps) { status = -4; goto done; }
@@ -464,7 +468,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     double ta = t_prev, tb = t_cur;
     if (nq) { /* the integrals after the step, and what they gained in it */
       for (i = 0; i < nq; i++) qgain[i] = -N_VGetArrayPointer(yq)[i];
-      get_quad(mem, yq);
+      get_quad(mem, ode, yq);
       /* the scale of the next step's error: the step's gain, or its length times the integrand at its end if more (an
        * integrand through zero gains little in a step, and its own size still bounds the next one's) */
       if ((ode ? CVodeGetQuadDky(mem, t_cur, 1, tmpq) : IDAGetQuadDky(mem, t_cur, 1, tmpq)) < 0) N_VConst(0.0, tmpq);
@@ -486,7 +490,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     }
     for (j = 1; suspect && j <= substeps + 1; j++) {
       double tj = j <= substeps ? t_prev + (t_cur - t_prev) * j / (substeps + 1) : t_cur;
-      state_at(mem, tj, t_cur, yy, tmp);
+      state_at(mem, ode, tj, t_cur, yy, tmp);
       if (zeros_at(&m, tj, N_VGetArrayPointer(tmp), gt, tj != t_cur)) { status = -2; goto done; }
       for (i = 0; i < ng; i++) {
         if (!isfinite(gt[i])) {
@@ -516,7 +520,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
           for (it = 0; it < 200 && hi - lo > tol; it++) {
             tm = hi - fhi * (hi - lo) / (fhi - flo);
             if (!(tm > lo && tm < hi)) tm = 0.5 * (lo + hi);
-            state_at(mem, tm, t_cur, yy, tmp);
+            state_at(mem, ode, tm, t_cur, yy, tmp);
             if (zeros_at(&m, tm, N_VGetArrayPointer(tmp), gm, 1)) { status = -2; goto done; }
             fm = gm[i];
             if (fm == 0) { lo = hi = tm; break; }
@@ -540,20 +544,20 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     }
     /* outputs up to the step's end (or the crossing) */
     while (k < n_out && t_out[k] - t0 <= t_stop) {
-      state_at(mem, t_out[k] - t0, t_cur, yy, tmp);
+      state_at(mem, ode, t_out[k] - t0, t_cur, yy, tmp);
       memcpy(X + k * ny, N_VGetArrayPointer(tmp), sizeof(double) * ny);
       if (nq) {
-        quad_at(mem, t_out[k] - t0, t_cur, tmpq);
+        quad_at(mem, ode, t_out[k] - t0, t_cur, tmpq);
         memcpy(Q + k * nq, N_VGetArrayPointer(tmpq), sizeof(double) * nq);
       }
       k++;
     }
     if (hit) {
       *t_event = t0 + t_stop;
-      state_at(mem, t_stop, t_cur, yy, tmp);
+      state_at(mem, ode, t_stop, t_cur, yy, tmp);
       memcpy(y_event, N_VGetArrayPointer(tmp), sizeof(double) * ny);
       if (nq) {
-        quad_at(mem, t_stop, t_cur, tmpq);
+        quad_at(mem, ode, t_stop, t_cur, tmpq);
         memcpy(q_event, N_VGetArrayPointer(tmpq), sizeof(double) * nq);
       }
       status = 1;
@@ -576,6 +580,5 @@ done:
   if (tolq) N_VDestroy(tolq);
   if (ctx) SUNContext_Free(&ctx);
   free(m.arg); free(m.res); free(m.iw); free(m.w); free(buf); free(muted);
-  message_buffer = NULL;
   return status;
 }
