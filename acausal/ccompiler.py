@@ -1,8 +1,9 @@
 """The machine's C compiler: where it is looked for, and shared libraries built from generated C once per source.
 
-Two users: the FMU exporter (:mod:`acausal.export.fmu`, which turns a missing compiler into an error saying what
-to install) and the native fixed step (:mod:`acausal.compiled.native`, which falls back to CasADi's virtual
-machine without one). A library built here is cached on disk under the SHA-256 of its source, compiler and flags
+Three users: the FMU exporter (:mod:`acausal.export.fmu`, which turns a missing compiler into an error saying what
+to install), the native fixed step (:mod:`acausal.compiled.native`, which falls back to CasADi's virtual machine
+without one) and the native event loop (:mod:`acausal.compiled.native_events`, which falls back to the CasADi event
+path); the last two through :func:`try_shared_library`. A library built here is cached on disk under the SHA-256 of its source, compiler and flags
 (:func:`cache_dir`), so each source is compiled once per machine, not once per process: a process pool's workers
 that replay the same model load the same file.
 """
@@ -88,3 +89,22 @@ def shared_library(source: str, flags=("-O1",), compiler: str | None = None, lib
             if os.path.exists(leftover):
                 os.remove(leftover)
     return lib
+
+
+def try_shared_library(source: str, flags=("-O1",), libs=()) -> tuple:
+    """``(library path, None)`` of :func:`shared_library`, or ``(None, why)`` where no C compiler is found or it
+    refuses the source. A refusal is remembered per compiler, options and source: not tried again in this process
+    (the callers fall back to a path without compiled code)."""
+    cc = which_compiler()[0]
+    if cc is None:
+        return None, "no C compiler found"
+    key = (cc, tuple(flags), tuple(libs), hashlib.sha256(source.encode()).hexdigest())
+    if key not in _REFUSED:
+        try:
+            return shared_library(source, flags, libs=libs), None
+        except BuildError as exc:
+            _REFUSED[key] = str(exc)
+    return None, _REFUSED[key]
+
+
+_REFUSED: dict = {}  # (compiler, flags, libraries, source digest) -> why the compiler refused it

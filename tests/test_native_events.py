@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from acausal import Model, Start, compile_model, connect
+from acausal import ccompiler
 from acausal.compiled import native_events
 from acausal.library.electrical import Capacitor, Ground, IdealDiode, PrescribedVoltage, Resistor
 from acausal.signals import PeriodicSpline, SampledSignal
@@ -75,7 +76,7 @@ def test_without_the_library_the_casadi_event_path_runs_it(monkeypatch):
     CasADi event path, with the same switches; the refusal is kept (not tried again per run)."""
     cm = compile_model(_Rectifier())
     monkeypatch.setattr(native_events, "LIBS", ("-lacausal_no_such_library",))
-    monkeypatch.setattr(native_events, "_REFUSED", {})
+    monkeypatch.setattr(ccompiler, "_REFUSED", {})
     res = cm.simulate(0.06, n_points=121, **TIGHT)
     assert res.solver.startswith("CVODES (compiled path, CasADi"), res.solver
     runner, why = native_events.segment_runner(cm, res.inputs, [])

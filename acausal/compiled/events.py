@@ -58,16 +58,13 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     runs the same integration again for a name it is asked the energy of that is not among them."""
     from ..energy import account_integrals
     from ..result import Result
-    from ..simulation.initial import initialize
-
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
     if integrals is None:
         integrals = account_integrals(cm.accounts) if dense_output and cm.accounts is not None else []
     names = path.integrable(integrals, u) if integrals else []
     x_start, d_start = x0, d
-    d = settle_modes(cm, t_start, x0, p, d, u)
-    x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
+    d, x0 = start(cm, t_start, x0, p, d, u, starts)
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
     Q = {name: np.zeros(N) for name in names}
@@ -78,13 +75,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     done = {name: 0.0 for name in names}  # integral from t_start to t
     off = np.zeros(len(cm.event_zeros))  # thresholds the zero functions are watched at (modes.knee_offsets)
     while True:
-        # outputs at the restart time itself, or within round-off of it (an event a few ulps before an output: no
-        # run can be that short, and the state does not move over it)
-        while k_out < N and t_out[k_out] <= t + SAME_TIME_ULPS * np.spacing(abs(t)):
-            X[:, k_out], D[:, k_out] = x, d
-            for name in names:
-                Q[name][k_out] = done[name]
-            k_out += 1
+        k_out = outputs_at_restart(t_out, k_out, t, x, d, X, D, Q, done)
         if k_out == N:
             break
         grid = t_out[k_out:k_out + window]
@@ -148,6 +139,26 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
 
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi; events located between its runs)")
+
+
+def start(cm, t_start, x0, p, d, u, starts):
+    """``(modes, states)`` a run with events starts from: the modes settled by the zero functions' signs, then the
+    states made consistent with them (both event loops of the compiled path)."""
+    from ..simulation.initial import initialize
+    d = settle_modes(cm, t_start, x0, p, d, u)
+    return d, (initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0)
+
+
+def outputs_at_restart(t_out, k_out, t, x, d, X, D, Q, done) -> int:
+    """Write the outputs from ``k_out`` on that lie at the restart time ``t`` itself, or within round-off of it (an
+    event a few ulps before an output: no run can be that short, and the state does not move over it): states ``x``,
+    modes ``d``, the integrals ``done`` so far (by name, into ``Q``). Returns the next output to write."""
+    while k_out < t_out.size and t_out[k_out] <= t + SAME_TIME_ULPS * np.spacing(abs(t)):
+        X[:, k_out], D[:, k_out] = x, d
+        for name in Q:
+            Q[name][k_out] = done[name]
+        k_out += 1
+    return k_out
 
 
 def _first_crossing(cm, path, t, x, grid, Xs, Qs, p, d, u, args, off):

@@ -13,12 +13,11 @@ returns None).
 from __future__ import annotations
 
 import ctypes
-import hashlib
 
 import casadi as ca
 import numpy as np
 
-from ..ccompiler import BuildError, shared_library, which_compiler
+from ..ccompiler import try_shared_library
 
 #: the RK4 loop around the generated ``rate(t, y, pd, u)``: ``stages`` holds one column per output interval
 #: (its start, its length, then the inputs at the 2k+1 stage times, input by input), as
@@ -70,9 +69,8 @@ done:
 """
 
 _DOUBLES = ctypes.POINTER(ctypes.c_double)
-#: loaded drivers by library path, and the sources a compiler refused (by compiler and source hash: tried once)
+#: loaded drivers by library path
 _LOADED: dict = {}
-_REFUSED: dict = {}
 
 
 class NativeRK4:
@@ -115,13 +113,7 @@ def rk4_driver(rate: ca.Function) -> NativeRK4 | None:
     cg = ca.CodeGenerator("acausal_rate", {"with_header": False})
     cg.add(rate)
     source = cg.dump() + DRIVER
-    cc = which_compiler()[0]
-    key = (cc, hashlib.sha256(source.encode()).hexdigest())
-    if cc is None or key in _REFUSED:
-        return None
-    try:
-        path = shared_library(source)
-    except BuildError as exc:  # remembered per compiler: not tried again in this process
-        _REFUSED[key] = str(exc)
+    path, _ = try_shared_library(source)
+    if path is None:  # no compiler, or it refused the source (remembered: not tried again in this process)
         return None
     return NativeRK4(path, rate.size1_in(1), rate.size1_in(3))

@@ -29,6 +29,7 @@
 #include <idas/idas.h>
 #include <nvector/nvector_serial.h>
 #include <sunlinsol/sunlinsol_dense.h>
+#include <sundials/sundials_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
 #ifndef casadi_real
@@ -74,7 +75,9 @@ typedef struct {
   casadi_int* iw;
   casadi_real* w;
   double *f, *g, *jac, *quad, *zero;
-  double *znew, *gz, *dz;  /* Newton on the algebraic variables (consistent) */
+  double *znew, *dz;       /* Newton on the algebraic variables (consistent): the iterate and its step */
+  SUNMatrix gz;            /* ... and d g / d z, factored by SUNDIALS's dense LU with the pivots piv */
+  sunindextype* piv;
   double* dz0;             /* the first step's guess: the rates at the start */
   int failed;             /* a generated function reported an error */
 } Model;
@@ -189,33 +192,6 @@ static int rate_jacobian(double t, N_Vector yy, N_Vector fy, SUNMatrix J, void* 
   return 0;
 }
 
-/* Solve the n x n system A x = b in place (A by columns; Gaussian elimination with partial pivoting); -1 when A is
- * singular */
-static int solve_dense(long n, double* A, double* b) {
-  long i, j, k;
-  for (k = 0; k < n; k++) {
-    long piv = k;
-    for (i = k + 1; i < n; i++) if (fabs(A[k * n + i]) > fabs(A[k * n + piv])) piv = i;
-    if (A[k * n + piv] == 0 || !isfinite(A[k * n + piv])) return -1;
-    if (piv != k) {
-      for (j = 0; j < n; j++) { double a = A[j * n + k]; A[j * n + k] = A[j * n + piv]; A[j * n + piv] = a; }
-      double c = b[k]; b[k] = b[piv]; b[piv] = c;
-    }
-    for (i = k + 1; i < n; i++) {
-      double l = A[k * n + i] / A[k * n + k];
-      if (l == 0) continue;
-      for (j = k; j < n; j++) A[j * n + i] -= l * A[j * n + k];
-      b[i] -= l * b[k];
-    }
-  }
-  for (k = n - 1; k >= 0; k--) {
-    double acc = b[k];
-    for (j = k + 1; j < n; j++) acc -= A[j * n + k] * b[j];
-    b[k] = acc / A[k * n + k];
-  }
-  return 0;
-}
-
 /* The algebraic variables of y made consistent with its states at t (Newton on their residuals from the values in y,
  * which between two solver steps are IDAS's interpolation: the algebraic variables are not in its error test, and
  * where the states rest while time moves them, a single step can span their whole change). The zero functions are
@@ -229,10 +205,12 @@ static void consistent(Model* m, double t, double* y) {
     double size = 0, step = 0;
     if (call(m, acausal_dae, t, z, m->f, m->g)) return;
     if (call(m, acausal_jac, t, z, m->jac, 0)) return;
+    double** cols = SUNDenseMatrix_Cols(m->gz);
     for (j = 0; j < m->nz; j++)     /* d g / d z: rows and columns n.. of the Jacobian of (f, g) */
-      for (i = 0; i < m->nz; i++) m->gz[j * m->nz + i] = m->jac[(m->n + j) * ny + m->n + i];
+      for (i = 0; i < m->nz; i++) cols[j][i] = m->jac[(m->n + j) * ny + m->n + i];
     for (i = 0; i < m->nz; i++) m->dz[i] = m->g[i];
-    if (solve_dense(m->nz, m->gz, m->dz)) return;
+    if (SUNDlsMat_denseGETRF(cols, m->nz, m->nz, m->piv)) return;  /* singular */
+    SUNDlsMat_denseGETRS(cols, m->nz, m->piv, m->dz);
     for (i = 0; i < m->nz; i++) {
       z[m->n + i] -= m->dz[i];
       step = fmax(step, fabs(m->dz[i]));
@@ -388,7 +366,9 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     if (iw_ > sz_iw) sz_iw = iw_;
     if (w_ > sz_w) sz_w = w_;
   }
-  sz = 2 * ns + n + nz + ny * ny + nq + ng + 6 * ng + ny + 1 + ny + nz * nz + nz + n + nq + ng + 1;
+  /* one buffer: s, at (ns each), f (n), g (nz), jac (ny^2), quad (nq), zero (ng), znew (ny), dz (nz), dz0 (n),
+   * ga, gb, gt, gm, te, v_prev (ng each), qgain (nq); laid out below in that order */
+  sz = 2 * ns + 2 * n + 2 * nz + ny * ny + ny + 2 * nq + 7 * ng + 1;
   m.arg = malloc(sizeof(*m.arg) * sz_arg);
   m.res = malloc(sizeof(*m.res) * sz_res);
   m.iw = malloc(sizeof(*m.iw) * (sz_iw + 1));
@@ -397,8 +377,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   if (!m.arg || !m.res || !m.iw || !m.w || !buf) { status = -5; goto done; }
   m.s = buf; m.at = m.s + ns; m.f = m.at + ns; m.g = m.f + n; m.jac = m.g + nz; m.quad = m.jac + ny * ny;
   m.zero = m.quad + nq;
-  m.znew = m.zero + ng; m.gz = m.znew + ny; m.dz = m.gz + nz * nz;
-  m.dz0 = m.dz + nz;
+  m.znew = m.zero + ng; m.dz = m.znew + ny; m.dz0 = m.dz + nz;
   ga = m.dz0 + n; gb = ga + ng; gt = gb + ng; gm = gt + ng; te = gm + ng; v_prev = te + ng; qgain = v_prev + ng;
   memset(v_prev, 0, sizeof(double) * (ng + nq));
   muted = calloc(ng + 1, sizeof(int));
@@ -406,6 +385,11 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   for (i = 0; i < ng; i++) muted[i] = mute[i];
 
   if (SUNContext_Create(NULL, &ctx)) { status = -5; goto done; }
+  if (nz) {
+    m.gz = SUNDenseMatrix(nz, nz, ctx);
+    m.piv = malloc(sizeof(sunindextype) * nz);
+    if (!m.gz || !m.piv) { status = -5; goto done; }
+  }
   yy = N_VNew_Serial(ny, ctx); yp = N_VNew_Serial(ny, ctx); id = N_VNew_Serial(ny, ctx);
   tmp = N_VNew_Serial(ny, ctx);
   if (!yy || !yp || !id || !tmp) { status = -5; goto done; }
@@ -430,7 +414,6 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     CVodeSetErrHandlerFn(mem, on_error, &box);
     if (CVodeInit(mem, rate, 0.0, yy) || CVodeSStolerances(mem, rtol, atol) || CVodeSetUserData(mem, &m) ||
         CVodeSetLinearSolver(mem, LS, A) || CVodeSetJacFn(mem, rate_jacobian)) { status = -1; goto done; }
-    CVodeSetMaxNumSteps(mem, 1000000);
     if (isfinite(max_step)) CVodeSetMaxStep(mem, max_step);
     CVodeSetInitStep(mem, h0);
     if (nq && (CVodeQuadInit(mem, rate_quadrature, yq) || CVodeQuadSStolerances(mem, rtol, atol) ||
@@ -439,7 +422,6 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     IDASetErrHandlerFn(mem, on_error, &box);
     if (IDAInit(mem, residual, 0.0, yy, yp) || IDASStolerances(mem, rtol, atol) || IDASetUserData(mem, &m) ||
         IDASetLinearSolver(mem, LS, A) || IDASetJacFn(mem, jacobian)) { status = -1; goto done; }
-    IDASetMaxNumSteps(mem, 1000000);
     if (isfinite(max_step)) IDASetMaxStep(mem, max_step);
     IDASetInitStep(mem, h0);
     IDASetId(mem, id);
@@ -571,6 +553,8 @@ done:
   if (mem) { if (ode) CVodeFree(&mem); else IDAFree(&mem); }
   if (LS) SUNLinSolFree(LS);
   if (A) SUNMatDestroy(A);
+  if (m.gz) SUNMatDestroy(m.gz);
+  free(m.piv);
   if (yy) N_VDestroy(yy);
   if (yp) N_VDestroy(yp);
   if (id) N_VDestroy(id);

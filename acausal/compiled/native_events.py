@@ -29,27 +29,23 @@ path. ``ACAUSAL_NATIVE_EVENTS=0`` in the environment keeps every run there.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import os
 from pathlib import Path
 
 import numpy as np
 
-from ..ccompiler import BuildError, shared_library, which_compiler
+from ..ccompiler import try_shared_library, which_compiler
 from ..errors import SimulationError
-from ..modes import after_end, apply_hits, check_zeros, handle_event, restarts, settle_modes, zeros
-from .path import VARIATION_SCALE
+from ..modes import SUBSTEPS, after_end, apply_hits, handle_event, restarts, zeros
+from .events import outputs_at_restart, start
 from .translate import Signals, Unsupported
 
-SUBSTEPS = 8  # interior points of a solver step at which the zero functions are also checked (as the scipy path)
 MAX_NUM_STEPS = 1_000_000  # solver steps per segment at most
 MAX_PASSES = 100_000  # crossings that change no mode, per run, at most (each restarts the integration past it)
-SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
 LIBS = ("-lsundials_cvodes", "-lsundials_idas", "-lsundials_nvecserial", "-lsundials_sunmatrixdense",
         "-lsundials_sunlinsoldense")
 OUTSIDE = {"extend": 0, "hold": 1, "periodic": 2}  # how a table continues beyond its breaks (native_dae.c)
 _SOURCE = Path(__file__).with_name("native_dae.c")
-_REFUSED: dict = {}  # source digest -> why the compiler refused it (tried once per process)
 _DOUBLES = ctypes.POINTER(ctypes.c_double)
 _LONGS = ctypes.POINTER(ctypes.c_long)
 _INTS = ctypes.POINTER(ctypes.c_int)
@@ -110,8 +106,8 @@ class RuntimeSignals(Signals):
 class SegmentRunner:
     """The compiled segment loop of one model, one signal layout and one set of quadratures."""
 
-    def __init__(self, path, fn, n, nz, names, rows, nq, ng, entry):
-        self.path, self.fn, self.n, self.nz, self.ng = str(path), fn, n, nz, ng
+    def __init__(self, fn, n, nz, names, rows, nq, ng, entry):
+        self.fn, self.n, self.nz, self.ng = fn, n, nz, ng
         self.names = list(names)  # the integrals a Result gets
         self.rows = np.asarray(rows, dtype=int)  # each name's row among the integrated quadratures (-1: zero)
         self.nq, self.nv = nq, ng if nq else 0  # integrated: the distinct integrands, then the zeros' variations
@@ -194,9 +190,10 @@ def _build(cm, u, integrals):
         rows.append(same[0] if same else len(distinct))
         if not same:
             distinct.append(q)
-    integrated = distinct + ([VARIATION_SCALE * ca.fabs(zeros[1][i]) for i in range(zeros[1].numel())]
-                             if distinct else [])
-    qexpr = ca.cse(ca.vertcat(*integrated)) if integrated else None
+    # the variations as the CasADi event path integrates them (only beside some integral: none, none)
+    variations = path._quadratures(entry, (), variation=True)[1] if distinct and zeros[0].numel() else None
+    nq = len(distinct) + (0 if variations is None else variations.numel())
+    qexpr = ca.vertcat(ca.cse(ca.vertcat(*distinct)), variations) if distinct else None
     t, x, z, pds = entry["t"], entry["x"], entry["z"], entry["pds"]
     y = ca.vertcat(x, z)
     s = ca.vertcat(*sig.symbols) if sig.symbols else ca.SX(0, 1)
@@ -213,22 +210,15 @@ def _build(cm, u, integrals):
     cg = ca.CodeGenerator("acausal_model", {"with_header": False})
     for fn in funcs:
         cg.add(fn)
-    source = _SOURCE.read_text() + "\n" + cg.dump()
-    digest = hashlib.sha256(source.encode()).hexdigest()
-    if digest in _REFUSED:
-        return None, _REFUSED[digest]
-    try:
-        lib = shared_library(source, flags=("-O2",), libs=LIBS)
-    except BuildError as exc:
-        _REFUSED[digest] = f"the native event loop could not be built: {exc}"
-        return None, _REFUSED[digest]
+    lib, why = try_shared_library(_SOURCE.read_text() + "\n" + cg.dump(), flags=("-O2",), libs=LIBS)
+    if lib is None:
+        return None, f"the native event loop could not be built: {why}"
     fn = ctypes.CDLL(str(lib)).acausal_segment
     fn.argtypes = ([ctypes.c_long] * 6 + [ctypes.c_double] + [_DOUBLES] * 4 + [_INTS, _LONGS, _LONGS, _DOUBLES,
                    ctypes.c_long, _DOUBLES] + [ctypes.c_double] * 4 + [ctypes.c_long] * 2
                    + [_DOUBLES, _DOUBLES, _LONGS, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, ctypes.c_char_p, ctypes.c_long])
     fn.restype = ctypes.c_int
-    return SegmentRunner(lib, fn, x.numel(), z.numel(), names, rows, len(integrated), int(zeros[0].numel()),
-                         entry), sig
+    return SegmentRunner(fn, x.numel(), z.numel(), names, rows, nq, int(zeros[0].numel()), entry), sig
 
 
 FAILURES = {-1: "the solver failed", -2: "a model function failed", -4: f"more than {MAX_NUM_STEPS} steps",
@@ -240,27 +230,21 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
     """The run of a model with state events on the native loop (see the module); returns the Result. Raises
     :class:`SimulationError` where the solver fails (the caller then runs it on the CasADi path)."""
     from ..result import Result
-    from ..simulation.initial import initialize
 
     path = cm.compiled_path
     names = runner.names
     x_start, d_start = x0, d
-    d = settle_modes(cm, t_start, x0, p, d, u)
-    x0 = initialize(cm, t_start, p, d, u, starts) if cm.discrete_names else x0
+    d, x0 = start(cm, t_start, x0, p, d, u, starts)
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
     Q = {name: np.zeros(N) for name in names}
-    done = np.zeros(len(names))
+    done = {name: 0.0 for name in names}  # integral from t_start to t
     events: list = []
     t, x, k_out, passes = t_start, np.asarray(x0, dtype=float), 0, 0
     off = np.zeros(len(cm.event_zeros))
     mute = np.zeros(len(cm.event_zeros), dtype=np.int32)  # passed crossings at the start: no crossing leaving 0
     while True:
-        while k_out < N and t_out[k_out] <= t + SAME_TIME_ULPS * np.spacing(abs(t)):
-            X[:, k_out], D[:, k_out] = x, d
-            for j, name in enumerate(names):
-                Q[name][k_out] = done[j]
-            k_out += 1
+        k_out = outputs_at_restart(t_out, k_out, t, x, d, X, D, Q, done)
         if k_out == N:
             break
         z0 = path._algebraic_start(runner.entry, t, x, p, d, u) if runner.nz else np.zeros(0)
@@ -271,18 +255,18 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
             max_step, first_step)
         if status < 0:
             if status == -3:  # a zero function without a sign: the scipy path's message, naming its event
-                check_zeros(cm, t_e, np.array([float(v) for v in cm.funcs["zeros"](t_e, y_e[:n], p, d, u)]) - off, d)
+                zeros(cm, t_e, y_e[:n], p, d, u, off=off)
             raise SimulationError(f"native event loop: the segment from t = {t:g} s failed: "
                                   f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
         X[:, k_out:k_out + k], D[:, k_out:k_out + k] = Xs[:n], d[:, None]
         for j, name in enumerate(names):
-            Q[name][k_out:k_out + k] = done[j] + Qs[j]
+            Q[name][k_out:k_out + k] = done[name] + Qs[j]
         k_out += k
         if status == 0:
             break
         hits = [(t_e, int(i), bool(dirs[i] > 0)) for i in np.flatnonzero(dirs)]
         x_e = y_e[:n].copy()
-        done = done + q_e
+        done = {name: done[name] + q_e[j] for j, name in enumerate(names)}
         d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
         if np.array_equal(d_new, d) and not restarts(cm, hits):
             passes += 1
