@@ -175,14 +175,22 @@ def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
 
 
 def apply_event(cm, i, rising, t, x, p, d, u):
+    """The modes after event ``i`` crosses (``rising`` or not) at ``t``: its assignments evaluated before it (states
+    ``x``, modes ``d``); ``d`` itself when it assigns nothing that way."""
     table = cm.event_assignments(i, rising)
     if not table:
         return d
-    values = values_at(cm, t, x, p, d, u)
     new = d.copy()
-    for name, expr in table:
-        new[cm.discrete_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
+    for (name, _), value in zip(table, assigned(cm, table, t, x, p, d, u)):
+        new[cm.discrete_names.index(name)] = float(value)
     return new
+
+
+def assigned(cm, table, t, x, p, d, u) -> list:
+    """The values of the expressions of ``table`` (``(name, sympy expression)`` pairs: an event's assignments or
+    reinits) at one time: one generated function per table, through only the steps they need (an event that
+    switches a diode reads its current, not the whole model's Newton blocks)."""
+    return cm.generator.expressions_function([expr for _, expr in table])(t, x, p, d, u)
 
 
 def restarts(cm, hits) -> bool:
@@ -197,10 +205,9 @@ def apply_reinits(cm, hits, t, x, p, d, u):
     pairs = [pair for _, i, rising in hits if rising for pair in cm.event_reinits(i)]
     if not pairs:
         return x
-    values = values_at(cm, t, x, p, d, u)
     new = np.array(x, dtype=float).copy()
-    for name, expr in pairs:
-        new[cm.state_names.index(name)] = float(cm.eval_expr(expr, values, t=t))
+    for (name, _), value in zip(pairs, assigned(cm, pairs, t, x, p, d, u)):
+        new[cm.state_names.index(name)] = float(value)
     return new
 
 
@@ -210,15 +217,6 @@ def apply_hits(cm, hits, t, x, p, d, u):
     for _, i, rising in hits:
         d = apply_event(cm, i, rising, t, x, p, d, u)
     return d
-
-
-def values_at(cm, t, x, p, d, u) -> dict:
-    """Every unknown, state, parameter and mode by name at one time, as Python floats."""
-    vals = dict(zip(cm.unknown_names, cm.funcs["all_values"](t, x, p, d, u)))
-    vals.update(zip(cm.state_names, x))
-    vals.update(zip(cm.param_names, p))
-    vals.update(zip(cm.discrete_names, d))
-    return {k: float(np.asarray(v)) for k, v in vals.items()}
 
 
 def settle_modes(cm, t, x, p, d, u, max_iter: int = SETTLE_ITER):

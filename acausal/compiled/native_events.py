@@ -193,7 +193,7 @@ def _build(cm, u, integrals):
     # the variations as the CasADi event path integrates them (only beside some integral: none, none)
     variations = path._quadratures(entry, (), variation=True)[1] if distinct and zeros[0].numel() else None
     nq = len(distinct) + (0 if variations is None else variations.numel())
-    qexpr = ca.vertcat(ca.cse(ca.vertcat(*distinct)), variations) if distinct else None
+    qexpr = ca.vertcat(ca.cse(ca.vertcat(*distinct)), variations if variations is not None else ca.SX(0, 1)) if distinct else None
     t, x, z, pds = entry["t"], entry["x"], entry["z"], entry["pds"]
     y = ca.vertcat(x, z)
     s = ca.vertcat(*sig.symbols) if sig.symbols else ca.SX(0, 1)
