@@ -24,7 +24,7 @@ from .signals import ParametricSignal, Signal, SignalCall
 from .solve import solve_blocks
 from .structure import EquationSystem, blt_blocks, check_balance, reduce_index
 from .structure.balance import unbalanced_note
-from .symbols import time
+from .symbols import time, var_symbol
 from .time_events import time_events
 
 
@@ -85,6 +85,7 @@ class CompiledModel:
         self.input_names = list(program.inputs)
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._discrete_index = {n: i for i, n in enumerate(self.discrete_names)}
+        self._variables = frozenset(self.state_names) | frozenset(self.unknown_names)
         self._param_plan = program.parameters
         self._defaults = None  # the default parameter vector, once param_vector has built it
         self.derived: dict = {}  # what the stages after compilation work out from the model once, by their own keys
@@ -372,22 +373,22 @@ class CompiledModel:
         elif np.ndim(x) < 1 or len(x) != len(self.state_names):
             raise ModelError(f"evaluate: x must have one row per state of {self.flat.name} "
                              f"({len(self.state_names)}: {self.state_names}), got shape {np.shape(x)}")
-        vals = self.funcs["all_values"](t, x, p, d, u)
-        shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
-        out = {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
         if names is None:
-            return out
-        rows = dict(out, **dict(zip(self.state_names, x)))
-        picked = {}
+            vals = self.funcs["all_values"](t, x, p, d, u)
+            shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
+            return {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(self.unknown_names, vals)}
+        # just the named: one generated function through the steps they need (a design map's power sensors)
+        names, exprs = list(names), []
         for n in names:
-            if n in rows:
-                picked[n] = np.broadcast_to(np.asarray(rows[n], dtype=float), shape)
+            if n in self._variables:
+                exprs.append(var_symbol(n))
             elif n in self.flat.aliases:
-                v = self.eval_expr(self.flat.aliases[n], rows, p, d, t)
-                picked[n] = np.broadcast_to(np.asarray(v, dtype=float), shape)
+                exprs.append(self.flat.aliases[n])
             else:
                 raise self.unknown_name_error(n, "variable", self.names())
-        return picked
+        vals = self.generator.expressions_function(exprs)(t, x, p, d, u)
+        shape = np.broadcast_shapes(t.shape, *[np.shape(v) for v in vals])
+        return {n: np.broadcast_to(np.asarray(v, dtype=float), shape) for n, v in zip(names, vals)}
 
     def time_modes(self, t, p, d) -> np.ndarray:
         """The modes ``d`` with every time event's mode (:func:`acausal.time_events.time_events`: 1 from its threshold on) set for the

@@ -170,14 +170,14 @@ def _build(cm, u, integrals):
     def signals(t):
         made.append(RuntimeSignals(cm, u, t))
         return made[-1]
-    entry = path._build_rhs(u, signals)
+    entry = path.build_rhs(u, signals)
     if isinstance(entry, str):
         return None, entry
     sig = made[0]
-    zeros = path._zero_functions(entry)
+    zeros = path.zero_functions(entry)
     if isinstance(zeros, str):
         return None, zeros
-    names, qexpr = path._quadratures(entry, tuple(integrals))
+    names, qexpr = path.quadratures(entry, tuple(integrals))
     # integrated: each distinct integrand once (a power sensor and the source it measures), none that is zero (an
     # ideal sensor's port), then the zero functions' total variations (scaled, VARIATION_SCALE)
     rows, distinct = [], []
@@ -191,7 +191,7 @@ def _build(cm, u, integrals):
         if not same:
             distinct.append(q)
     # the variations as the CasADi event path integrates them (only beside some integral: none, none)
-    variations = path._quadratures(entry, (), variation=True)[1] if distinct and zeros[0].numel() else None
+    variations = path.quadratures(entry, (), variation=True)[1] if distinct and zeros[0].numel() else None
     nq = len(distinct) + (0 if variations is None else variations.numel())
     qexpr = ca.vertcat(ca.cse(ca.vertcat(*distinct)), variations if variations is not None else ca.SX(0, 1)) if distinct else None
     t, x, z, pds = entry["t"], entry["x"], entry["z"], entry["pds"]
@@ -247,7 +247,7 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
         k_out = outputs_at_restart(t_out, k_out, t, x, d, X, D, Q, done)
         if k_out == N:
             break
-        z0 = path._algebraic_start(runner.entry, t, x, p, d, u) if runner.nz else np.zeros(0)
+        z0 = path.algebraic_start(runner.entry, t, x, p, d, u) if runner.nz else np.zeros(0)
         g0 = zeros(cm, t, x, p, d, u, off=off)  # the start's signs as the other paths see them (an exact 0 in Python
         # may be a round-off off it in C: leaving it is then a crossing at the start, as there)
         status, k, Xs, Qs, t_e, y_e, q_e, dirs, said = runner.run(

@@ -49,8 +49,8 @@ class CompiledPath:
         entry = self._rhs_entry(u)
         if isinstance(entry, str):
             return entry
-        if cm.event_zeros and isinstance(self._zero_functions(entry), str):
-            return self._zero_functions(entry)
+        if cm.event_zeros and isinstance(self.zero_functions(entry), str):
+            return self.zero_functions(entry)
         return None
 
     def integrator_name(self, u) -> str:
@@ -58,7 +58,7 @@ class CompiledPath:
         entry = self._rhs_entry(u)
         return "IDAS" if not isinstance(entry, str) and entry["z"].numel() else "CVODES"
 
-    def _zero_functions(self, entry):
+    def zero_functions(self, entry):
         """The event zero functions and their time derivatives along the solution (CasADi), or the reason they
         have no CasADi form."""
         if "zeros" not in entry:
@@ -86,11 +86,11 @@ class CompiledPath:
             if len(self._rhs) > 256:  # input tables of many recordings: keep the memory bounded
                 self._rhs.clear()
                 self._integrators.clear()
-            self._rhs[layout] = self._build_rhs(u)
+            self._rhs[layout] = self.build_rhs(u)
         self._last = (u, self._rhs[layout])
         return self._last[1]
 
-    def _build_rhs(self, u, signals=None):
+    def build_rhs(self, u, signals=None):
         """The right-hand side pieces of the run's signals ``u`` (a dict, see the cache comment), or why it has no
         CasADi form. ``signals``: a function of the time symbol returning the :class:`~.translate.Signals` to
         translate with (default: the tables' numbers inside the expressions)."""
@@ -118,7 +118,7 @@ class CompiledPath:
                     z_index=[cm.unknown_names.index(n) for n in names],
                     given={var_symbol(n): z for n, z in zip(names, zs)})
 
-    def _quadratures(self, entry, names, variation=False):
+    def quadratures(self, entry, names, variation=False):
         """``(names integrated, their CasADi integrands)``: the names among ``names`` whose integrand
         (:func:`acausal.energy.integrand_expr`) has a CasADi form; with ``variation``, then the total variation
         of every event zero function (``("variation", i)``: the integral of ``|dz_i/dt|``)."""
@@ -153,7 +153,7 @@ class CompiledPath:
                 done.append(name)
                 exprs.append(q)
         if variation:  # scaled far below any tolerance: integrated on the states' steps, never steering them
-            _, dz = self._zero_functions(entry)
+            _, dz = self.zero_functions(entry)
             for i in range(dz.numel()):
                 done.append(("variation", i))
                 exprs.append(VARIATION_SCALE * ca.fabs(dz[i]))
@@ -183,7 +183,7 @@ class CompiledPath:
         t_end = float(t_out[-1]) if t_out.size else t_start
         span = t_end - t_start
         B, n = len(x0s), len(x0s[0])
-        names, qexpr = self._quadratures(entry, integrals, variation) if integrals or variation else ((), None)
+        names, qexpr = self.quadratures(entry, integrals, variation) if integrals or variation else ((), None)
         X = np.empty((B, n, t_out.size))
         Q = np.zeros((B, len(names), t_out.size))
         first = int(np.searchsorted(t_out, t_start, side="right"))  # the outputs at the start (t_out is sorted)
@@ -210,7 +210,7 @@ class CompiledPath:
             X0 = np.asarray(x0s, dtype=float).T
             call = {"x0": X0, "p": P}
             if entry["z_index"]:  # the algebraic variables' start: the Python Newton iteration's values there
-                call["z0"] = np.stack([self._algebraic_start(entry, t_start, x0, p, d, u)
+                call["z0"] = np.stack([self.algebraic_start(entry, t_start, x0, p, d, u)
                                        for x0, p in zip(x0s, ps)], axis=1)
             if B > 1:
                 key = ("map", id(integ), B, threads)
@@ -247,7 +247,7 @@ class CompiledPath:
                                                   [entry["f"]])
         return np.asarray(entry["cache"]["rates"](t, x, z, pds), dtype=float).ravel()
 
-    def _algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
+    def algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
         """The algebraic variables at ``(t, x)``: the generated code's Newton solve of their blocks (only the steps
         they need)."""
         if "z_values" not in entry["cache"]:
@@ -259,7 +259,7 @@ class CompiledPath:
     def integrable(self, names, u) -> list:
         """The names among ``names`` whose integrand has a compiled form (what CVODES can integrate as a
         quadrature beside the states)."""
-        return list(self._quadratures(self._rhs_entry(u), tuple(names))[0])
+        return list(self.quadratures(self._rhs_entry(u), tuple(names))[0])
 
     def quadratures_later(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
         """A function ``names -> {name: integral from t_start at t_out}`` that runs the integration again with

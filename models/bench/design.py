@@ -107,14 +107,16 @@ def plan_designs(ks, Ps, stride_time: float, values: dict, n: int = N_STRIDE) ->
     A, B = values["link.A"], values["link.B"]
     s, theta, M = gait_samples(values["body_mass"], n)
     feasible = np.zeros(len(ks), dtype=bool)
+    reach = np.zeros((2, len(ks)))  # the linkage's largest torque and its angle, per design
     for k in np.unique(ks):
         sel = ks == k
-        feasible[sel] = max_torque(Ps[sel], k, A, B)[0] >= np.max(np.abs(M))
+        reach[:, sel] = max_torque(Ps[sel], k, A, B)
+        feasible[sel] = reach[0, sel] >= np.max(np.abs(M))
     phi = []
     for k in np.unique(ks[feasible]):
         sel = feasible & (ks == k)
         phi.append((sel, arm_angles(Ps[sel], k, A, B, values["body_mass"], values["torque_tolerance"],
-                                    values["arm_limit"], n)[3]))
+                                    values["arm_limit"], n, reach=reach[:, sel])[3]))
     rows = np.empty((int(feasible.sum()), n))
     index = np.cumsum(feasible) - 1
     for sel, ph in phi:
