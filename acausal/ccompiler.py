@@ -53,6 +53,12 @@ def cache_dir() -> Path:
     return folder
 
 
+def library_form() -> tuple:
+    """``(file suffix, link flags)`` of a shared library on this system: ``.dylib`` and ``-dynamiclib`` on macOS,
+    ``.so`` and ``-shared`` elsewhere."""
+    return (".dylib", ("-dynamiclib",)) if sys.platform == "darwin" else (".so", ("-shared",))
+
+
 class BuildError(RuntimeError):
     """A shared library could not be built (no compiler, or the compiler refused the source: its message)."""
 
@@ -65,8 +71,7 @@ def shared_library(source: str, flags=("-O1",), compiler: str | None = None, lib
     cc, origin = which_compiler(compiler)
     if cc is None:
         raise BuildError(f"no C compiler found ({origin or 'looked for $CC, ' + ', '.join(COMPILERS)})")
-    suffix = ".dylib" if sys.platform == "darwin" else ".so"
-    link = ("-dynamiclib",) if sys.platform == "darwin" else ("-shared",)
+    suffix, link = library_form()
     cmd = [cc, *link, "-fPIC", *flags]
     key = hashlib.sha256("\0".join([*cmd, *libs, source]).encode()).hexdigest()[:32]
     folder = cache_dir()

@@ -14,7 +14,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..ccompiler import COMPILERS, which_compiler
+from ..ccompiler import COMPILERS, library_form, which_compiler
 from . import ccode
 from .ccode import ExportError
 from .model_description import documentation, model_description
@@ -28,10 +28,11 @@ def platform_folder() -> tuple:
     """``(FMI platform folder, shared library suffix, link flags)`` of this machine; an ExportError elsewhere."""
     bits64 = sys.maxsize > 2**32
     machine = platform.machine().lower()
+    suffix, link = library_form()
     if sys.platform.startswith("linux") and bits64 and machine in ("x86_64", "amd64", "aarch64", "arm64"):
-        return "linux64", ".so", ("-shared",)
+        return "linux64", suffix, link
     if sys.platform == "darwin" and bits64:
-        return "darwin64", ".dylib", ("-dynamiclib",)
+        return "darwin64", suffix, link
     raise ExportError(f"export_fmu builds binaries on 64-bit Linux and macOS only (this is {sys.platform} "
                       f"{machine}); export with binary=False for a source FMU and let the importing tool compile "
                       "sources/")
