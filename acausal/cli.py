@@ -109,6 +109,10 @@ def cmd_infer(args) -> int:
 
     start = None
     if args.start_from:
+        if not Path(args.start_from).is_file():
+            from acausal import ModelError
+            raise ModelError(f"--start-from {args.start_from}: no such file (give a paper_fit.json that `acausal "
+                             "infer --out DIR` wrote)")
         start = presets.paper_fit_record(Path(args.start_from))["preset"]
     with process_pool(jobs) as pool:
         record = inference.infer(executor=pool, progress=progress, start=start)

@@ -109,4 +109,5 @@ def test_the_infer_verb_is_wired(capsys, tmp_path):
     assert e.value.code == 0 and "--install" in capsys.readouterr().out
     # a record to start from that is not there is named before any run
     assert main(["infer", "--out", str(tmp_path / "o"), "--start-from", str(tmp_path / "earlier.json")]) == 2
-    assert "earlier.json" in capsys.readouterr().err
+    said = capsys.readouterr().err
+    assert "--start-from" in said and "earlier.json" in said and "no such file" in said
