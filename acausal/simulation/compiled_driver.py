@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..energy import account_integrals
 from ..errors import SimulationError
+from ..result import Result
 
 
 def integrate(run):
@@ -15,9 +17,6 @@ def integrate(run):
     the model's accounts are integrated by CVODES beside the states (under its error control); the integral of
     anything else takes the states at the Gauss nodes of the output intervals, integrated again when first asked
     for. A SimulationError says the run failed there (the caller runs it on the scipy path, which names where)."""
-    from ..energy import account_integrals
-    from ..result import Result
-
     cm, t_start, t_out, p, d, u = run.cm, run.t_start, run.t_out, run.p, run.d.copy(), run.u
     if cm.event_zeros:
         from ..compiled import native_events
