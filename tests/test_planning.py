@@ -82,3 +82,27 @@ def test_taut_ring_is_the_exact_least_speed_path_in_the_band():
     x = _least_speed_in_band(np.zeros(12), lo, hi)
     np.testing.assert_allclose(x[2:9], np.linspace(1.0, 4.0, 7))
     np.testing.assert_allclose(np.r_[x[8:], x[:3]], np.linspace(4.0, 1.0, 7))
+
+
+def test_neighbouring_designs_start_from_each_others_active_set():
+    """A map's rows are solved each from the active set of the row before (a warm start); each equals its own
+    solution from the constant (the same optimum: the active set decides the path), and the planner's reach passed
+    in gives the plan it finds itself."""
+    from acausal.library.maccepa import max_torque
+    from acausal.models.ankle.planning import _least_speed_in_band, _taut_ring, arm_angles
+
+    rng = np.random.default_rng(7)
+    n = 48
+    centre = np.cumsum(rng.normal(size=n))
+    centre -= np.linspace(0, 1, n) * centre[-1]
+    rows = [centre + 0.05 * j * np.sin(2 * np.pi * np.arange(n) / n) for j in range(6)]  # neighbouring designs
+    half = rng.uniform(0.1, 0.8, n)
+    phi = np.array(rows)
+    x = _least_speed_in_band(phi, phi - half, phi + half)
+    for j, row in enumerate(rows):
+        cold, _ = _taut_ring(row, row - half, row + half)
+        np.testing.assert_allclose(x[j], cold, rtol=0, atol=1e-12)
+    P, k, A, B, mass = np.array([0.004, 0.006, 0.008]), 130e3, 0.045, 0.04, 70.0
+    free = arm_angles(P, k, A, B, mass, tolerance=3.0)[3]
+    given = arm_angles(P, k, A, B, mass, tolerance=3.0, reach=max_torque(P, k, A, B))[3]
+    np.testing.assert_array_equal(free, given)
