@@ -3,11 +3,12 @@ Newton blocks are algebraic variables), its crossings found inside the integrati
 C by CasADi (``native_dae.c`` holds the loop).
 
 Each segment between two events is one call into the library: the solver steps from a consistent start (the
-algebraic variables from the Python Newton solve of their blocks, as on the CasADi path), its steps ending at every
-output time; it checks the zero functions at the end of each step, and at :data:`SUBSTEPS` interior points of it
-(the solver's interpolating polynomial, the algebraic variables made consistent there) where one crossed or where its
-total variation over the step says it may have bounced; it writes the outputs it passes, and stops at the first
-crossing, located on that polynomial. The event itself (its assignments, the cascade
+algebraic variables from the Python Newton solve of their blocks, as on the CasADi path), its steps ending at the
+last output time, not at each (a stop per output truncated the steps of a dense grid); it checks the zero functions
+at the end of each step, and at :data:`SUBSTEPS` interior points of it (the solver's interpolating polynomial, the
+algebraic variables made consistent there) where one crossed or where its total variation over the step says it may
+have bounced; it writes the outputs it passes, read off that polynomial, and stops at the first crossing, located on
+it. The event itself (its assignments, the cascade
 of mode changes, the thresholds watched from there) is the scipy path's own (:mod:`acausal.modes`), so all paths
 switch the same way; a crossing that changes no mode is passed and the next segment starts from it.
 
