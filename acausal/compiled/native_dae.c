@@ -75,7 +75,7 @@ typedef struct {
   casadi_real** res;
   casadi_int* iw;
   casadi_real* w;
-  double *f, *g, *jac, *quad, *zero;
+  double *f, *g, *jac;
   double *znew, *dz;       /* Newton on the algebraic variables (consistent): the iterate and its step */
   SUNMatrix gz;            /* ... and d g / d z, factored by SUNDIALS's dense LU with the pivots piv */
   sunindextype* piv;
@@ -278,7 +278,6 @@ static void on_error(int code, const char* module, const char* function, char* m
     snprintf(box->text, (size_t)box->size, "%s %s (%d): %s", module, function, code, msg);
 }
 
-/* the solver: CVODES for a model without algebraic variables (an ODE), IDAS for one with them (a DAE) */
 /* the solver's interpolation and quadratures: ode says CVODES (an ODE), else IDAS */
 static int get_dky(void* mem, int ode, double t, N_Vector out) {
   return ode ? CVodeGetDky(mem, t, 0, out) : IDAGetDky(mem, t, 0, out);
@@ -367,18 +366,17 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
     if (iw_ > sz_iw) sz_iw = iw_;
     if (w_ > sz_w) sz_w = w_;
   }
-  /* one buffer: s, at (ns each), f (n), g (nz), jac (ny^2), quad (nq), zero (ng), znew (ny), dz (nz), dz0 (n),
-   * ga, gb, gt, gm, te, v_prev (ng each), qgain (nq); laid out below in that order */
-  sz = 2 * ns + 2 * n + 2 * nz + ny * ny + ny + 2 * nq + 7 * ng + 1;
+  /* one buffer: s, at (ns each), f (n), g (nz), jac (ny^2), znew (ny), dz (nz), dz0 (n), ga, gb, gt, gm, te,
+   * v_prev (ng each), qgain (nq); laid out below in that order */
+  sz = 2 * ns + 2 * n + 2 * nz + ny * ny + ny + nq + 6 * ng + 1;
   m.arg = malloc(sizeof(*m.arg) * sz_arg);
   m.res = malloc(sizeof(*m.res) * sz_res);
   m.iw = malloc(sizeof(*m.iw) * (sz_iw + 1));
   m.w = malloc(sizeof(*m.w) * (sz_w + 1));
   buf = malloc(sizeof(double) * sz);
   if (!m.arg || !m.res || !m.iw || !m.w || !buf) { status = -5; goto done; }
-  m.s = buf; m.at = m.s + ns; m.f = m.at + ns; m.g = m.f + n; m.jac = m.g + nz; m.quad = m.jac + ny * ny;
-  m.zero = m.quad + nq;
-  m.znew = m.zero + ng; m.dz = m.znew + ny; m.dz0 = m.dz + nz;
+  m.s = buf; m.at = m.s + ns; m.f = m.at + ns; m.g = m.f + n; m.jac = m.g + nz;
+  m.znew = m.jac + ny * ny; m.dz = m.znew + ny; m.dz0 = m.dz + nz;
   ga = m.dz0 + n; gb = ga + ng; gt = gb + ng; gm = gt + ng; te = gm + ng; v_prev = te + ng; qgain = v_prev + ng;
   memset(v_prev, 0, sizeof(double) * (ng + nq));
   muted = calloc(ng + 1, sizeof(int));

@@ -186,9 +186,7 @@ class CompiledPath:
         names, qexpr = self.quadratures(entry, integrals, variation) if integrals or variation else ((), None)
         X = np.empty((B, n, t_out.size))
         Q = np.zeros((B, len(names), t_out.size))
-        # the outputs at the start (t_out is sorted; usually none but the first)
-        first = int(t_out.size > 0 and t_out[0] <= t_start) if t_out.size < 2 or t_out[1] > t_start else \
-            int(np.searchsorted(t_out, t_start, side="right"))
+        first = int(np.searchsorted(t_out, t_start, side="right"))  # the outputs at the start (t_out is sorted)
         X[:, :, :first] = np.asarray(x0s, dtype=float)[:, :, None]
         later = t_out[first:]
         if later.size:
