@@ -27,7 +27,8 @@ import sys
 import time
 from pathlib import Path
 
-from .cli_values import check_bench_folder, check_file_output, check_outputs, number, pairs, whole_number
+from .cli_values import (check_bench_folder, check_file_input, check_file_output, check_outputs, number, pairs,
+                         whole_number)
 from .fileio import atomic_write_text
 
 #: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
@@ -107,13 +108,8 @@ def cmd_infer(args) -> int:
             shown = ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
             print(f"  evaluation {n}: cost {cost:.3f} at {shown}", file=sys.stderr, flush=True)
 
-    start = None
-    if args.start_from:
-        if not Path(args.start_from).is_file():
-            from acausal import ModelError
-            raise ModelError(f"--start-from {args.start_from}: no such file (give a paper_fit.json that `acausal "
-                             "infer --out DIR` wrote)")
-        start = presets.paper_fit_record(Path(args.start_from))["preset"]
+    check_file_input(args.start_from, "--start-from", "a paper_fit.json that `acausal infer --out DIR` wrote")
+    start = presets.paper_fit_record(Path(args.start_from))["preset"] if args.start_from else None
     with process_pool(jobs) as pool:
         record = inference.infer(executor=pool, progress=progress, start=start)
     paths = [fit_record.write(record, out / "paper_fit.json"), fit_record.write_tables(record, out)]

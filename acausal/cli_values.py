@@ -1,5 +1,5 @@
 """What the command line's arguments may be: option values (numbers, ``NAME=VALUE`` pairs, whole numbers) and
-output folders, each refused with a message naming the option before any work starts."""
+input and output files and folders, each refused with a message naming the option before any work starts."""
 from __future__ import annotations
 
 import argparse
@@ -68,6 +68,12 @@ def check_file_output(path, flag: str) -> None:
     """An option's output file must not be an existing folder (checked before any work)."""
     if path is not None and Path(path).is_dir():
         raise DataError(f"{flag} {path}: is a folder; give a file path (e.g. {Path(path) / 'verdict.json'})")
+
+
+def check_file_input(path, flag: str, what: str) -> None:
+    """An option's input file must be there (checked before any work); ``what`` says which file it takes."""
+    if path is not None and not Path(path).is_file():
+        raise DataError(f"{flag} {path}: no such file (give {what})")
 
 
 def check_bench_folder(out, force: bool):
