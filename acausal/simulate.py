@@ -26,6 +26,7 @@ from .simulation import COMPILED, ROBUST, check_tolerances, choose_path, initial
 from .simulation.choose import fallback
 from .simulation import algebraic, compiled_driver, scipy_driver
 from .simulation.scipy_driver import MAX_STEPS, MAX_STEPS_EXPLICIT, METHODS  # noqa: F401
+from .trust import check, check_mode, integration_fault
 
 __all__ = ["simulate", "check_tolerances", "initialize", "MAX_STEPS", "MAX_STEPS_EXPLICIT", "METHODS"]
 
@@ -50,8 +51,6 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     :data:`MAX_STEPS_EXPLICIT` for an explicit one: a stiff model on RK45 stops with an error saying so instead of
     running for hours); given, ``method="auto"`` takes the scipy path.
     """
-    from .trust import check, check_mode, integration_fault
-
     check_mode(trust)
     run = prepare(cm, t_end, t_start=t_start, params=params, inputs=inputs, starts=starts, method=method, rtol=rtol,
                   atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step, first_step=first_step,

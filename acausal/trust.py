@@ -93,10 +93,13 @@ def nonfinite(res) -> list:
     bad = _first_nonfinite(cm.state_names, X, res.t)
     if not bad and cm.unknown_names:
         k = _samples(N)
-        D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
-        with np.errstate(all="ignore"):
-            vals = rows(cm.generator.values_function(list(cm.unknown_names))(res.t[k], X[:, k], res.params, D,
-                                                                              res.inputs), k.size)
+        if res.evaluated():  # the outputs' values are there
+            vals = np.array([res[name][k] for name in cm.unknown_names])
+        else:
+            D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
+            with np.errstate(all="ignore"):
+                vals = rows(cm.generator.values_function(list(cm.unknown_names))(res.t[k], X[:, k], res.params, D,
+                                                                                  res.inputs), k.size)
         bad = _first_nonfinite(cm.unknown_names, vals, res.t[k])
     if not bad:
         return []
@@ -174,39 +177,21 @@ def conditioning(res, rtol, atol) -> list:
     N = res.t.size
     if n == 0 or N == 0 or not watched:
         return []
-    k = _samples(N)
-    X = np.asarray(res.states, dtype=float)
-    t, Xk = res.t[k], X[:, k]
-    m = t.size
-    if isinstance(atol, float) and isinstance(rtol, float):
-        tol = atol + rtol * np.abs(Xk)
-    else:
-        tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[:, None] + \
-            np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[:, None] * np.abs(Xk)
-    # the samples with state j moved, for each j
-    Xs = np.repeat(Xk[:, None, :], n, axis=1)  # [state, moved state, sample]
-    j = np.arange(n)
-    Xs[j, j] += tol
-    D = res.modes if np.ndim(res.modes) == 1 else np.tile(np.asarray(res.modes)[:, k], (1, n))
-    Xs = Xs.reshape(n, n * m)
+    T, XX, D, tol = _moved_samples(res, rtol, atol)
+    kk = _moved_layout(N, n)[0][N:]
     with np.errstate(all="ignore"):
         if res.evaluated():  # the outputs' values are there: every unknown at the moved samples
-            moved_rows = res.unknowns_at(np.concatenate([t] * n), Xs, D)
-            vals = np.array([moved_rows[i] for i in watched])
             R = np.array([res[name] for name in names])
+            vals = np.array(res.unknowns_at(T[N:], XX[:, N:], D if np.ndim(D) == 1 else D[:, N:]))[watched]
         else:  # only the watched variables (a slice of the steps), at the outputs and the moved samples at once
-            if np.ndim(res.modes) == 2:
-                D = np.concatenate([res.modes, D], axis=1)
-            both = rows(cm.generator.values_function(names)(np.concatenate([res.t] + [t] * n),
-                                                             np.concatenate([X, Xs], axis=1), res.params, D,
-                                                             res.inputs), N + n * m)
+            both = rows(cm.generator.values_function(names)(T, XX, res.params, D, res.inputs), T.size)
             R, vals = both[:, :N], both[:, N:]
-        dv = np.abs(vals.reshape(len(watched), n, m) - R[:, None, k])  # [variable, state, sample]
+        dv = np.abs(vals - R[:, kk])  # [variable, moved sample]
         top, low = R.max(axis=1), R.min(axis=1)
         span, size = top - low, np.maximum(np.abs(top), np.abs(low))
     dv[~np.isfinite(dv)] = 0.0
-    moved = dv.max(axis=1)  # [variable, sample]
-    span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
+    if not np.isfinite(span).all():
+        span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
     # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
     # stored energies) in the model, a millionth of it (an inductor that never carries current)
     spans = span.tolist()
@@ -214,10 +199,13 @@ def conditioning(res, rtol, atol) -> list:
     floor = np.where(power, max((s for s, pw in zip(spans, kinds) if pw), default=0.0),
                      max((s for s, pw in zip(spans, kinds) if not pw), default=0.0))
     scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
-    peak = moved.max(axis=1)
+    peak = dv.max(axis=1)
     ratio = peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
-    if not (ratio > CONDITION_LIMIT).any():
+    if not ratio.max() > CONDITION_LIMIT:
         return []
+    dv = dv.reshape(len(watched), n, -1)  # [variable, state, sample]
+    moved = dv.max(axis=1)  # [variable, sample]
+    t = res.t[_samples(N)]
     worst = dv.argmax(axis=1)  # [variable, sample]: the state that moves it most
     duration = float(res.t[-1] - res.t[0]) or 1.0
     negligible = peak * np.where(power, duration, 1.0) < ENERGY_FLOOR
@@ -255,6 +243,37 @@ def _watched(cm) -> tuple:
                  names)
         cm.derived["trust: watched"] = found
     return found
+
+
+def _moved_samples(res, rtol, atol) -> tuple:
+    """``(times, states, modes, tolerances)`` of the conditioning check: the outputs, then the :func:`_samples`
+    output times once per state, state ``j`` moved by its error tolerance ``atol + rtol |x_j|`` in the ``j``-th
+    copy (the columns ``N + j m`` to ``N + (j + 1) m``); the tolerances as ``[state, sample]``."""
+    n = len(res.model.state_names)
+    at, r, c = _moved_layout(res.t.size, n)
+    XX = np.asarray(res.states, dtype=float)[:, at]
+    x = XX[r, c]  # state j in its own copy
+    if isinstance(atol, float) and isinstance(rtol, float):
+        tol = atol + rtol * np.abs(x)
+    else:
+        tol = np.broadcast_to(np.asarray(atol, dtype=float), (n,))[r] + \
+            np.broadcast_to(np.asarray(rtol, dtype=float), (n,))[r] * np.abs(x)
+    XX[r, c] = x + tol
+    D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, at]
+    return res.t[at], XX, D, tol.reshape(n, -1)
+
+
+@functools.lru_cache(maxsize=64)
+def _moved_layout(size: int, n: int) -> tuple:
+    """``(outputs, rows, columns)`` of :func:`_moved_samples` for ``n`` states and ``size`` outputs: the output
+    index of each point (every output, then the :func:`_samples` once per state) and where in ``[state, point]``
+    the moved state sits."""
+    k = _samples(size)
+    at = np.concatenate([np.arange(size), np.tile(k, n)])
+    r, c = np.repeat(np.arange(n), k.size), size + np.arange(n * k.size)
+    for a in (at, r, c):
+        a.setflags(write=False)
+    return at, r, c
 
 
 @functools.lru_cache(maxsize=64)

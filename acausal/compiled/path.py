@@ -15,6 +15,7 @@ and says why. State events are handled in :mod:`acausal.compiled.events`.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import sys
 import tempfile
@@ -186,18 +187,19 @@ class CompiledPath:
         names, qexpr = self.quadratures(entry, integrals, variation) if integrals or variation else ((), None)
         X = np.empty((B, n, t_out.size))
         Q = np.zeros((B, len(names), t_out.size))
-        first = int(np.searchsorted(t_out, t_start, side="right"))  # the outputs at the start (t_out is sorted)
-        X[:, :, :first] = np.asarray(x0s, dtype=float)[:, :, None]
+        # the outputs at the start (t_out is sorted)
+        first = int(np.searchsorted(t_out, t_start, side="right")) if t_out.size and t_out[0] <= t_start else 0
+        if first:
+            X[:, :, :first] = np.asarray(x0s, dtype=float)[:, :, None]
         later = t_out[first:]
         if later.size:
-            if later.size < 2 or (later[1:] > later[:-1]).all():
-                grid, back = later, slice(None)
-            else:  # CVODES takes strictly increasing output times: repeated ones are read back
+            back = slice(None)
+            tau = _scaled_grid(later, t_start, span)
+            if tau is None:  # CVODES takes strictly increasing output times: repeated ones are read back
                 grid, back = np.unique(later, return_inverse=True)
-            tau = (grid - t_start) / span
-            even = np.arange(1, tau.size + 1) / tau.size
-            if abs(tau - even).max() * span <= 16 * EPS * max(abs(t_start), abs(t_end), 1.0):
-                tau = even  # evenly spaced up to the round-off of the times: one integrator per count (cached)
+                tau = _scaled_grid(grid, t_start, span)
+                if tau is None:  # distinct times equal on the scaled time (a round-off apart): CVODES says so
+                    tau = (grid - t_start) / span
             integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
                                      None if first_step is None else first_step / span, int(max_num_steps))
             if B == 1:
@@ -217,7 +219,7 @@ class CompiledPath:
                 if key not in self._integrators:
                     self._integrators[key] = integ.map(B, "thread", threads) if threads > 1 else integ.map(B)
                 integ = self._integrators[key]
-            out, failed, said = _run(integ, call)
+            out, failed, said = _run(integ, call, "z0" in call)
             if failed is not None and "IDACalcIC" in failed and B == 1:
                 # IDAS's consistent initialisation failed (its line search, at a kink of a Max or Min of the
                 # Newton block). The start is consistent already (the Python Newton solve of the algebraic
@@ -226,7 +228,7 @@ class CompiledPath:
                 out, failed, said = _run(self._integrator(entry, names, qexpr, tau, float(rtol), float(atol),
                                                           max_step / span,
                                                           None if first_step is None else first_step / span,
-                                                          int(max_num_steps), xdot0), call)
+                                                          int(max_num_steps), xdot0), call, True)
             if failed is not None:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"
@@ -392,9 +394,35 @@ def _scaled_time(entry):
     return s, ca.vertcat(t0, span, entry["pds"]), scaled
 
 
-def _run(integ, call) -> tuple:
+def _scaled_grid(grid, t_start, span):
+    """The output times ``grid`` (after ``t_start``, sorted) on the integrator's scaled time ``(t - t_start) /
+    span``: the cached evenly spaced grid of their count where they are that up to the round-off of the times
+    (one integrator per count), None where two of them are equal."""
+    tau = (grid - t_start) / span
+    even = _even(tau.size)
+    if abs(tau - even).max() <= 16 * EPS * max(abs(t_start), abs(t_start + span), 1.0) / span:
+        return even
+    return tau if tau.size < 2 or (tau[1:] > tau[:-1]).all() else None
+
+
+@functools.lru_cache(maxsize=64)
+def _even(size: int) -> np.ndarray:
+    """``1/size, 2/size, ..., 1``: an evenly spaced output grid on the scaled time (read-only, cached)."""
+    out = np.arange(1, size + 1) / size
+    out.setflags(write=False)
+    return out
+
+
+def _run(integ, call, idas: bool) -> tuple:
     """``(outputs, None, "")`` of one integrator call, or ``(None, its failure, what SUNDIALS printed)``.
-    Outputs are numpy arrays of CasADi's shapes (``xf``: states by output times)."""
+    Outputs are numpy arrays of CasADi's shapes (``xf``: states by output times). IDAS's consistent
+    initialisation prints its failures on the standard error (``idas``: captured); CVODES, with CasADi's internal
+    warnings off, says everything in the exception."""
+    if not idas:
+        try:
+            return _call(integ, call), None, ""
+        except RuntimeError as exc:
+            return None, _first_line(exc), ""
     with _solver_messages() as said:
         try:
             return _call(integ, call), None, ""
