@@ -30,6 +30,7 @@ import warnings
 
 import numpy as np
 
+from . import finite
 from .errors import AcausalError, SimulationError
 from .runtime import rows
 
@@ -84,7 +85,9 @@ def check(res, rtol, atol, trust: str, dense_output: bool, retry=None) -> None:
 def nonfinite(res) -> list:
     """A state that is not finite at some output time, or a variable that is not finite at one of the
     :data:`SAMPLES` output times the conditioning samples (a zero resistance across a source, the square root of
-    a state that crossed zero): one finding naming the first few, where from, and their solved equations."""
+    a state that crossed zero): one finding naming the first few, where from, and their solved equations. A result
+    that has not evaluated its unknowns has only those evaluated whose equation can leave the finite numbers
+    (:mod:`acausal.finite`), where its states, parameters and divisors allow that analysis."""
     cm = res.model
     N = res.t.size
     if N == 0:
@@ -93,14 +96,17 @@ def nonfinite(res) -> list:
     bad = _first_nonfinite(cm.state_names, X, res.t)
     if not bad and cm.unknown_names:
         k = _samples(N)
+        names = cm.unknown_names
         if res.evaluated():  # the outputs' values are there
-            vals = np.array([res[name][k] for name in cm.unknown_names])
+            vals = np.array([res[name][k] for name in names])
         else:
             D = res.modes if np.ndim(res.modes) == 1 else np.asarray(res.modes)[:, k]
+            if finite.moderate(cm, X, res.params, D if np.ndim(D) == 1 else D[:, 0], res.inputs, res.t[0]):
+                names = finite.plan(cm)[0]  # the others are finite by construction (acausal.finite)
             with np.errstate(all="ignore"):
-                vals = rows(cm.generator.values_function(list(cm.unknown_names))(res.t[k], X[:, k], res.params, D,
-                                                                                  res.inputs), k.size)
-        bad = _first_nonfinite(cm.unknown_names, vals, res.t[k])
+                vals = rows(cm.generator.values_function(list(names))(res.t[k], X[:, k], res.params, D, res.inputs),
+                            k.size) if names else np.zeros((0, k.size))
+        bad = _first_nonfinite(names, vals, res.t[k])
     if not bad:
         return []
     items = []
