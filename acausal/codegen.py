@@ -1,10 +1,12 @@
 """Generate numeric Python functions from a compile's lowered program (:class:`~acausal.program.Program`): the
 numpy printer, one of three (the compiled path's CasADi translation and the FMU's C are the others).
 
-Generated functions all have the signature ``f(t, x, p, d, u)``: time, state vector, parameter vector, discrete
-modes, and the tuple of numeric input signals (each called as ``u[k](t, order)``). Every value broadcasts, so
-``t`` may be an array of samples and ``p`` an array of parameter sets (``p[k]`` of shape ``(B, 1)``) at no extra
-cost. Parameters are arguments: changing one never recompiles.
+Generated functions all have the signature ``f(t, x, p, d, u, g=None)``: time, state vector, parameter vector,
+discrete modes, and the tuple of numeric input signals (each called as ``u[k](t, order)``); ``g``, optional, gives
+Newton blocks their start values by variable name (an integrator's algebraic variables where it solved them: a
+block then converges in an iteration or two instead of from its constant start values). Every value broadcasts,
+so ``t`` may be an array of samples and ``p`` an array of parameter sets (``p[k]`` of shape ``(B, 1)``) at no
+extra cost. Parameters are arguments: changing one never recompiles.
 
 * ``all_values``: every unknown (algebraic variables and state derivatives), in :attr:`unknown_names` order;
 * ``rhs``: the state derivatives only (a backward slice of the steps);
@@ -93,7 +95,7 @@ class CodeGenerator(OnDemand):
         # the globals every generated function sees (the entry points and those generated on demand)
         self._namespace = {"numpy": np, "functools": functools, "_np_array": np.array, "_bstack": runtime.bstack,
                            "_linsolve": runtime.linsolve, "_newton": runtime.newton, "_piecewise": runtime.piecewise,
-                           "_labels": self._labels}
+                           "_starts": runtime.starts, "_labels": self._labels}
         self._on_demand: dict = {}  # value and sensitivity functions generated when first asked for (ondemand)
 
     # ------------------------------------------------------------------ helpers
@@ -191,7 +193,8 @@ class CodeGenerator(OnDemand):
     def _emit_newton(self, k, st, items):
         """Call the residual/Jacobian function of Newton block ``k``; the function itself is generated once
         (every generated entry point that needs the block shares it). The call passes the entry point's time
-        ``t``, which a failure message names."""
+        ``t``, which a failure message names, and starts from the block's start values or, where the caller gives
+        them (the entry point's ``g``: values by variable name), from those."""
         if k not in self._newton_args:
             self._label(k, st)
             self._define_newton(k, st)
@@ -200,7 +203,8 @@ class CodeGenerator(OnDemand):
         targets = ", ".join(self.names[var_symbol(v)] for v in st.vars)
         guesses = ", ".join(repr(float(g)) for g in st.guesses)
         split = f", split=_newton_split{k}" if st.split else ""
-        items.append(("code", f"{targets}, = _newton(_newton_block{k}, ({guesses},), ({args}{',' if args else ''}), "
+        starts = f"_starts(g, {tuple(st.vars)!r}, ({guesses},))"
+        items.append(("code", f"{targets}, = _newton(_newton_block{k}, {starts}, ({args}{',' if args else ''}), "
                               f"_labels[{k}], t=t{split})", set(ext)))
 
     def _define_newton(self, k, st):
@@ -334,7 +338,7 @@ class CodeGenerator(OnDemand):
         sig = [f"    {ident} = u[{k}]({pr.doprint(arg)}, {o})"
                for (k, o, arg), ident in self._signal_idents.items() if re.search(rf"\b{ident}\b", text)]
         used_ids = set(re.findall(r"\b_[xpd]\d+\b", text + "\n".join(sig)))
-        head = [f"def {fname}(t, x, p, d, u):"]
+        head = [f"def {fname}(t, x, p, d, u, g=None):"]
         head += [f"    _x{i} = x[{i}]" for i in range(len(self.states)) if f"_x{i}" in used_ids]
         head += [f"    _p{i} = p[{i}]" for i in range(len(self.params)) if f"_p{i}" in used_ids]
         head += [f"    _d{i} = d[{i}]" for i in range(len(self.discretes)) if f"_d{i}" in used_ids]

@@ -24,6 +24,16 @@ def _plain(cm) -> bool:
     return found
 
 
+def _newton_vars(cm) -> list:
+    """The variables of ``cm``'s Newton blocks (found once per model)."""
+    found = cm.derived.get("newton variables")
+    if found is None:
+        from .solve import NewtonSolve
+        found = [v for st in cm.steps if isinstance(st, NewtonSolve) for v in st.vars]
+        cm.derived["newton variables"] = found
+    return found
+
+
 class Result:
     """Output of a simulation.
 
@@ -34,7 +44,7 @@ class Result:
     """
 
     def __init__(self, cm, t, X, p, u, D, events, segments=None, exact_time_function=False, nodes=None,
-                 integrals=None, solver: str = "", more_integrals=None):
+                 integrals=None, solver: str = "", more_integrals=None, newton_starts=None):
         self.model = cm
         self.solver = solver  # which integrator ran, and on which path (see CompiledModel.simulate)
         self.trust: list = []  # what the trust checks found (acausal.trust): empty when the result passed
@@ -52,6 +62,8 @@ class Result:
         self.events = events
         self._states_by_name = dict(zip(cm.state_names, X))
         self._values = None  # every unknown by name, evaluated at the outputs when first asked for (_unknowns)
+        # Newton blocks' start values at the outputs by variable (the integrator's algebraic variables), or None
+        self._newton_starts = newton_starts
         if not _plain(cm):  # a numeric block or an input signal can fail: evaluated now, its error from simulate
             self._unknowns
         self._cache: dict = {}
@@ -62,10 +74,11 @@ class Result:
         if self._values is None:
             cm = self.model
             values = dict(zip(cm.unknown_names, as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
-                                                                                self.modes, self.inputs),
+                                                                                self.modes, self.inputs,
+                                                                                self._newton_starts),
                                                          self.t.shape)))
             values.update(self._states_by_name)
-            self._values = values
+            self._values, self._newton_starts = values, None
         return self._values
 
     def evaluated(self) -> bool:
@@ -73,10 +86,13 @@ class Result:
         asked for)."""
         return self._values is not None
 
-    def unknowns_at(self, t, X, D) -> list:
+    def unknowns_at(self, t, X, D, near=None) -> list:
         """Every unknown (in ``unknown_names`` order) at other points of this run's parameters and inputs: times
-        ``t``, states ``X`` and modes ``D`` (one column per time, or a constant vector); rows over ``t``."""
-        return as_rows(self.model.funcs["all_values"](t, X, self.params, D, self.inputs), np.shape(t))
+        ``t``, states ``X`` and modes ``D`` (one column per time, or a constant vector); rows over ``t``.
+        ``near``: the indices of outputs the points lie near, one per point; their Newton blocks then start from
+        their values there."""
+        starts = None if near is None else {name: self._unknowns[name][near] for name in _newton_vars(self.model)}
+        return as_rows(self.model.funcs["all_values"](t, X, self.params, D, self.inputs, starts), np.shape(t))
 
     # ------------------------------------------------------------------ access
     def names(self, pattern: str | None = None, parameters: bool = False) -> list:

@@ -137,6 +137,15 @@ def _split_step(J, r, y, split, args, free=None):
     return least_norm(J, (J @ off[..., None])[..., 0] - r, scale, free) - off
 
 
+def starts(given, names, defaults) -> tuple:
+    """A Newton block's start values: ``defaults`` (its variables' start values), or, where the caller of the
+    generated function gives them (``given``: values by variable name, arrays over the samples, e.g. the
+    integrator's algebraic variables at the outputs), those."""
+    if given is None:
+        return defaults
+    return tuple(given.get(name, value) for name, value in zip(names, defaults))
+
+
 def newton(fun, guesses, args, label, tol: float = 1e-12, maxiter: int = 60, t=None, split=None) -> list:
     """Solve ``r(y, *args) = 0`` by damped Newton with the exact Jacobian: ``fun(y, *args)`` returns ``(r, J)``.
 

@@ -45,7 +45,7 @@ class NewtonSolve:
     residuals: list
     jac: list
     origins: list  # the components of every equation of the block (eliminated ones are inside the residuals)
-    guesses: list  # start values of the tear variables: every evaluation starts Newton from them
+    guesses: list  # start values of the tear variables: Newton starts from them unless its caller gives others
     # per tear variable, (nominal, scale) of an Indeterminate the block may leave free, or None: where the Jacobian
     # is singular, the solution minimising sum((y - nominal)**2 / scale) over them (acausal.runtime.newton)
     split: list | None = None

@@ -188,7 +188,7 @@ def conditioning(res, rtol, atol) -> list:
     with np.errstate(all="ignore"):
         if res.evaluated():  # the outputs' values are there: every unknown at the moved samples
             R = np.array([res[name] for name in names])
-            vals = np.array(res.unknowns_at(T[N:], XX[:, N:], D if np.ndim(D) == 1 else D[:, N:]))[watched]
+            vals = np.array(res.unknowns_at(T[N:], XX[:, N:], D if np.ndim(D) == 1 else D[:, N:], near=kk))[watched]
         else:  # only the watched variables (a slice of the steps), at the outputs and the moved samples at once
             both = rows(cm.generator.values_function(names)(T, XX, res.params, D, res.inputs), T.size)
             R, vals = both[:, :N], both[:, N:]

@@ -238,17 +238,19 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
     d, x0 = start(cm, t_start, x0, p, d, u, starts)
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
+    Z = np.full((runner.nz, N), np.nan)  # the algebraic variables at the outputs, where IDAS gave them
     Q = {name: np.zeros(N) for name in names}
     done = {name: 0.0 for name in names}  # integral from t_start to t
     events: list = []
-    t, x, k_out, passes = t_start, np.asarray(x0, dtype=float), 0, 0
+    t, x, k_out, passes, z_end = t_start, np.asarray(x0, dtype=float), 0, 0, None
     off = np.zeros(len(cm.event_zeros))
     mute = np.zeros(len(cm.event_zeros), dtype=np.int32)  # passed crossings at the start: no crossing leaving 0
     while True:
         k_out = outputs_at_restart(t_out, k_out, t, x, d, X, D, Q, done)
         if k_out == N:
             break
-        z0 = path.algebraic_start(runner.entry, t, x, p, d, u) if runner.nz else np.zeros(0)
+        # the algebraic variables from where the segment before ended (an event moves them a little)
+        z0 = path.algebraic_start(runner.entry, t, x, p, d, u, z_end) if runner.nz else np.zeros(0)
         g0 = zeros(cm, t, x, p, d, u, off=off)  # the start's signs as the other paths see them (an exact 0 in Python
         # may be a round-off off it in C: leaving it is then a crossing at the start, as there)
         status, k, Xs, Qs, t_e, y_e, q_e, dirs, said = runner.run(
@@ -259,14 +261,14 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
                 zeros(cm, t_e, y_e[:n], p, d, u, off=off)
             raise SimulationError(f"native event loop: the segment from t = {t:g} s failed: "
                                   f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
-        X[:, k_out:k_out + k], D[:, k_out:k_out + k] = Xs[:n], d[:, None]
+        X[:, k_out:k_out + k], D[:, k_out:k_out + k], Z[:, k_out:k_out + k] = Xs[:n], d[:, None], Xs[n:]
         for j, name in enumerate(names):
             Q[name][k_out:k_out + k] = done[name] + Qs[j]
         k_out += k
         if status == 0:
             break
         hits = [(t_e, int(i), bool(dirs[i] > 0)) for i in np.flatnonzero(dirs)]
-        x_e = y_e[:n].copy()
+        x_e, z_end = y_e[:n].copy(), y_e[n:].copy()
         done = {name: done[name] + q_e[j] for j, name in enumerate(names)}
         d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
         if np.array_equal(d_new, d) and not restarts(cm, hits):
@@ -295,4 +297,20 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
 
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
                   solver=f"{'IDAS' if runner.nz else 'CVODES'} (compiled path, native: the model compiled to C, "
-                         "events located in its steps)")
+                         "events located in its steps)", newton_starts=newton_starts(cm, runner, Z))
+
+
+def newton_starts(cm, runner, Z) -> dict | None:
+    """The Newton blocks' start values at the outputs (:class:`~acausal.result.Result`): IDAS's algebraic
+    variables ``Z`` there, an output it did not give (one at a restart: the run's start, an event's time) taking
+    its neighbour's. None without algebraic variables."""
+    if not runner.nz or not np.isfinite(Z).any(axis=1).all():
+        return None
+    filled = Z.copy()
+    for row in filled:
+        given = np.isfinite(row)
+        if not given.all():
+            k = np.flatnonzero(given)
+            row[:] = row[k[np.clip(np.searchsorted(k, np.arange(row.size)), 0, k.size - 1)]]
+    names = [cm.unknown_names[i] for i in runner.entry["z_index"]]
+    return dict(zip(names, filled))

@@ -249,13 +249,15 @@ class CompiledPath:
                                                   [entry["f"]])
         return np.asarray(entry["cache"]["rates"](t, x, z, pds), dtype=float).ravel()
 
-    def algebraic_start(self, entry, t, x, p, d, u) -> np.ndarray:
+    def algebraic_start(self, entry, t, x, p, d, u, near=None) -> np.ndarray:
         """The algebraic variables at ``(t, x)``: the generated code's Newton solve of their blocks (only the steps
-        they need)."""
+        they need), from their start values or from ``near`` (their values nearby, in ``entry``'s order)."""
         if "z_values" not in entry["cache"]:
             names = [self.cm.unknown_names[i] for i in entry["z_index"]]
-            entry["cache"]["z_values"] = self.cm.generator.values_function(names)
-        vals = entry["cache"]["z_values"](t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u)
+            entry["cache"]["z_values"] = (self.cm.generator.values_function(names), names)
+        fn, names = entry["cache"]["z_values"]
+        vals = fn(t, np.asarray(x, dtype=float).tolist(), p.tolist(), d.tolist(), u,
+                  None if near is None else dict(zip(names, np.asarray(near, dtype=float).tolist())))
         return np.array([float(v) for v in vals])
 
     def integrable(self, names, u) -> list:
