@@ -203,7 +203,7 @@ class CodeGenerator(OnDemand):
         targets = ", ".join(self.names[var_symbol(v)] for v in st.vars)
         guesses = ", ".join(repr(float(g)) for g in st.guesses)
         split = f", split=_newton_split{k}" if st.split else ""
-        starts = f"_starts(g, {tuple(st.vars)!r}, ({guesses},))"
+        starts = f"(({guesses},) if g is None else _starts(g, {tuple(st.vars)!r}, ({guesses},)))"
         items.append(("code", f"{targets}, = _newton(_newton_block{k}, {starts}, ({args}{',' if args else ''}), "
                               f"_labels[{k}], t=t{split})", set(ext)))
 

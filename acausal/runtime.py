@@ -19,12 +19,6 @@ LINE_SEARCH_HALVINGS = 10  # the damped Newton step is halved at most this often
 def rows(values, length: int) -> np.ndarray:
     """Values of a generated function (arrays over ``length`` samples, or numbers for constants) as one float
     array of rows."""
-    try:  # every value an array over the samples: one copy
-        out = np.array(values, dtype=float)
-        if out.shape == (len(values), length):
-            return out
-    except ValueError:  # numbers among the arrays
-        pass
     out = np.empty((len(values), length))
     for i, v in enumerate(values):
         out[i] = v
