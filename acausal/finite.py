@@ -36,9 +36,7 @@ def plan(cm) -> tuple:
         for st in cm.steps:
             if not isinstance(st, Assign):
                 names.extend(st.vars)
-            elif isinstance(st.expr, sp.Basic) and not _safe(st.expr, cm, divisors):
-                names.append(st.var)
-            elif not isinstance(st.expr, (sp.Basic, int, float)):
+            elif not isinstance(st.expr, (int, float)) and not _safe(sp.sympify(st.expr), cm, divisors):
                 names.append(st.var)
         found = (names, list(divisors))
         cm.derived["finite plan"] = found

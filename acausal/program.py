@@ -64,13 +64,20 @@ class Program:
     aliases: dict = field(default_factory=dict)
     signal_orders: dict = field(default_factory=dict)  # input -> the highest derivative order read
     # derived from the steps (never given; dataclasses.replace derives them again): variable symbol -> index of the
-    # step computing it, and variable -> its assignment's expression (when first asked for)
+    # step computing it; the variables of the Newton blocks; whether evaluating the unknowns cannot fail (every step
+    # an assignment and no numeric input: a block can fail to converge, a signal refuse a time); and variable ->
+    # its assignment's expression (when first asked for)
     defined_by: dict = field(init=False, repr=False, compare=False)
+    newton_variables: tuple = field(init=False, repr=False, compare=False)
+    plain: bool = field(init=False, repr=False, compare=False)
     _assigned: dict | None = field(init=False, default=None, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "defined_by", {var_symbol(v): k for k, st in enumerate(self.steps)
                                                 for v in step_vars(st)})
+        object.__setattr__(self, "newton_variables", tuple(v for st in self.steps if isinstance(st, NewtonSolve)
+                                                           for v in st.vars))
+        object.__setattr__(self, "plain", not self.inputs and all(isinstance(st, Assign) for st in self.steps))
 
     @property
     def zeros(self) -> list:

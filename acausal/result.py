@@ -13,27 +13,6 @@ from .signals import SignalCall
 from .symbols import der_name, split_der
 
 
-def _plain(cm) -> bool:
-    """Whether evaluating ``cm``'s unknowns cannot fail: every step an assignment, no numeric input signal (a
-    numeric block can fail to converge, a signal refuse a time). Worked out once per model."""
-    found = cm.derived.get("plain values")
-    if found is None:
-        from .solve import Assign
-        found = not cm.input_names and all(isinstance(st, Assign) for st in cm.steps)
-        cm.derived["plain values"] = found
-    return found
-
-
-def _newton_vars(cm) -> list:
-    """The variables of ``cm``'s Newton blocks (found once per model)."""
-    found = cm.derived.get("newton variables")
-    if found is None:
-        from .solve import NewtonSolve
-        found = [v for st in cm.steps if isinstance(st, NewtonSolve) for v in st.vars]
-        cm.derived["newton variables"] = found
-    return found
-
-
 class Result:
     """Output of a simulation.
 
@@ -64,7 +43,7 @@ class Result:
         self._values = None  # every unknown by name, evaluated at the outputs when first asked for (_unknowns)
         # Newton blocks' start values at the outputs by variable (the integrator's algebraic variables), or None
         self._newton_starts = newton_starts
-        if not _plain(cm):  # a numeric block or an input signal can fail: evaluated now, its error from simulate
+        if not cm.program.plain:  # a numeric block or an input signal can fail: evaluated now, its error from simulate
             self._unknowns
         self._cache: dict = {}
 
@@ -91,7 +70,8 @@ class Result:
         ``t``, states ``X`` and modes ``D`` (one column per time, or a constant vector); rows over ``t``.
         ``near``: the indices of outputs the points lie near, one per point; their Newton blocks then start from
         their values there."""
-        starts = None if near is None else {name: self._unknowns[name][near] for name in _newton_vars(self.model)}
+        starts = None if near is None else {name: self._unknowns[name][near]
+                                            for name in self.model.program.newton_variables}
         return as_rows(self.model.funcs["all_values"](t, X, self.params, D, self.inputs, starts), np.shape(t))
 
     # ------------------------------------------------------------------ access
