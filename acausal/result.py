@@ -41,24 +41,26 @@ class Result:
         self.events = events
         self._states_by_name = dict(zip(cm.state_names, X))
         self._values = None  # every unknown by name, evaluated at the outputs when first asked for (_unknowns)
-        # Newton blocks' start values at the outputs by variable (the integrator's algebraic variables), or None
-        self._newton_starts = newton_starts
         if not cm.program.plain:  # a numeric block or an input signal can fail: evaluated now, its error from simulate
-            self._unknowns
+            self._evaluate(newton_starts)  # (the Newton blocks from the integrator's algebraic variables, if given)
         self._cache: dict = {}
 
     @property
     def _unknowns(self) -> dict:
         """Every state and unknown by name (arrays over :attr:`t`), evaluated when first asked for."""
         if self._values is None:
-            cm = self.model
-            values = dict(zip(cm.unknown_names, as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
-                                                                                self.modes, self.inputs,
-                                                                                self._newton_starts),
-                                                         self.t.shape)))
-            values.update(self._states_by_name)
-            self._values, self._newton_starts = values, None
+            self._evaluate(None)
         return self._values
+
+    def _evaluate(self, newton_starts) -> None:
+        """Every unknown at the outputs, the Newton blocks starting from ``newton_starts`` (values at the outputs
+        by variable) where given."""
+        cm = self.model
+        values = dict(zip(cm.unknown_names, as_rows(cm.funcs["all_values"](self.t, self.states, self.params,
+                                                                            self.modes, self.inputs, newton_starts),
+                                                     self.t.shape)))
+        values.update(self._states_by_name)
+        self._values = values
 
     def evaluated(self) -> bool:
         """Whether every unknown has been evaluated at the outputs (a model of plain assignments waits until one is
