@@ -1,9 +1,11 @@
 """Many runs of one compiled model in one call: a parameter sweep without a Python loop around the integrator.
 
-On the compiled path the parameter sets are integrated by one CasADi call that maps CVODES over them (on several
-threads of this process, so nothing is pickled and nothing is compiled again); every run is the same computation
-as its own :func:`~acausal.simulate.simulate`, so the results are identical. A model or run the compiled path
-does not take is simulated set by set on the scipy path, with the reason in each result's ``solver``.
+On the compiled path every set is run by :func:`~acausal.simulate.simulate` itself on the native loop (where it
+is built: the first set alone, the others on several threads of this process, the loop letting go of the
+interpreter while it integrates), or else integrated by one CasADi call that maps CVODES over them (on several
+threads, nothing pickled, nothing compiled again); either way every run is the same computation as its own
+:func:`~acausal.simulate.simulate`, so the results are identical. A model or run the compiled path does not take
+is simulated set by set on the scipy path, with the reason in each result's ``solver``.
 """
 from __future__ import annotations
 
@@ -54,13 +56,15 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         batched = same_inputs and choose_path(cm, method, us[0], rtol, atol)[0] == COMPILED
     if not batched:  # one run per set (a model with events restarts each run at its own crossings)
         return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
-    d = cm.discrete_start()
-    x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
     names = []
     if dense_output and t_out.size > 1 and cm.accounts is not None:
         from .energy import account_integrals
         names = account_integrals(cm.accounts)
     n_threads = max(1, min(len(sets), threads or os.cpu_count() or 1))
+    if _native(cm, us[0], names):
+        return _threaded(lambda s: simulate(cm, t_end, params=s, method=method, **kwargs), sets, n_threads)
+    d = cm.discrete_start()
+    x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
     try:
         runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, ps, d, us[0], rtol, atol, max_step, first_step,
                                                names, threads=n_threads)
@@ -79,3 +83,29 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
                                  f"{len(sets)} on {n_threads} threads)"))
     return out
 
+
+
+def _native(cm, u, names) -> bool:
+    """Whether :func:`~acausal.simulate.simulate` runs ``cm`` with inputs ``u`` on the native loop (built here,
+    once, if it was not)."""
+    from .compiled import native_loop
+    if not native_loop.enabled():
+        return False
+    integrals = cm.compiled_path.integrable(names, u) if names else []
+    return native_loop.segment_runner(cm, u, integrals)[0] is not None
+
+
+def _threaded(run, sets, n_threads: int) -> list:
+    """``run(s)`` for every parameter set: the first alone (what a run builds and keeps for the next is built
+    once), the others on ``n_threads`` threads (the native loop lets go of the interpreter while it integrates).
+    Each result is its own :func:`~acausal.simulate.simulate`'s; its ``solver`` says it ran in a batch."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    out = [run(sets[0])]
+    if len(sets) > 1:
+        with ThreadPoolExecutor(max_workers=n_threads) as pool:
+            out += list(pool.map(run, sets[1:]))
+    for res in out:
+        res.solver = (res.solver[:-1] if res.solver.endswith(")") else res.solver + " (") + \
+            f"; batch of {len(sets)} on {n_threads} threads)"
+    return out

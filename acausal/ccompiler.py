@@ -2,13 +2,14 @@
 
 Three users: the FMU exporter (:mod:`acausal.export.fmu`, which turns a missing compiler into an error saying what
 to install), the native fixed step (:mod:`acausal.compiled.native`, which falls back to CasADi's virtual machine
-without one) and the native event loop (:mod:`acausal.compiled.native_events`, which falls back to the CasADi event
-path); the last two through :func:`try_shared_library`. A library built here is cached on disk under the SHA-256 of its source, compiler and flags
-(:func:`cache_dir`), so each source is compiled once per machine, not once per process: a process pool's workers
-that replay the same model load the same file.
+without one) and the native loop (:mod:`acausal.compiled.native_loop`, which falls back to CasADi's integrators);
+the last two through :func:`try_shared_library`. A library built here is cached on disk under the SHA-256 of its
+source, compiler and flags (:func:`cache_dir`), so each source is compiled once per machine, not once per
+process: a process pool's workers that replay the same model load the same file.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import shutil
@@ -24,12 +25,18 @@ COMPILERS = ("cc", "gcc", "clang")
 def which_compiler(compiler: str | None = None) -> tuple:
     """``(path or None, what was looked for)``: ``compiler``, else ``$CC``, else the first of :data:`COMPILERS` on
     the PATH. The second item names the origin of a compiler that was asked for and not found (``"compiler="`` or
-    ``"the CC environment variable"``), or is None when the search was the default one."""
-    wanted = compiler or os.environ.get("CC")
+    ``"the CC environment variable"``), or is None when the search was the default one. Looked up once per
+    compiler, ``$CC`` and ``$PATH`` (every compiled run asks)."""
+    return _which(compiler, os.environ.get("CC"), os.environ.get("PATH"))
+
+
+@functools.lru_cache(maxsize=16)
+def _which(compiler, cc, search_path) -> tuple:
+    wanted = compiler or cc
     if wanted:
-        return shutil.which(wanted), ("compiler=" if compiler else "the CC environment variable")
+        return shutil.which(wanted, path=search_path), ("compiler=" if compiler else "the CC environment variable")
     for name in COMPILERS:
-        found = shutil.which(name)
+        found = shutil.which(name, path=search_path)
         if found:
             return found, None
     return None, None

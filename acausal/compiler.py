@@ -351,7 +351,8 @@ class CompiledModel:
 
     def simulate_many(self, t_end: float, params, **kwargs) -> list:
         """One result per parameter set in ``params`` (list of dicts), in one call where the compiled path allows
-        it (CVODES mapped over the sets on several threads); see :func:`acausal.batch.simulate_many`."""
+        it (the native loop on several threads, or CVODES mapped over the sets); see
+        :func:`acausal.batch.simulate_many`."""
         from .batch import simulate_many
         return simulate_many(self, t_end, params, **kwargs)
 

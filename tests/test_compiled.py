@@ -326,7 +326,7 @@ def test_newton_blocks_become_algebraic_variables_of_idas():
 
 
 def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monkeypatch):
-    monkeypatch.setenv("ACAUSAL_NATIVE_EVENTS", "0")  # the CasADi event path's IDAS (the native loop's fallback)
+    monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # the CasADi event path's IDAS (the native loop's fallback)
     """The bench (closed loop) of the paper's actuator at 8 mm / 2 s, rtol 1e-7: IDAS's consistent initialisation
     fails at the start of many runs (its line search, at a kink of a Min or Max in the controller's Newton block),
     which cost a third of the runs and sent the rest into parts. The start is consistent already (the algebraic
@@ -447,7 +447,7 @@ def test_a_dense_output_grid_is_crossed_in_wider_windows_with_the_same_events(mo
     """An event run on a dense grid (a 1 kHz recording) may take a sixteenth of its outputs per window instead of 64
     (every window restarts CVODES): fewer runs, the same events and states as the scipy path's BDF."""
     import acausal.compiled.events as E
-    monkeypatch.setenv("ACAUSAL_NATIVE_EVENTS", "0")  # the CasADi event path's windows (the native loop's fallback)
+    monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # the CasADi event path's windows (the native loop's fallback)
     from .circuit_models import Bridge6
 
     cm = compile_model(Bridge6())

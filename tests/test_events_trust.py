@@ -357,7 +357,7 @@ def test_an_output_interval_no_run_can_cross_is_gone_in_parts(monkeypatch):
     """One output interval of 10 s, a crossing at 1 s past which the old mode blows up 1 ms later: the compiled
     path goes the interval in parts until one shows the crossing, instead of falling back to the scipy path (the
     CasADi event path, which the native loop falls back to; the native loop itself stops at the crossing)."""
-    monkeypatch.setenv("ACAUSAL_NATIVE_EVENTS", "0")
+    monkeypatch.setenv("ACAUSAL_NATIVE", "0")
     sim = compile_model(_DrainModel())
     for tol, err in (({}, 1e-4), (dict(rtol=1e-10, atol=1e-12), 1e-6)):
         res = sim.simulate(10.0, n_points=2, **tol)
@@ -365,7 +365,7 @@ def test_an_output_interval_no_run_can_cross_is_gone_in_parts(monkeypatch):
         assert [(round(t, 9), direction) for t, _, direction in res.events] == [(1.0, "falling")]
         assert res["tank.x"][-1] == pytest.approx(0.0, abs=1e-9)
         assert res["tank.y"][-1] == pytest.approx(np.log(1001.0), rel=err)  # int_0^1 dt / (1 - t + 1e-3)
-    monkeypatch.delenv("ACAUSAL_NATIVE_EVENTS")  # the default: the native loop (where it builds) stops there
+    monkeypatch.delenv("ACAUSAL_NATIVE")  # the default: the native loop (where it builds) stops there
     res = sim.simulate(10.0, n_points=2)
     assert [(round(t, 9), direction) for t, _, direction in res.events] == [(1.0, "falling")], res.solver
     assert res["tank.y"][-1] == pytest.approx(np.log(1001.0), rel=1e-4)
@@ -413,7 +413,7 @@ def test_an_interval_no_run_gets_into_goes_to_the_scipy_path_instead_of_stalling
     the interval up to the output at 0.5 s is gone in parts, halved after each failure, until a part rounds to the
     event's own time. Such a part has nothing to integrate and "succeeded" without moving, so the halvings went back
     and forth forever; now the run stops there and goes to the scipy path, which says why."""
-    monkeypatch.setenv("ACAUSAL_NATIVE_EVENTS", "0")  # parts: the CasADi event path (the native loop's fallback)
+    monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # parts: the CasADi event path (the native loop's fallback)
     sim = compile_model(_ClockModel())
     c = 0.5 - 1e-6
     runs = _spy_runs(monkeypatch, fail=lambda a, b: c < a < 0.5 and b > a)
@@ -429,7 +429,7 @@ def test_a_crossing_at_the_end_of_a_part_writes_no_output_there(monkeypatch):
     part (0.05 s, half the way to the first output at 0.1 s): located there, as the locating run does when its own
     solution no longer shows the sign change the part showed at its end. The part's end is no output time: the
     outputs keep their own times' values (the part's state at 0.05 s was written into the output at 0.1 s)."""
-    monkeypatch.setenv("ACAUSAL_NATIVE_EVENTS", "0")  # parts: the CasADi event path (the native loop's fallback)
+    monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # parts: the CasADi event path (the native loop's fallback)
     import acausal.compiled.events as events
     sim = compile_model(_ClockModel())
     _spy_runs(monkeypatch, fail=lambda a, b: a == 0.0 and b > 0.06)

@@ -1,5 +1,5 @@
-"""The native event loop (acausal/compiled/native_events.py, native_dae.c): runs with state events integrated by
-SUNDIALS IDAS in C, their crossings found in its steps. Its agreement with the scipy path on every shipped model
+"""The native loop (acausal/compiled/native_loop.py, native_dae.c) with state events: runs integrated by SUNDIALS
+in C, their crossings found in its steps. Its agreement with the scipy path on every shipped model
 is in tests/test_parity.py (and the CasADi event path's own tests ask for that path); here what is its own: table
 inputs evaluated in C from numbers passed per run, negative start times with energy quadratures, the fallback to
 the CasADi event path where the library cannot be built, and that it is what runs by default."""
@@ -8,7 +8,7 @@ import pytest
 
 from acausal import Model, Start, compile_model, connect
 from acausal import ccompiler
-from acausal.compiled import native_events
+from acausal.compiled import native_loop
 from acausal.library.electrical import Capacitor, Ground, IdealDiode, PrescribedVoltage, Resistor
 from acausal.signals import PeriodicSpline, SampledSignal
 
@@ -75,11 +75,12 @@ def test_without_the_library_the_casadi_event_path_runs_it(monkeypatch):
     """Where the library cannot be built (here: a SUNDIALS library the linker cannot find), the run takes the
     CasADi event path, with the same switches; the refusal is kept (not tried again per run)."""
     cm = compile_model(_Rectifier())
-    monkeypatch.setattr(native_events, "LIBS", ("-lacausal_no_such_library",))
+    monkeypatch.setattr(native_loop, "LIBS", ("-lacausal_no_such_library",))
     monkeypatch.setattr(ccompiler, "_REFUSED", {})
+    monkeypatch.setattr(native_loop, "_LOOP", {})  # the loop as this process would first build it
     res = cm.simulate(0.06, n_points=121, **TIGHT)
     assert res.solver.startswith("CVODES (compiled path, CasADi"), res.solver
-    runner, why = native_events.segment_runner(cm, res.inputs, [])
+    runner, why = native_loop.segment_runner(cm, res.inputs, [])
     assert runner is None and "could not be built" in why
     ref = cm.simulate(0.06, n_points=121, method="BDF", trust="off", **TIGHT)
     assert [e[1:] for e in res.events] == [e[1:] for e in ref.events]

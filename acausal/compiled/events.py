@@ -1,7 +1,7 @@
 """State events on the compiled path through CasADi's integrators: CVODES integrates between events, the crossings
 are found and handled as on the scipy path. Where a C compiler and SUNDIALS's IDAS are installed, runs take the
-native event loop instead (:mod:`acausal.compiled.native_events`, about four times faster: its crossings are found
-inside one integration); this path runs the rest, and a run the native loop fails on.
+native loop instead (:mod:`acausal.compiled.native_loop`, about four times faster: its crossings are found inside
+one integration); this path runs the rest, and a run the native loop fails on.
 
 Each segment (constant discrete modes) is integrated over a window of output times in one call, together with
 the *total variation* of every event zero function (the integral of ``|dz/dt|``). A crossing shows as a sign

@@ -1,11 +1,12 @@
-/* The native event loop of acausal (acausal/compiled/native_events.py): one segment of a run with state events,
- * integrated by SUNDIALS (variable-order BDF: CVODES for an ODE, IDAS where there are algebraic variables) from a
- * consistent start until the last output time or the first zero crossing, whichever comes first. The outputs are
- * read off the solver's interpolating polynomial; the energy integrals are quadratures whose error test is scaled by
- * the step's largest flow.
+/* The native loop of acausal (acausal/compiled/native_loop.py): one segment of a run (between two state events,
+ * or the whole run of a model without them), integrated by SUNDIALS (variable-order BDF: CVODES for an ODE, IDAS
+ * where there are algebraic variables) from a consistent start until the last output time or the first zero
+ * crossing, whichever comes first. The outputs are read off the solver's interpolating polynomial; the energy
+ * integrals are quadratures whose error test is scaled by the step's largest flow.
  *
  * The model is y = (x, z): n states x with x' = f(t, x, z), and nz algebraic variables z with 0 = g(t, x, z) (the
- * Newton blocks; nz = 0 for an ODE). Its functions are CasADi's generated C, appended to this file by the caller:
+ * Newton blocks; nz = 0 for an ODE). Its functions are CasADi's generated C, built into a library of the model's
+ * own; the caller passes their addresses (`functions`: these five, then their work-size queries, in this order):
  *   acausal_dae(t, y, pd, s)   -> f (n), g (nz)
  *   acausal_jac(t, y, pd, s)   -> d(f, g)/dy, dense, by columns
  *   acausal_quad(t, y, pd, s)  -> the integrands of the quadratures (nq)
@@ -19,7 +20,8 @@
  * quadratures) says it may have left zero and come back. The first crossing is located by the Illinois method on
  * that polynomial; crossings within 1e-9 (relative) of the first are taken together, at the latest of their times
  * (acausal.modes.together), a hair past the root when the root itself is still on the old side
- * (acausal.modes.crossings). One translation unit (the generated functions are appended to it), hence its length.
+ * (acausal.modes.crossings). This file is built once per machine and serves every model (its functions are
+ * called through their addresses), so a model's first run compiles only its own functions.
  */
 #include <math.h>
 #include <stdio.h>
@@ -40,17 +42,11 @@
 #define casadi_int long long int
 #endif
 
-/* the generated functions (defined after this file's text) */
-int acausal_dae(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int acausal_jac(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int acausal_quad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int acausal_zeros(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int acausal_arguments(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int acausal_dae_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w);
-int acausal_jac_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w);
-int acausal_quad_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w);
-int acausal_zeros_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w);
-int acausal_arguments_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w);
+/* the generated functions, from the model's own library (their addresses passed in `functions`, in this order:
+ * the five functions, then their work-size queries) */
+typedef int (*Generated)(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+typedef int (*WorkSizes)(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w);
+enum { F_DAE, F_JAC, F_QUAD, F_ZEROS, F_ARGUMENTS, FUNCTIONS };
 
 enum { TAB_N, TAB_DEGREE, TAB_OUTSIDE, TAB_BREAKS, TAB_ROWS, TAB_WIDTH, TAB_FIELDS };
 /* the zero functions' variations are integrated scaled by this: far below any tolerance, they never steer the
@@ -80,6 +76,7 @@ typedef struct {
   SUNMatrix gz;            /* ... and d g / d z, factored by SUNDIALS's dense LU with the pivots piv */
   sunindextype* piv;
   double* dz0;             /* the first step's guess: the rates at the start */
+  Generated fn[FUNCTIONS]; /* the model's functions */
   int failed;             /* a generated function reported an error */
 } Model;
 
@@ -119,14 +116,14 @@ static int signals_at(Model* m, double t) {
   double tt = t;
   if (m->ns == 0 || t == m->s_time) return 0;
   m->arg[0] = &tt; m->arg[1] = m->pd; m->res[0] = m->at;
-  if (acausal_arguments(m->arg, m->res, m->iw, m->w, 0)) { m->failed = 1; return -1; }
+  if (m->fn[F_ARGUMENTS](m->arg, m->res, m->iw, m->w, 0)) { m->failed = 1; return -1; }
   for (j = 0; j < m->ns; j++) m->s[j] = table_value(m, m->slots[2 * j], m->slots[2 * j + 1], m->at[j]);
   m->s_time = t;
   return 0;
 }
 
 /* call one generated function at (t0 + t, y): outputs res0 (and res1) */
-static int call(Model* m, int (*fn)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int), double t,
+static int call(Model* m, Generated fn, double t,
                 const double* y, double* res0, double* res1) {
   double tt = m->t0 + t;
   t = tt;
@@ -139,20 +136,20 @@ static int call(Model* m, int (*fn)(const casadi_real**, casadi_real**, casadi_i
 
 static int rate_quadrature(double t, N_Vector yy, N_Vector rq, void* data) {
   Model* m = (Model*)data;
-  return call(m, acausal_quad, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+  return call(m, m->fn[F_QUAD], t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
 }
 
 static int quadrature(double t, N_Vector yy, N_Vector yp, N_Vector rq, void* data) {
   Model* m = (Model*)data;
   (void)yp;
-  return call(m, acausal_quad, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+  return call(m, m->fn[F_QUAD], t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
 }
 
 static int residual(double t, N_Vector yy, N_Vector yp, N_Vector rr, void* data) {
   Model* m = (Model*)data;
   double *y = N_VGetArrayPointer(yy), *dy = N_VGetArrayPointer(yp), *r = N_VGetArrayPointer(rr);
   long i;
-  if (call(m, acausal_dae, t, y, m->f, m->g)) return -1;
+  if (call(m, m->fn[F_DAE], t, y, m->f, m->g)) return -1;
   for (i = 0; i < m->n; i++) r[i] = dy[i] - m->f[i];
   for (i = 0; i < m->nz; i++) r[m->n + i] = m->g[i];
   for (i = 0; i < m->n + m->nz; i++) if (!isfinite(r[i])) return 1; /* recoverable: IDAS tries a smaller step */
@@ -164,7 +161,7 @@ static int jacobian(double t, double cj, N_Vector yy, N_Vector yp, N_Vector rr, 
   Model* m = (Model*)data;
   long ny = m->n + m->nz, i, j;
   (void)yp; (void)rr; (void)t1; (void)t2; (void)t3;
-  if (call(m, acausal_jac, t, N_VGetArrayPointer(yy), m->jac, 0)) return -1;
+  if (call(m, m->fn[F_JAC], t, N_VGetArrayPointer(yy), m->jac, 0)) return -1;
   for (j = 0; j < ny; j++) {
     double* col = SUNDenseMatrix_Column(J, j);
     for (i = 0; i < ny; i++) col[i] = (i < m->n ? -1.0 : 1.0) * m->jac[j * ny + i];
@@ -178,7 +175,7 @@ static int rate(double t, N_Vector yy, N_Vector dy, void* data) {
   Model* m = (Model*)data;
   double* r = N_VGetArrayPointer(dy);
   long i;
-  if (call(m, acausal_dae, t, N_VGetArrayPointer(yy), r, m->g)) return -1;
+  if (call(m, m->fn[F_DAE], t, N_VGetArrayPointer(yy), r, m->g)) return -1;
   for (i = 0; i < m->n; i++) if (!isfinite(r[i])) return 1; /* recoverable: CVODES tries a smaller step */
   return 0;
 }
@@ -188,7 +185,7 @@ static int rate_jacobian(double t, N_Vector yy, N_Vector fy, SUNMatrix J, void* 
   Model* m = (Model*)data;
   long n = m->n, j;
   (void)fy; (void)t1; (void)t2; (void)t3;
-  if (call(m, acausal_jac, t, N_VGetArrayPointer(yy), m->jac, 0)) return -1;
+  if (call(m, m->fn[F_JAC], t, N_VGetArrayPointer(yy), m->jac, 0)) return -1;
   for (j = 0; j < n; j++) memcpy(SUNDenseMatrix_Column(J, j), m->jac + j * n, sizeof(double) * n);
   return 0;
 }
@@ -204,8 +201,8 @@ static void consistent(Model* m, double t, double* y) {
   memcpy(z, y, sizeof(double) * ny);
   for (it = 0; it < 20; it++) {
     double size = 0, step = 0;
-    if (call(m, acausal_dae, t, z, m->f, m->g)) return;
-    if (call(m, acausal_jac, t, z, m->jac, 0)) return;
+    if (call(m, m->fn[F_DAE], t, z, m->f, m->g)) return;
+    if (call(m, m->fn[F_JAC], t, z, m->jac, 0)) return;
     double** cols = SUNDenseMatrix_Cols(m->gz);
     for (j = 0; j < m->nz; j++)     /* d g / d z: rows and columns n.. of the Jacobian of (f, g) */
       for (i = 0; i < m->nz; i++) cols[j][i] = m->jac[(m->n + j) * ny + m->n + i];
@@ -227,7 +224,7 @@ static void consistent(Model* m, double t, double* y) {
 static int zeros_at(Model* m, double t, double* y, double* out, int interpolated) {
   long i;
   if (interpolated) consistent(m, t, y);
-  if (call(m, acausal_zeros, t, y, out, 0)) return -1;
+  if (call(m, m->fn[F_ZEROS], t, y, out, 0)) return -1;
   for (i = 0; i < m->ng; i++) out[i] -= m->off[i];
   return 0;
 }
@@ -242,7 +239,7 @@ static double first_step_guess(Model* m, const double* y0, double rtol, double a
   long n = m->n, ny = m->n + m->nz, i;
   double d0 = 0, d1 = 0, d2 = 0, h0, h1;
   double *f0 = m->dz0, *y1 = m->znew;
-  if (call(m, acausal_dae, 0.0, y0, m->f, m->g)) return 0.0;
+  if (call(m, m->fn[F_DAE], 0.0, y0, m->f, m->g)) return 0.0;
   for (i = 0; i < n; i++) {
     double sc = atol + rtol * fabs(y0[i]);
     f0[i] = m->f[i];
@@ -254,7 +251,7 @@ static double first_step_guess(Model* m, const double* y0, double rtol, double a
   if (h0 > span) h0 = span;
   memcpy(y1, y0, sizeof(double) * ny);
   for (i = 0; i < n; i++) y1[i] += h0 * f0[i];
-  if (call(m, acausal_dae, h0, y1, m->f, m->g)) return 0.0;
+  if (call(m, m->fn[F_DAE], h0, y1, m->f, m->g)) return 0.0;
   for (i = 0; i < n; i++) {
     double sc = atol + rtol * fabs(y0[i]), dd = (m->f[i] - f0[i]) / sc;
     d2 += dd * dd;
@@ -331,9 +328,9 @@ static int crossed(double a, double b) {
  * y_event), -4 the step limit, -5 out of memory. Outputs at times <= the crossing are written to X (ny per
  * output) and Q (nq per output, integrals from t0); *written says how many. Nothing is kept between calls (the
  * messages go to msg through the solver's own handler data), so threads may run segments at once. */
-int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double t0, const double* y0,
-                    const double* pd, const double* off, const double* g0, const int* mute, const long* tables,
-                    const long* slots, const double* tdata, long n_out,
+int acausal_segment(void* const* functions, long n, long nz, long nq, long nv, long ng, long ns, double t0,
+                    const double* y0, const double* pd, const double* off, const double* g0, const int* mute,
+                    const long* tables, const long* slots, const double* tdata, long n_out,
                     const double* t_out, double rtol, double atol, double max_step, double first_step,
                     long max_steps, long substeps, double* X, double* Q, long* written, double* t_event,
                     double* y_event, double* q_event, int* dirs, char* msg, long msg_size) {
@@ -357,10 +354,9 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   *written = 0;
   m.n = n; m.nz = nz; m.nq = nq; m.ng = ng; m.ns = ns; m.pd = pd; m.off = off; m.tables = tables; m.slots = slots;
   m.tdata = tdata; m.s_time = NAN; m.t0 = t0;
-  int (*works[5])(casadi_int*, casadi_int*, casadi_int*, casadi_int*) = {
-      acausal_dae_work, acausal_jac_work, acausal_quad_work, acausal_zeros_work, acausal_arguments_work};
-  for (i = 0; i < 5; i++) {
-    works[i](&a, &r, &iw_, &w_);
+  for (i = 0; i < FUNCTIONS; i++) {
+    m.fn[i] = (Generated)functions[i];
+    ((WorkSizes)functions[FUNCTIONS + i])(&a, &r, &iw_, &w_);
     if (a > sz_arg) sz_arg = a;
     if (r > sz_res) sz_res = r;
     if (iw_ > sz_iw) sz_iw = iw_;
@@ -393,7 +389,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
   tmp = N_VNew_Serial(ny, ctx);
   if (!yy || !yp || !id || !tmp) { status = -5; goto done; }
   memcpy(N_VGetArrayPointer(yy), y0, sizeof(double) * ny);
-  if (call(&m, acausal_dae, 0.0, y0, m.f, m.g)) { status = -2; goto done; }
+  if (call(&m, m.fn[F_DAE], 0.0, y0, m.f, m.g)) { status = -2; goto done; }
   for (i = 0; i < ny; i++) {
     N_VGetArrayPointer(yp)[i] = i < n ? m.f[i] : 0.0;
     N_VGetArrayPointer(id)[i] = i < n ? 1.0 : 0.0;
@@ -450,7 +446,7 @@ int acausal_segment(long n, long nz, long nq, long nv, long ng, long ns, double 
       /* the scale of the next step's error: the step's gain, or its length times the integrand at its end if more (an
        * integrand through zero gains little in a step, and its own size still bounds the next one's); the integrand
        * evaluated there, not read off the interpolant (a tenth of the solver's time went to that) */
-      if (call(&m, acausal_quad, t_cur, N_VGetArrayPointer(yy), N_VGetArrayPointer(tmpq), 0)) {
+      if (call(&m, m.fn[F_QUAD], t_cur, N_VGetArrayPointer(yy), N_VGetArrayPointer(tmpq), 0)) {
         status = -2; goto done;
       }
       for (i = 0; i < nq; i++)

@@ -1,8 +1,8 @@
-"""The compiled backend: the run integrated by SUNDIALS CVODES (IDAS for a Newton block) through CasADi
-(:mod:`acausal.compiled`), the step loop in compiled code. A model with state events runs in the native event loop
-(:mod:`acausal.compiled.native_events`: IDAS in C, the crossings found in its steps) where it can be built, else
-in windows between its crossings on CasADi's integrators (:mod:`acausal.compiled.events`), which also takes a run
-the native loop fails on."""
+"""The compiled backend: the run integrated by SUNDIALS CVODES (IDAS for a Newton block), the step loop in compiled
+code. Where a C compiler and SUNDIALS's library are there, the native loop (:mod:`acausal.compiled.native_loop`:
+SUNDIALS in C on the model's functions printed as C, a state event's crossing found in its steps) runs it; else, or
+for a run the native loop fails on, CasADi's integrators (:mod:`acausal.compiled`) do: in one call for a model
+without state events, in windows between its crossings for one with them (:mod:`acausal.compiled.events`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,37 +14,38 @@ from ..result import Result
 
 def integrate(run):
     """Integrate ``run`` (:class:`~.run.Run`) on the compiled path. With ``dense_output`` the energy integrals of
-    the model's accounts are integrated by CVODES beside the states (under its error control); the integral of
+    the model's accounts are integrated by the solver beside the states (under its error control); the integral of
     anything else takes the states at the Gauss nodes of the output intervals, integrated again when first asked
     for. A SimulationError says the run failed there (the caller runs it on the scipy path, which names where)."""
-    cm, t_start, t_out, p, d, u = run.cm, run.t_start, run.t_out, run.p, run.d.copy(), run.u
-    if cm.event_zeros:
-        from ..compiled import native_events
-        from ..compiled.events import simulate_with_events
-        if native_events.enabled():
-            names = account_integrals(cm.accounts) if run.dense_output and cm.accounts is not None else []
-            runner, sig = native_events.segment_runner(cm, u, cm.compiled_path.integrable(names, u) if names else [])
-            if runner is not None:
-                try:
-                    return native_events.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, d, u,
-                                                         run.rtol, run.atol, run.max_step, run.first_step,
-                                                         run.max_events, run.dense_output, run.starts)
-                except SimulationError:
-                    d = run.d.copy()  # the CasADi path runs it from the start (and says where it fails)
-        return simulate_with_events(cm, t_start, run.x0.copy(), t_out, p, d, u, run.rtol, run.atol, run.max_step,
-                                    run.first_step, run.max_events, run.dense_output, run.starts)
+    from ..compiled import native_loop  # here: the module needs CasADi, which the scipy path does not
+
+    cm, t_start, t_out, p, u = run.cm, run.t_start, run.t_out, run.p, run.u
     path = cm.compiled_path
-    x0 = run.x0
     args = (run.rtol, run.atol, run.max_step, run.first_step)
-    nodes, integrals = None, {}
-    if run.dense_output and t_out.size > 1:
+    dense = run.dense_output and t_out.size > 1
+    # the states at the Gauss nodes of the output intervals, integrated when first asked for (events: the steps')
+    nodes = path.gauss_states(t_start, run.x0, t_out, p, run.d, u, *args) if dense and not cm.event_zeros else None
+    if native_loop.enabled():
+        names = account_integrals(cm.accounts) if dense and cm.accounts is not None else []
+        runner, sig = native_loop.segment_runner(cm, u, path.integrable(names, u) if names else [])
+        if runner is not None:
+            try:
+                return native_loop.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, run.d.copy(),
+                                                     u, *args, run.max_events, run.dense_output, run.starts, nodes)
+            except SimulationError:
+                pass  # the CasADi path runs it from the start (and says where it fails)
+    if cm.event_zeros:
+        from ..compiled.events import simulate_with_events
+        return simulate_with_events(cm, t_start, run.x0.copy(), t_out, p, run.d.copy(), u, *args, run.max_events,
+                                    run.dense_output, run.starts)
+    x0, d, integrals = run.x0, run.d.copy(), {}
+    if dense:
         names = account_integrals(cm.accounts) if cm.accounts is not None else []
         X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
-        nodes = path.gauss_states(t_start, x0, t_out, p, d, u, *args)
     else:
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
     if not np.isfinite(X).all():
         raise SimulationError("compiled path: non-finite states")
-    later = path.quadratures_later(t_start, x0, t_out, p, d, u, *args) if nodes is not None else None
+    later = path.quadratures_later(t_start, x0, t_out, p, d, u, *args) if dense else None
     return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals, more_integrals=later,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi)")

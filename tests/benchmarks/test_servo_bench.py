@@ -77,9 +77,10 @@ def test_servo_replay_vs_handwritten(benchmark):
     t_ref, ref = _best(lambda: _handwritten(rec, columns, rig, x0))
     assert np.max(np.abs(pos - ref)) < 1e-4
     t_sens, (pos_s, S) = _best(lambda: replay(replay_job((TERMS, ()), rec, PARAMS, tuple(PARAMS), None)), rounds=1)
-    # the same replay with its sensitivities: the same positions within the replays' integration error (RTOL's
-    # comment: below 5e-5 rad)
-    assert S.shape == (len(PARAMS), rec.t.size) and np.max(np.abs(pos_s - pos)) < 5e-5
+    # the same replay with its sensitivities (CasADi's CVODES; the replay alone runs on the native loop where it is
+    # built): the same positions within the replays' integration error (against a replay at rtol 1e-9 on this
+    # recording: 6.1e-5 rad on the native loop, 3.3e-5 on CasADi's CVODES, 1e-5 with the sensitivities)
+    assert S.shape == (len(PARAMS), rec.t.size) and np.max(np.abs(pos_s - pos)) < 1e-4
     fixed = replay_job((TERMS, ()), rec, PARAMS, tuple(PARAMS), 16)
     replay(fixed)  # builds the roll-out once
     t_rk4, (pos_r, S_r) = _best(lambda: replay(fixed), rounds=2)

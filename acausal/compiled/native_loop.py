@@ -1,6 +1,7 @@
-"""State events in native code: a run with state events integrated by SUNDIALS itself (CVODES for an ODE, IDAS where
-Newton blocks are algebraic variables), its crossings found inside the integration, the model's functions printed as
-C by CasADi (``native_dae.c`` holds the loop).
+"""The native loop: a run integrated by SUNDIALS itself (CVODES for an ODE, IDAS where Newton blocks are algebraic
+variables), a state event's crossing found inside the integration, the model's functions printed as C by CasADi
+(``native_dae.c`` holds the loop). Every run of the compiled path takes it where it can be built (a model without
+state events is one segment).
 
 Each segment between two events is one call into the library: the solver steps from a consistent start (the
 algebraic variables from the Python Newton solve of their blocks, as on the CasADi path), its steps ending at the
@@ -12,20 +13,28 @@ it. The event itself (its assignments, the cascade
 of mode changes, the thresholds watched from there) is the scipy path's own (:mod:`acausal.modes`), so all paths
 switch the same way; a crossing that changes no mode is passed and the next segment starts from it.
 
-This removes what made events expensive on the CasADi path (:mod:`acausal.compiled.events`): there, every run of
-the integrator starts cold and costs about a millisecond whatever its length, and a crossing costs several runs
-(windows, the locating run, the integrals up to it). Here a segment costs one start, and the steps themselves run
-in compiled code. Table inputs (recordings, gait tables) are evaluated in C from their numbers passed at run time,
-so one library serves every recording of a model.
+For a model without events, this skips what CasADi's integrator adds around the same SUNDIALS steps (its virtual
+machine evaluating the model, its buffers): the 1-s drive of the benchmarks integrates in about 0.75 of the time of
+the same two equations written by hand for CasADi's CVODES, three states against two.
+
+For events, this removes what made them expensive on the CasADi path (:mod:`acausal.compiled.events`): there,
+every run of the integrator starts cold and costs about a millisecond whatever its length, and a crossing costs
+several runs (windows, the locating run, the integrals up to it). Here a segment costs one start, and the steps
+themselves run in compiled code. Table inputs (recordings, gait tables) are evaluated in C from their numbers passed
+at run time, so one library serves every recording of a model.
 
 The energy integrals are quadratures whose error test is scaled by the largest energy flow of each step (not by
 each whole integral so far, which lets a long run's energies drift by many times ``rtol``), so the energies' errors
 stay near ``rtol`` of the balance they enter; each distinct integrand is integrated once, none that is structurally
 zero.
 
+The loop (``native_dae.c``) is built once per machine, each model's functions into a library of their own (about
+0.2 s of the C compiler on a model's first run on the machine: :func:`acausal.ccompiler.shared_library` caches both
+by their source), and the loop calls them through their addresses.
+
 Needs a C compiler and SUNDIALS's headers and libraries (6.x: Debian's ``libsundials-dev``); without them, or for
-a model whose functions have no CasADi form, :func:`segment_runner` returns None and the run stays on the CasADi
-path. ``ACAUSAL_NATIVE_EVENTS=0`` in the environment keeps every run there.
+a model whose functions have no CasADi form, :func:`segment_runner` returns None and the run stays on CasADi's
+integrators. ``ACAUSAL_NATIVE=0`` in the environment keeps every run there.
 """
 from __future__ import annotations
 
@@ -47,14 +56,11 @@ LIBS = ("-lsundials_cvodes", "-lsundials_idas", "-lsundials_nvecserial", "-lsund
         "-lsundials_sunlinsoldense")
 OUTSIDE = {"extend": 0, "hold": 1, "periodic": 2}  # how a table continues beyond its breaks (native_dae.c)
 _SOURCE = Path(__file__).with_name("native_dae.c")
-_DOUBLES = ctypes.POINTER(ctypes.c_double)
-_LONGS = ctypes.POINTER(ctypes.c_long)
-_INTS = ctypes.POINTER(ctypes.c_int)
 
 
 def enabled() -> bool:
-    """Whether runs with state events may take the native loop (``ACAUSAL_NATIVE_EVENTS=0`` says no)."""
-    return os.environ.get("ACAUSAL_NATIVE_EVENTS", "1") != "0" and which_compiler()[0] is not None
+    """Whether runs with state events may take the native loop (``ACAUSAL_NATIVE=0`` says no)."""
+    return os.environ.get("ACAUSAL_NATIVE", "1") != "0" and which_compiler()[0] is not None
 
 
 class RuntimeSignals(Signals):
@@ -107,8 +113,9 @@ class RuntimeSignals(Signals):
 class SegmentRunner:
     """The compiled segment loop of one model, one signal layout and one set of quadratures."""
 
-    def __init__(self, fn, n, nz, names, rows, nq, ng, entry):
+    def __init__(self, fn, model, n, nz, names, rows, nq, ng, entry):
         self.fn, self.n, self.nz, self.ng = fn, n, nz, ng
+        self.model = model  # the model's library, its functions' addresses and where they are (kept alive)
         self.names = list(names)  # the integrals a Result gets
         self.rows = np.asarray(rows, dtype=int)  # each name's row among the integrated quadratures (-1: zero)
         self.nq, self.nv = nq, ng if nq else 0  # integrated: the distinct integrands, then the zeros' variations
@@ -121,24 +128,24 @@ class SegmentRunner:
         X, Q = np.empty((N, ny)), np.empty((N, max(nq, 1)))
         y_e, q_e = np.empty(ny), np.empty(max(nq, 1))
         dirs = np.zeros(max(self.ng, 1), dtype=np.int32)
-        written, t_e = ctypes.c_long(0), ctypes.c_double(np.nan)
-        msg = ctypes.create_string_buffer(512)
-        args = [np.ascontiguousarray(a, dtype=float) for a in (y0, pd, off if len(off) else [0.0], t_out,
-                                                                g0 if len(g0) else [0.0])]
-        status = self.fn(self.n, self.nz, nq, self.nv, self.ng, len(sig.slots), float(t0),
-                         *[a.ctypes.data_as(_DOUBLES) for a in args[:3]], args[4].ctypes.data_as(_DOUBLES),
-                         np.ascontiguousarray(mute if len(mute) else [0], dtype=np.int32).ctypes.data_as(_INTS),
-                         fields.ctypes.data_as(_LONGS), slots.ctypes.data_as(_LONGS), numbers.ctypes.data_as(_DOUBLES),
-                         N, args[3].ctypes.data_as(_DOUBLES), float(rtol), float(atol),
-                         float(max_step), float(first_step or 0.0), MAX_NUM_STEPS, SUBSTEPS,
-                         X.ctypes.data_as(_DOUBLES), Q.ctypes.data_as(_DOUBLES), ctypes.byref(written),
-                         ctypes.byref(t_e), y_e.ctypes.data_as(_DOUBLES), q_e.ctypes.data_as(_DOUBLES),
-                         dirs.ctypes.data_as(_INTS), msg, len(msg))
-        k = written.value
+        written, t_e = np.zeros(1, dtype=np.int64), np.full(1, np.nan)
+        msg = np.zeros(512, dtype=np.uint8)
+        args = [np.ascontiguousarray(a, dtype=float) for a in (y0, pd, off if len(off) else [0.0],
+                                                                g0 if len(g0) else [0.0], t_out)]
+        mute = np.ascontiguousarray(mute if len(mute) else [0], dtype=np.int32)
+        # the arrays by address (ctypes's pointer objects cost more than the run of a small model)
+        status = self.fn(self.model[2], self.n, self.nz, nq, self.nv, self.ng, len(sig.slots), float(t0),
+                         *[a.ctypes.data for a in args[:4]], mute.ctypes.data, fields.ctypes.data, slots.ctypes.data,
+                         numbers.ctypes.data, N, args[4].ctypes.data, float(rtol), float(atol), float(max_step),
+                         float(first_step or 0.0), MAX_NUM_STEPS, SUBSTEPS, X.ctypes.data, Q.ctypes.data,
+                         written.ctypes.data, t_e.ctypes.data, y_e.ctypes.data, q_e.ctypes.data, dirs.ctypes.data,
+                         msg.ctypes.data, msg.size)
+        k = int(written[0])
         rows, known = np.maximum(self.rows, 0), (self.rows >= 0)
         Qn = np.where(known[:, None], Q[:k, rows].T, 0.0)  # one row per name (a structurally zero one: zeros)
         qn = np.where(known, q_e[rows], 0.0)
-        return status, k, X[:k].T, Qn, t_e.value, y_e, qn, dirs[:self.ng], msg.value.decode(errors="replace")
+        said = msg.tobytes().split(b"\0", 1)[0].decode(errors="replace")
+        return status, k, X[:k].T, Qn, float(t_e[0]), y_e, qn, dirs[:self.ng], said
 
 
 def segment_runner(cm, u, integrals):
@@ -211,15 +218,40 @@ def _build(cm, u, integrals):
     cg = ca.CodeGenerator("acausal_model", {"with_header": False})
     for fn in funcs:
         cg.add(fn)
-    lib, why = try_shared_library(_SOURCE.read_text() + "\n" + cg.dump(), flags=("-O2",), libs=LIBS)
-    if lib is None:
-        return None, f"the native event loop could not be built: {why}"
-    fn = ctypes.CDLL(str(lib)).acausal_segment
-    fn.argtypes = ([ctypes.c_long] * 6 + [ctypes.c_double] + [_DOUBLES] * 4 + [_INTS, _LONGS, _LONGS, _DOUBLES,
-                   ctypes.c_long, _DOUBLES] + [ctypes.c_double] * 4 + [ctypes.c_long] * 2
-                   + [_DOUBLES, _DOUBLES, _LONGS, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, ctypes.c_char_p, ctypes.c_long])
-    fn.restype = ctypes.c_int
-    return SegmentRunner(fn, x.numel(), z.numel(), names, rows, nq, int(zeros[0].numel()), entry), sig
+    loop, why = _loop()
+    model = None
+    if loop is not None:
+        model, why = try_shared_library(cg.dump(), flags=("-O1",))
+    if model is None:
+        return None, f"the native loop could not be built: {why}"
+    lib = ctypes.CDLL(str(model))
+    functions = (ctypes.c_void_p * (2 * len(FUNCTIONS)))(
+        *[ctypes.cast(getattr(lib, name + tail), ctypes.c_void_p).value for tail in ("", "_work")
+          for name in FUNCTIONS])
+    model = (lib, functions, ctypes.addressof(functions))
+    return SegmentRunner(loop, model, x.numel(), z.numel(), names, rows, nq, int(zeros[0].numel()), entry), sig
+
+
+def _loop():
+    """``(the loop's C function, None)``, or ``(None, why not)``: ``native_dae.c`` built once per machine (the
+    library cache) and loaded once per process; every model's functions are passed to it by address."""
+    if "loop" not in _LOOP:
+        lib, why = try_shared_library(_SOURCE.read_text(), flags=("-O2",), libs=LIBS)
+        if lib is None:
+            _LOOP["loop"] = (None, why)
+        else:
+            fn = ctypes.CDLL(str(lib)).acausal_segment
+            at = ctypes.c_void_p  # every array is passed by its address
+            fn.argtypes = ([at] + [ctypes.c_long] * 6 + [ctypes.c_double] + [at] * 8 + [ctypes.c_long, at]
+                           + [ctypes.c_double] * 4 + [ctypes.c_long] * 2 + [at] * 8 + [ctypes.c_long])
+            fn.restype = ctypes.c_int
+            _LOOP["loop"] = (fn, None)
+    return _LOOP["loop"]
+
+
+_LOOP: dict = {}  # the loaded loop (or why it could not be built), once per process
+#: the generated functions the loop calls, in the order of native_dae.c's table
+FUNCTIONS = ("acausal_dae", "acausal_jac", "acausal_quad", "acausal_zeros", "acausal_arguments")
 
 
 FAILURES = {-1: "the solver failed", -2: "a model function failed", -4: f"more than {MAX_NUM_STEPS} steps",
@@ -227,9 +259,10 @@ FAILURES = {-1: "the solver failed", -2: "a model function failed", -4: f"more t
 
 
 def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
-                    dense_output, starts=None):
-    """The run of a model with state events on the native loop (see the module); returns the Result. Raises
-    :class:`SimulationError` where the solver fails (the caller then runs it on the CasADi path)."""
+                    dense_output, starts=None, nodes=None):
+    """The run of a model on the native loop (see the module; a model without state events is one segment);
+    returns the Result (``nodes``: its :class:`~acausal.result.Result` argument). Raises :class:`SimulationError`
+    where the solver fails (the caller then runs it on the CasADi path)."""
     from ..result import Result
 
     path = cm.compiled_path
@@ -295,9 +328,11 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
                               first_step, max_events, False, starts)
         return run._integrals
 
-    return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
-                  solver=f"{'IDAS' if runner.nz else 'CVODES'} (compiled path, native: the model compiled to C, "
-                         "events located in its steps)", newton_starts=newton_starts(cm, runner, Z))
+    located = ", events located in its steps" if cm.event_zeros else ""
+    return Result(cm, t_out, X, p, u, D if events else d, events=events, nodes=nodes, integrals=Q,
+                  more_integrals=later if dense_output else None,
+                  solver=f"{'IDAS' if runner.nz else 'CVODES'} (compiled path, native: the model compiled to C"
+                         f"{located})", newton_starts=newton_starts(cm, runner, Z))
 
 
 def newton_starts(cm, runner, Z) -> dict | None:
