@@ -123,29 +123,48 @@ class SegmentRunner:
 
     def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
         """One segment: ``(status, outputs written, X, Q, t_event, y_event, q_event, directions, message)``."""
-        fields, slots, numbers = sig.tables_of_run()
-        ny, nq, N = self.n + self.nz, self.nq, t_out.size
-        X, Q = np.empty((N, ny)), np.empty((N, max(nq, 1)))
-        y_e, q_e = np.empty(ny), np.empty(max(nq, 1))
-        dirs = np.zeros(max(self.ng, 1), dtype=np.int32)
-        written, t_e = np.zeros(1, dtype=np.int64), np.full(1, np.nan)
+        fields, slots, numbers = sig.tables_of_run() if sig.slots else _NO_TABLES
+        n, ny, nq, ng, N = self.n, self.n + self.nz, self.nq, self.ng, t_out.size
+        wq, wg = max(nq, 1), max(ng, 1)
+        # every array the loop reads in one buffer, every one it writes in another, passed by their addresses
+        # (ctypes's pointer objects, one per array, cost more than the whole run of a small model)
+        ins = np.concatenate([y0, pd, off, np.zeros(wg - len(off)), g0, np.zeros(wg - len(g0)), t_out], dtype=float)
+        a = ins.ctypes.data
+        a_pd = a + 8 * len(y0)
+        a_off = a_pd + 8 * len(pd)
+        a_g0 = a_off + 8 * wg
+        a_t = a_g0 + 8 * wg
+        out = np.empty(N * ny + N * wq + ny + wq + 1)
+        b = out.ctypes.data
+        b_q = b + 8 * N * ny
+        b_ye = b_q + 8 * N * wq
+        b_qe = b_ye + 8 * ny
+        b_te = b_qe + 8 * wq
+        flags = np.zeros(2 * wg + 2, dtype=np.int32)  # mute, directions, then the outputs written (a long)
+        flags[:len(mute)] = mute
+        c = flags.ctypes.data
         msg = np.zeros(512, dtype=np.uint8)
-        args = [np.ascontiguousarray(a, dtype=float) for a in (y0, pd, off if len(off) else [0.0],
-                                                                g0 if len(g0) else [0.0], t_out)]
-        mute = np.ascontiguousarray(mute if len(mute) else [0], dtype=np.int32)
-        # the arrays by address (ctypes's pointer objects cost more than the run of a small model)
-        status = self.fn(self.model[2], self.n, self.nz, nq, self.nv, self.ng, len(sig.slots), float(t0),
-                         *[a.ctypes.data for a in args[:4]], mute.ctypes.data, fields.ctypes.data, slots.ctypes.data,
-                         numbers.ctypes.data, N, args[4].ctypes.data, float(rtol), float(atol), float(max_step),
-                         float(first_step or 0.0), MAX_NUM_STEPS, SUBSTEPS, X.ctypes.data, Q.ctypes.data,
-                         written.ctypes.data, t_e.ctypes.data, y_e.ctypes.data, q_e.ctypes.data, dirs.ctypes.data,
+        status = self.fn(self.model[2], n, self.nz, nq, self.nv, ng, len(sig.slots), float(t0), a, a_pd, a_off,
+                         a_g0, c, fields.ctypes.data, slots.ctypes.data, numbers.ctypes.data, N, a_t, float(rtol),
+                         float(atol), float(max_step), float(first_step or 0.0), MAX_NUM_STEPS, SUBSTEPS, b, b_q,
+                         c + 8 * wg, b_te, b_ye, b_qe, c + 4 * wg,
                          msg.ctypes.data, msg.size)
-        k = int(written[0])
-        rows, known = np.maximum(self.rows, 0), (self.rows >= 0)
-        Qn = np.where(known[:, None], Q[:k, rows].T, 0.0)  # one row per name (a structurally zero one: zeros)
-        qn = np.where(known, q_e[rows], 0.0)
-        said = msg.tobytes().split(b"\0", 1)[0].decode(errors="replace")
-        return status, k, X[:k].T, Qn, float(t_e[0]), y_e, qn, dirs[:self.ng], said
+        k = int(flags[2 * wg:].view(np.int64)[0])
+        X = out[:N * ny].reshape(N, ny)[:k].T
+        y_e, t_e = out[N * ny + N * wq:N * ny + N * wq + ny], float(out[-1])
+        if self.names:
+            Q, q_e = out[N * ny:N * ny + N * wq].reshape(N, wq), out[-1 - wq:-1]
+            rows, known = np.maximum(self.rows, 0), (self.rows >= 0)
+            Qn = np.where(known[:, None], Q[:k, rows].T, 0.0)  # one row per name (a structurally zero one: zeros)
+            qn = np.where(known, q_e[rows], 0.0)
+        else:
+            Qn, qn = np.zeros((0, k)), np.zeros(0)
+        said = msg.tobytes().split(b"\0", 1)[0].decode(errors="replace") if status < 0 else ""
+        return status, k, X, Qn, t_e, y_e, qn, flags[wg:wg + ng], said
+
+
+#: the table arguments of a run without table inputs (the loop reads none of them)
+_NO_TABLES = (np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1))
 
 
 def segment_runner(cm, u, integrals):
@@ -271,7 +290,7 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
     d, x0 = start(cm, t_start, x0, p, d, u, starts)
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
-    Z = np.full((runner.nz, N), np.nan)  # the algebraic variables at the outputs, where IDAS gave them
+    Z = np.full((runner.nz, N), np.nan) if runner.nz else None  # the algebraic variables at the outputs (IDAS's)
     Q = {name: np.zeros(N) for name in names}
     done = {name: 0.0 for name in names}  # integral from t_start to t
     events: list = []
@@ -284,8 +303,9 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
             break
         # the algebraic variables from where the segment before ended (an event moves them a little)
         z0 = path.algebraic_start(runner.entry, t, x, p, d, u, z_end) if runner.nz else np.zeros(0)
-        g0 = zeros(cm, t, x, p, d, u, off=off)  # the start's signs as the other paths see them (an exact 0 in Python
-        # may be a round-off off it in C: leaving it is then a crossing at the start, as there)
+        # the start's signs as the other paths see them (an exact 0 in Python may be a round-off off it in C: leaving
+        # it is then a crossing at the start, as there)
+        g0 = zeros(cm, t, x, p, d, u, off=off) if cm.event_zeros else ()
         status, k, Xs, Qs, t_e, y_e, q_e, dirs, said = runner.run(
             sig, t, np.concatenate([x, z0]), np.concatenate([p, d]), g0, mute, off, t_out[k_out:], rtol, atol,
             max_step, first_step)
@@ -294,7 +314,9 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
                 zeros(cm, t_e, y_e[:n], p, d, u, off=off)
             raise SimulationError(f"native event loop: the segment from t = {t:g} s failed: "
                                   f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
-        X[:, k_out:k_out + k], D[:, k_out:k_out + k], Z[:, k_out:k_out + k] = Xs[:n], d[:, None], Xs[n:]
+        X[:, k_out:k_out + k], D[:, k_out:k_out + k] = Xs[:n], d[:, None]
+        if runner.nz:
+            Z[:, k_out:k_out + k] = Xs[n:]
         for j, name in enumerate(names):
             Q[name][k_out:k_out + k] = done[name] + Qs[j]
         k_out += k
