@@ -2,8 +2,9 @@
 that accepts them, and the backends agree.
 
 Backends: the scipy path (``method="BDF"``, the reference; ``method="Radau"`` on three models with diode and breaker
-events), the compiled path (``method="CVODES"``: CasADi CVODES, or IDAS for a model with a Newton block) and an
-exported FMI 2.0 Model Exchange FMU run by fmpy (its CVODE and the FMU's C event iteration). Models:
+events), the compiled path (``method="CVODES"``: CVODES, or IDAS for a model with a Newton block) as it runs by
+default (the native loop where it is built) and on CasADi's integrators (``ACAUSAL_NATIVE=0``: what runs without
+SUNDIALS's library or a C compiler), and an exported FMI 2.0 Model Exchange FMU run by fmpy (its CVODE and the FMU's C event iteration). Models:
 
 * every model of ``acausal compare --list`` (:mod:`acausal.models.ankle.registry`), as the protocol runs it
   (library preset, 8 mm, 1.2 s/stride, the model's condition inputs); the windings run the replay's FMU with
@@ -148,8 +149,7 @@ def test_compiled_path_agrees_with_the_scipy_path(case):
     fast, refusal, _ = compiled_run(case.name)
     assert refusal is None, refusal
     if not cm.state_names:
-        _cell(case, "compiled (CasADi)", "n/a: no states (evaluated algebraically at the output times, whatever "
-                                         "the method)")
+        _cell(case, "compiled", "n/a: no states (evaluated algebraically at the output times, whatever the method)")
         for name in cm.names()[:20] + list(case.fmu_signals):
             np.testing.assert_array_equal(fast[name], ref[name], err_msg=name)
         return
@@ -158,10 +158,36 @@ def test_compiled_path_agrees_with_the_scipy_path(case):
     dev, worst = _state_deviation(cm, fast.states, ref.states)
     same, dt = _event_deviation(fast.events, ref.events)
     ok = dev < case.state_tol and same and dt < case.event_tol
-    _cell(case, "compiled (CasADi)", f"{fast.solver.split()[0]} " + _verdict(ok, dev, same, dt, len(fast.events),
-                                                                              len(ref.events)))
+    where = "native" if "native" in fast.solver else "CasADi"
+    _cell(case, "compiled", f"{fast.solver.split()[0]} ({where}) " + _verdict(ok, dev, same, dt, len(fast.events),
+                                                                               len(ref.events)))
     assert len(ref.events) >= case.min_events, f"the run does not switch: {ref.events}"
     assert np.array_equal(fast.t, ref.t)
+    assert dev < case.state_tol, f"{worst}: {dev:.3g} of its range"
+    assert same, (fast.events, ref.events)
+    assert dt < case.event_tol, f"event times differ by {dt:.3g} s: {fast.events} vs {ref.events}"
+
+
+@pytest.mark.parametrize("case", ACCEPTED)
+def test_casadi_integrator_agrees_with_the_scipy_path(case, monkeypatch):
+    """The compiled path on CasADi's integrators (what runs without SUNDIALS's library or a C compiler, and a run the
+    native loop fails on; ``ACAUSAL_NATIVE=0`` here) agrees with BDF as the native loop does."""
+    _compiled_available()
+    monkeypatch.setenv("ACAUSAL_NATIVE", "0")
+    cm, kw = model(case.name)
+    ref, _ = reference(case.name)
+    fast = cm.simulate(case.t_end, method="CVODES", **kw, **_grid(case))
+    if not cm.state_names:  # nothing to integrate: the same values as the reference's, as on the native loop
+        _cell(case, "compiled (CasADi)", "n/a: no states")
+        for name in cm.names()[:20] + list(case.fmu_signals):
+            np.testing.assert_array_equal(fast[name], ref[name], err_msg=name)
+        return
+    assert "CasADi" in fast.solver, fast.solver
+    dev, worst = _state_deviation(cm, fast.states, ref.states)
+    same, dt = _event_deviation(fast.events, ref.events)
+    ok = dev < case.state_tol and same and dt < case.event_tol
+    _cell(case, "compiled (CasADi)", f"{fast.solver.split()[0]} " + _verdict(ok, dev, same, dt, len(fast.events),
+                                                                              len(ref.events)))
     assert dev < case.state_tol, f"{worst}: {dev:.3g} of its range"
     assert same, (fast.events, ref.events)
     assert dt < case.event_tol, f"event times differ by {dt:.3g} s: {fast.events} vs {ref.events}"
@@ -176,7 +202,8 @@ def test_compiled_path_refuses_naming_the_construct_and_the_component(case):
     fast, refusal, seconds = compiled_run(case.name)
     assert fast is None and refusal is not None
     why = refusal.split("cannot take the compiled path: ", 1)[-1]
-    _cell(case, "compiled (CasADi)", f"refused: {why}")
+    _cell(case, "compiled", f"refused: {why}")
+    _cell(case, "compiled (CasADi)", "refused, the same")
     for part in case.refused:
         assert part in refusal, (part, refusal)
     assert seconds < 1.0  # before integrating (the run itself takes seconds on the scipy path)
@@ -383,8 +410,9 @@ def test_exporter_refuses_naming_the_construct_and_the_component(case, fmu_dir):
 def test_zz_table():
     """The model x backend table of the cases that ran (``pytest -s`` prints it): agrees (with the largest state
     deviation over the state's range and event-time difference measured) / DIFFERS / refused (the reason) / n/a."""
-    backends = ["scipy (BDF)", "compiled (CasADi)", "FMU (fmpy)"]
-    lines = ["| model | scipy | compiled (CasADi) | FMU (fmpy) |", "|---|---|---|---|"]
+    backends = ["scipy (BDF)", "compiled", "compiled (CasADi)", "FMU (fmpy)"]
+    lines = ["| model | scipy | compiled (default: the native loop) | compiled on CasADi's integrators | FMU (fmpy) |",
+             "|---|---|---|---|---|"]
     for case in CASES:
         row = TABLE.get(case.name)
         if not row:
