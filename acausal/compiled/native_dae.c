@@ -56,7 +56,7 @@ enum { TAB_N, TAB_DEGREE, TAB_OUTSIDE, TAB_BREAKS, TAB_ROWS, TAB_WIDTH, TAB_FIEL
 enum { OUTSIDE_EXTRAPOLATE = 0, OUTSIDE_HOLD = 1, OUTSIDE_PERIODIC = 2 };
 
 typedef struct {
-  long n, nz, nq, ng, ns;
+  long n, nz, nq, nv, ng, ns;
   const double* pd;
   const double* off;      /* thresholds the zero functions are watched at */
   const long* tables;     /* TAB_FIELDS per table */
@@ -78,6 +78,7 @@ typedef struct {
   double* dz0;             /* the first step's guess: the rates at the start */
   Generated fn[FUNCTIONS]; /* the model's functions */
   int failed;             /* a generated function reported an error */
+  int undefined;          /* a zero function's variation was not defined somewhere in the step */
 } Model;
 
 /* one table input (or one of its derivatives) at time t: the piece by binary search over the breaks, then Horner's
@@ -134,15 +135,25 @@ static int call(Model* m, Generated fn, double t,
   return 0;
 }
 
+/* the quadratures' integrands at (t, y): the energy integrands, then the zero functions' variations (the last nv).
+ * A variation that is not defined there (a zero function's rate is NaN or infinite: a square root of a state that
+ * went negative) is integrated as 0, and the step is marked to be searched point by point, as without variations
+ * (the search then finds the zero function itself not finite and says where) */
+static int quad_values(Model* m, double t, const double* y, double* out) {
+  long i;
+  if (call(m, m->fn[F_QUAD], t, y, out, 0)) return -1;
+  for (i = m->nq - m->nv; i < m->nq; i++)
+    if (!isfinite(out[i])) { out[i] = 0.0; m->undefined = 1; }
+  return 0;
+}
+
 static int rate_quadrature(double t, N_Vector yy, N_Vector rq, void* data) {
-  Model* m = (Model*)data;
-  return call(m, m->fn[F_QUAD], t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+  return quad_values((Model*)data, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq)) ? -1 : 0;
 }
 
 static int quadrature(double t, N_Vector yy, N_Vector yp, N_Vector rq, void* data) {
-  Model* m = (Model*)data;
   (void)yp;
-  return call(m, m->fn[F_QUAD], t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq), 0) ? -1 : 0;
+  return quad_values((Model*)data, t, N_VGetArrayPointer(yy), N_VGetArrayPointer(rq)) ? -1 : 0;
 }
 
 static int residual(double t, N_Vector yy, N_Vector yp, N_Vector rr, void* data) {
@@ -352,7 +363,8 @@ int acausal_segment(void* const* functions, long n, long nz, long nq, long nv, l
   memset(&m, 0, sizeof(m));
   if (msg_size > 0) msg[0] = 0;
   *written = 0;
-  m.n = n; m.nz = nz; m.nq = nq; m.ng = ng; m.ns = ns; m.pd = pd; m.off = off; m.tables = tables; m.slots = slots;
+  m.n = n; m.nz = nz; m.nq = nq; m.nv = nv; m.ng = ng; m.ns = ns; m.pd = pd; m.off = off; m.tables = tables;
+  m.slots = slots;
   m.tdata = tdata; m.s_time = NAN; m.t0 = t0;
   for (i = 0; i < FUNCTIONS; i++) {
     m.fn[i] = (Generated)functions[i];
@@ -446,7 +458,7 @@ int acausal_segment(void* const* functions, long n, long nz, long nq, long nv, l
       /* the scale of the next step's error: the step's gain, or its length times the integrand at its end if more (an
        * integrand through zero gains little in a step, and its own size still bounds the next one's); the integrand
        * evaluated there, not read off the interpolant (a tenth of the solver's time went to that) */
-      if (call(&m, m.fn[F_QUAD], t_cur, N_VGetArrayPointer(yy), N_VGetArrayPointer(tmpq), 0)) {
+      if (quad_values(&m, t_cur, N_VGetArrayPointer(yy), N_VGetArrayPointer(tmpq))) {
         status = -2; goto done;
       }
       for (i = 0; i < nq; i++)
@@ -459,11 +471,12 @@ int acausal_segment(void* const* functions, long n, long nz, long nq, long nv, l
       for (i = 0; i < ng; i++) {
         if (!isfinite(gb[i])) suspect = 1;
         else if (CROSSES(i, ga, gb)) suspect = 1;
-        else if (!nv) suspect = 1;  /* no variations: every step is searched */
+        else if (!nv || m.undefined) suspect = 1;  /* no variations, or one not defined: the step is searched */
         else if (ga[i] != 0 && (N_VGetArrayPointer(yq)[nq - nv + i] - v_prev[i]) * VARIATION
                  >= (fabs(ga[i]) + fabs(gb[i])) * (1 - 1e-9)) suspect = 1;
       }
       if (nv) memcpy(v_prev, N_VGetArrayPointer(yq) + nq - nv, sizeof(double) * nv);
+      m.undefined = 0;
     }
     for (j = 1; suspect && j <= substeps + 1; j++) {
       double tj = j <= substeps ? t_prev + (t_cur - t_prev) * j / (substeps + 1) : t_cur;

@@ -118,7 +118,7 @@ class SegmentRunner:
         self.model = model  # the model's library, its functions' addresses and where they are (kept alive)
         self.names = list(names)  # the integrals a Result gets
         self.rows = np.asarray(rows, dtype=int)  # each name's row among the integrated quadratures (-1: zero)
-        self.nq, self.nv = nq, ng if nq else 0  # integrated: the distinct integrands, then the zeros' variations
+        self.nq, self.nv = nq, ng  # integrated: the distinct integrands, then the zeros' variations
         self.entry = entry  # z_index and the caches the algebraic start needs
 
     def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
@@ -217,10 +217,12 @@ def _build(cm, u, integrals):
         rows.append(same[0] if same else len(distinct))
         if not same:
             distinct.append(q)
-    # the variations as the CasADi event path integrates them (only beside some integral: none, none)
-    variations = path.quadratures(entry, (), variation=True)[1] if distinct and zeros[0].numel() else None
+    # the zero functions' variations, integrated whether or not an integral is (without them, every step is searched
+    # at its interior points); where one is not defined in a step (a NaN), native_dae.c searches that step so
+    variations = path.quadratures(entry, (), variation=True)[1] if zeros[0].numel() else None
     nq = len(distinct) + (0 if variations is None else variations.numel())
-    qexpr = ca.vertcat(ca.cse(ca.vertcat(*distinct)), variations if variations is not None else ca.SX(0, 1)) if distinct else None
+    parts = ([ca.cse(ca.vertcat(*distinct))] if distinct else []) + ([variations] if variations is not None else [])
+    qexpr = ca.vertcat(*parts) if parts else None
     t, x, z, pds = entry["t"], entry["x"], entry["z"], entry["pds"]
     y = ca.vertcat(x, z)
     s = ca.vertcat(*sig.symbols) if sig.symbols else ca.SX(0, 1)
