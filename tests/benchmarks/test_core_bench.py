@@ -2,9 +2,9 @@
 
 * compile time of motor_gear_load <= 0.5 s (issue 3);
 * its 1-s simulation at rtol 1e-6 / atol 1e-9 with the default ``simulate()`` (the compiled path) <= 0.5x a
-  hand-written solve_ivp of the same equations with LSODA, measured in the same run (issue 16), and <= 1.5x the
-  same equations written by hand for CasADi's CVODES (issue 38); on the scipy path (``method="LSODA"``) <= 1.5x
-  (issue 3), and at its default settings (dense output, trust checks with the energy balance; 1001 outputs) <= 2x
+  hand-written solve_ivp of the same equations with LSODA, measured in the same run (issue 16; issue 38: <= 0.3x),
+  and <= 1.5x the same equations written by hand for CasADi's CVODES (issue 38); on the scipy path
+  (``method="LSODA"``) <= 1.5x (issue 3), and at its default settings (dense output, trust checks with the energy balance; 1001 outputs) <= 2x
   the hand-written LSODA with as many outputs (issue 38);
 * 100 runs with R swept over 0.5-0.9 ohm, no recompilation, <= 0.5x the hand-written loop (issue 16).
 
@@ -69,19 +69,21 @@ def test_simulate_vs_handwritten(benchmark, sim):
     assert np.allclose(res["L.i"], ref.y[0], rtol=1e-3, atol=1e-3)  # same answer within the tolerances
     # the issue's "same current to 1e-6 relative": at the end of the run, each within its rtol of the other
     assert abs(res["L.i"][-1] - ref.y[0, -1]) <= 2e-6 * abs(ref.y[0, -1])
-    ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), lambda: handwritten.simulate(), rounds=20, goal=0.5,
+    benchmark.extra_info["solver"] = res.solver
+    ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), lambda: handwritten.simulate(), rounds=20, goal=0.3,
                    block=10)
-    assert ratio < 3 * 0.5 or not res.solver.startswith("CVODES")
+    assert ratio < 3 * 0.3 or not res.solver.startswith("CVODES")
 
 
 def test_simulate_vs_handwritten_casadi(benchmark, sim):
-    """The default path against the same equations written by hand for CasADi's CVODES (issue 38: <= 1.5x): what
-    the default ``simulate()`` costs beyond the integrator itself (setting up the run, the result, the trust
-    checks)."""
+    """The default path (the native loop where it is built, else CasADi's own CVODES) against the same equations
+    written by hand for CasADi's CVODES (issue 38: <= 1.5x): the whole default ``simulate()``, its run's set-up,
+    result and trust checks included. ``extra_info["solver"]`` says which integrator ran."""
     pytest.importorskip("casadi")
     hand = handwritten.casadi_cvodes()
     res, X = sim.simulate(1.0, **SIM), hand()
     assert abs(res["L.i"][-1] - X[0, -1]) <= 2e-6 * abs(X[0, -1])
+    benchmark.extra_info["solver"] = res.solver
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), hand, rounds=20, goal=1.5, block=10)
     assert ratio < 3 * 1.5 or not res.solver.startswith("CVODES")
 
