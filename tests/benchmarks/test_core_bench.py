@@ -53,8 +53,8 @@ def _ratio(benchmark, ours, reference, rounds, goal=1.5, block=1):
             fn()
             into.append(time.perf_counter() - t0)
     benchmark.pedantic(lambda: timed(ours, mine), setup=lambda: timed(reference, ref), rounds=rounds, iterations=1)
-    if min_time(benchmark) is None:
-        return 1.0
+    if min_time(benchmark) is None:  # benchmarks off (xdist, --benchmark-disable): nothing measured
+        return None
     t, ref = min(mine), min(ref)
     ratio = t / ref
     benchmark.extra_info.update(reference_s=ref, ours_s=t, ratio=ratio, goal_ratio=goal, block=block)
@@ -72,7 +72,7 @@ def test_simulate_vs_handwritten(benchmark, sim):
     benchmark.extra_info["solver"] = res.solver
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), lambda: handwritten.simulate(), rounds=20, goal=0.3,
                    block=10)
-    assert ratio < 3 * 0.3 or not res.solver.startswith("CVODES")
+    assert ratio is None or ratio < 3 * 0.3 or not res.solver.startswith("CVODES")
 
 
 def test_simulate_vs_handwritten_casadi(benchmark, sim):
@@ -85,13 +85,13 @@ def test_simulate_vs_handwritten_casadi(benchmark, sim):
     assert abs(res["L.i"][-1] - X[0, -1]) <= 2e-6 * abs(X[0, -1])
     benchmark.extra_info["solver"] = res.solver
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SIM), hand, rounds=20, goal=1.5, block=10)
-    assert ratio < 3 * 1.5 or not res.solver.startswith("CVODES")
+    assert ratio is None or ratio < 3 * 1.5 or not res.solver.startswith("CVODES")
 
 
 def test_simulate_scipy_path_vs_handwritten(benchmark, sim):
     """The scipy path with the same integrator as the reference (what runs where CasADi is missing)."""
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **SCIPY), lambda: handwritten.simulate(), rounds=30, block=3)
-    assert ratio < 3 * 1.5
+    assert ratio is None or ratio < 3 * 1.5
 
 
 def test_simulate_scipy_path_default_settings_vs_handwritten(benchmark, sim):
@@ -102,14 +102,14 @@ def test_simulate_scipy_path_default_settings_vs_handwritten(benchmark, sim):
     assert res.trust == [] and res.solver.startswith("LSODA")
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **run), lambda: handwritten.simulate(n_points=1001),
                    rounds=20, goal=2.0, block=2)
-    assert ratio < 3 * 2.0
+    assert ratio is None or ratio < 3 * 2.0
 
 
 def test_simulate_dense_output_vs_handwritten(benchmark, sim):
     """With what exact energy integrals need kept (the default): CVODES quadratures of the energy accounts."""
     ratio = _ratio(benchmark, lambda: sim.simulate(1.0, **{**SIM, "dense_output": True}),
                    lambda: handwritten.simulate(), rounds=30, block=3)
-    assert ratio < 3 * 1.5
+    assert ratio is None or ratio < 3 * 1.5
 
 
 def test_parameter_sweep_vs_handwritten(benchmark, sim):
@@ -123,7 +123,7 @@ def test_parameter_sweep_vs_handwritten(benchmark, sim):
 
     assert np.allclose(ours(), reference(), rtol=2e-6, atol=0)  # the same currents (each run at rtol 1e-6)
     ratio = _ratio(benchmark, ours, reference, rounds=3, goal=0.5)
-    assert ratio < 3 * 1.5
+    assert ratio is None or ratio < 3 * 1.5
 
 
 def test_parameter_sweep_in_one_call_vs_handwritten(benchmark, sim):
@@ -139,4 +139,4 @@ def test_parameter_sweep_in_one_call_vs_handwritten(benchmark, sim):
 
     assert np.allclose(ours(), reference(), rtol=2e-6, atol=0)  # the same currents (each run at rtol 1e-6)
     ratio = _ratio(benchmark, ours, reference, rounds=3, goal=0.5)
-    assert ratio < 3 * 1.5
+    assert ratio is None or ratio < 3 * 1.5
