@@ -42,7 +42,8 @@ def test_compile_time(benchmark):
 def _ratio(benchmark, ours, reference, rounds, goal=1.5, block=1):
     """``ours`` against ``reference``, interleaved: each round calls the reference ``block`` times (in the round's
     untimed set-up), then ours ``block`` times; each side's time is its fastest call. Interleaved, a slow spell of
-    the machine weighs on both alike; in blocks, each side runs as a loop of its own would."""
+    the machine weighs on both alike; in blocks, each side runs as a loop of its own would. Returns the ratio, or
+    None where the benchmarks are off (the guards then pass: nothing was measured)."""
     ours()
     reference()
     ref, mine = [], []
