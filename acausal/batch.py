@@ -84,7 +84,6 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     return out
 
 
-
 def _native(cm, u, names) -> bool:
     """Whether :func:`~acausal.simulate.simulate` runs ``cm`` with inputs ``u`` on the native loop (built here,
     once, if it was not)."""

@@ -9,8 +9,8 @@ last output time, not at each (a stop per output truncated the steps of a dense 
 at the end of each step, and at :data:`SUBSTEPS` interior points of it (the solver's interpolating polynomial, the
 algebraic variables made consistent there) where one crossed or where its total variation over the step says it may
 have bounced; it writes the outputs it passes, read off that polynomial, and stops at the first crossing, located on
-it. The event itself (its assignments, the cascade
-of mode changes, the thresholds watched from there) is the scipy path's own (:mod:`acausal.modes`), so all paths
+it. The event itself (its assignments, the cascade of mode changes, the thresholds watched from there) is the scipy
+path's own (:mod:`acausal.modes`), so all paths
 switch the same way; a crossing that changes no mode is passed and the next segment starts from it.
 
 For a model without events, this skips what CasADi's integrator adds around the same SUNDIALS steps (its virtual
@@ -59,7 +59,7 @@ _SOURCE = Path(__file__).with_name("native_dae.c")
 
 
 def enabled() -> bool:
-    """Whether runs with state events may take the native loop (``ACAUSAL_NATIVE=0`` says no)."""
+    """Whether runs may take the native loop: a C compiler is there and ``ACAUSAL_NATIVE=0`` does not say no."""
     return os.environ.get("ACAUSAL_NATIVE", "1") != "0" and which_compiler()[0] is not None
 
 
@@ -118,7 +118,7 @@ class SegmentRunner:
         self.model = model  # the model's library, its functions' addresses and where they are (kept alive)
         self.names = list(names)  # the integrals a Result gets
         self.rows = np.asarray(rows, dtype=int)  # each name's row among the integrated quadratures (-1: zero)
-        self.nq, self.nv = nq, ng  # integrated: the distinct integrands, then the zeros' variations
+        self.nq, self.nv = nq, ng  # integrated: the distinct integrands, then each zero function's variation
         self.entry = entry  # z_index and the caches the algebraic start needs
 
     def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
