@@ -10,8 +10,8 @@ at the end of each step, and at :data:`SUBSTEPS` interior points of it (the solv
 algebraic variables made consistent there) where one crossed or where its total variation over the step says it may
 have bounced; it writes the outputs it passes, read off that polynomial, and stops at the first crossing, located on
 it. The event itself (its assignments, the cascade of mode changes, the thresholds watched from there) is the scipy
-path's own (:mod:`acausal.modes`), so all paths
-switch the same way; a crossing that changes no mode is passed and the next segment starts from it.
+path's own (:mod:`acausal.modes`), so all paths switch the same way; a crossing that changes no mode is passed and
+the next segment starts from it.
 
 For a model without events, this skips what CasADi's integrator adds around the same SUNDIALS steps (its virtual
 machine evaluating the model, its buffers): the 1-s drive of the benchmarks integrates in about 0.75 of the time of
