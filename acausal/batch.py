@@ -19,14 +19,16 @@ from .errors import ModelError, SimulationError
 def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_start: float = 0.0,
                   inputs: dict | None = None, starts: dict | None = None, method: str = "auto", rtol: float = 1e-6,
                   atol: float = 1e-9, t_eval=None, n_points: int = 501, max_step: float = np.inf,
-                  first_step: float | None = None, dense_output: bool = True) -> list:
+                  first_step: float | None = None, dense_output: bool = True, trust: str = "raise") -> list:
     """One :class:`~acausal.result.Result` per parameter set in ``params`` (a list of dicts of overrides by name),
-    all with the same inputs, starts and output times; the other arguments are :func:`acausal.simulate.simulate`'s.
-    ``threads``: threads for the compiled path (default: the number of cores)."""
+    all with the same inputs, starts and output times; the other arguments are :func:`acausal.simulate.simulate`'s
+    (``trust``: every member is checked as its own run would be). ``threads``: threads for the compiled path
+    (default: the number of cores)."""
     from .compiled import available
     from .result import Result
     from .simulate import simulate
     from .simulation import COMPILED, check_run, choose_path, initialize
+    from .trust import check, check_mode
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
         raise ModelError("simulate_many: params must be a list of parameter dicts (one per run)")
@@ -37,8 +39,9 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     sets = [dict(s or {}) for s in params]
     if not sets:
         return []
+    check_mode(trust)
     kwargs = dict(t_start=t_start, inputs=inputs, starts=starts, rtol=rtol, atol=atol, t_eval=t_eval,
-                  n_points=n_points, max_step=max_step, first_step=first_step, dense_output=dense_output)
+                  n_points=n_points, max_step=max_step, first_step=first_step, dense_output=dense_output, trust=trust)
     t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points,
                                       states=cm.state_names, dense_output=dense_output)
     ps = [cm.param_vector(s) for s in sets]
@@ -81,6 +84,7 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q, more_integrals=later,
                           solver=f"{cm.compiled_path.integrator_name(us[0])} (compiled path, CasADi; batch of "
                                  f"{len(sets)} on {n_threads} threads)"))
+        check(out[-1], rtol, atol, trust, dense_output)
     return out
 
 

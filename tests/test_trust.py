@@ -33,6 +33,24 @@ def test_a_stiff_models_wrong_current_is_refused_naming_variable_state_and_param
         stiff.simulate(1.0, method=method)
 
 
+@pytest.mark.parametrize("native", ["1", "0"])
+def test_simulate_many_checks_every_member_as_its_own_run(stiff, native, monkeypatch):
+    """A sweep whose member is untrustworthy (R = 1e-9 ohm) raises as that member's own run does, on the native
+    loop (each set run by simulate itself) and on CasADi's mapped integrator (ACAUSAL_NATIVE=0); with
+    ``trust="warn"`` every member comes back with its own findings (the sane one with none)."""
+    monkeypatch.setenv("ACAUSAL_NATIVE", native)
+    sets = [{"R.R": 1.0}, {"R.R": 1e-9}]
+    with pytest.raises(UntrustedResult, match=r"R\.loss_power|energy balance"):
+        stiff.simulate_many(1.0, sets, threads=2)
+    with pytest.warns(UntrustedResultWarning):
+        sane, bad = stiff.simulate_many(1.0, sets, threads=2, trust="warn")
+    assert "batch of 2" in sane.solver and ("native" in sane.solver) == (native == "1"), sane.solver
+    assert sane.trust == [] and bad.trust
+    assert stiff.simulate_many(1.0, sets, trust="off")[1].trust == []
+    with pytest.raises(ModelError, match="trust must be one of"):
+        stiff.simulate_many(1.0, sets, trust="maybe")
+
+
 def test_warn_returns_the_result_with_its_findings_and_off_checks_nothing(stiff):
     with pytest.warns(UntrustedResultWarning, match="R.loss_power"):
         res = stiff.simulate(1.0, trust="warn")
