@@ -64,7 +64,8 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         from .energy import account_integrals
         names = account_integrals(cm.accounts)
     n_threads = max(1, min(len(sets), threads or os.cpu_count() or 1))
-    if _native(cm, us[0], names):
+    from .compiled import native_loop  # here: it needs CasADi, which batched runs have
+    if native_loop.runner_for(cm, us[0], names)[0] is not None:  # built here, once, if it was not
         return _threaded(lambda s: simulate(cm, t_end, params=s, method=method, **kwargs), sets, n_threads)
     d = cm.discrete_start()
     x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
@@ -86,16 +87,6 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
                                  f"{len(sets)} on {n_threads} threads)"))
         check(out[-1], rtol, atol, trust, dense_output)
     return out
-
-
-def _native(cm, u, names) -> bool:
-    """Whether :func:`~acausal.simulate.simulate` runs ``cm`` with inputs ``u`` on the native loop (built here,
-    once, if it was not)."""
-    from .compiled import native_loop
-    if not native_loop.enabled():
-        return False
-    integrals = cm.compiled_path.integrable(names, u) if names else []
-    return native_loop.segment_runner(cm, u, integrals)[0] is not None
 
 
 def _threaded(run, sets, n_threads: int) -> list:

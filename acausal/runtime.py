@@ -132,11 +132,10 @@ def _split_step(J, r, y, split, args, free=None):
 
 
 def starts(given, names, defaults) -> tuple:
-    """A Newton block's start values: ``defaults`` (its variables' start values), or, where the caller of the
-    generated function gives them (``given``: values by variable name, arrays over the samples, e.g. the
-    integrator's algebraic variables at the outputs), those."""
-    if given is None:
-        return defaults
+    """A Newton block's start values where the caller of the generated function gives some (``given``: values by
+    variable name, arrays over the samples, e.g. the integrator's algebraic variables at the outputs): those, and
+    ``defaults`` (its variables' start values) for the others. The generated call checks ``given is None`` itself
+    (no call then)."""
     return tuple(given.get(name, value) for name, value in zip(names, defaults))
 
 

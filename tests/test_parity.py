@@ -136,6 +136,30 @@ def _verdict(ok, dev, same, dt, n, n_ref, what="states"):
     return text + (f", {n} events within {dt:.1e} s" if n else "")
 
 
+def _agrees(case, cm, fast, ref, column, solver_ok) -> None:
+    """``fast`` agrees with the reference ``ref``, its cell of the table in ``column``: a model without states has
+    the reference's values (evaluated algebraically whatever the method); one with states ran on the compiled path
+    (``solver_ok(fast.solver)``), its states within ``state_tol`` of their range, the same events at times within
+    ``event_tol``."""
+    if not cm.state_names:
+        _cell(case, column, "n/a: no states (evaluated algebraically at the output times, whatever the method)")
+        for name in cm.names()[:20] + list(case.fmu_signals):
+            np.testing.assert_array_equal(fast[name], ref[name], err_msg=name)
+        return
+    assert solver_ok(fast.solver), fast.solver  # not a failed run redone on the scipy path, nor the other backend
+    dev, worst = _state_deviation(cm, fast.states, ref.states)
+    same, dt = _event_deviation(fast.events, ref.events)
+    ok = dev < case.state_tol and same and dt < case.event_tol
+    where = "native" if "native" in fast.solver else "CasADi"
+    _cell(case, column, f"{fast.solver.split()[0]} ({where}) " + _verdict(ok, dev, same, dt, len(fast.events),
+                                                                           len(ref.events)))
+    assert len(ref.events) >= case.min_events, f"the run does not switch: {ref.events}"
+    assert np.array_equal(fast.t, ref.t)
+    assert dev < case.state_tol, f"{worst}: {dev:.3g} of its range"
+    assert same, (fast.events, ref.events)
+    assert dt < case.event_tol, f"event times differ by {dt:.3g} s: {fast.events} vs {ref.events}"
+
+
 @pytest.mark.parametrize("case", ACCEPTED)
 def test_compiled_path_agrees_with_the_scipy_path(case):
     """The compiled path takes the model (``method="CVODES"`` runs it, ``method="auto"`` takes it: its
@@ -148,24 +172,9 @@ def test_compiled_path_agrees_with_the_scipy_path(case):
     _cell(case, "scipy (BDF)", f"reference: {len(ref.events)} events")
     fast, refusal, _ = compiled_run(case.name)
     assert refusal is None, refusal
-    if not cm.state_names:
-        _cell(case, "compiled", "n/a: no states (evaluated algebraically at the output times, whatever the method)")
-        for name in cm.names()[:20] + list(case.fmu_signals):
-            np.testing.assert_array_equal(fast[name], ref[name], err_msg=name)
-        return
-    assert fast.solver.startswith(("CVODES", "IDAS")), fast.solver  # not a failed run redone on the scipy path
-    assert cm.simulation_path(kw.get("inputs")).startswith("compiled"), cm.simulation_path(kw.get("inputs"))
-    dev, worst = _state_deviation(cm, fast.states, ref.states)
-    same, dt = _event_deviation(fast.events, ref.events)
-    ok = dev < case.state_tol and same and dt < case.event_tol
-    where = "native" if "native" in fast.solver else "CasADi"
-    _cell(case, "compiled", f"{fast.solver.split()[0]} ({where}) " + _verdict(ok, dev, same, dt, len(fast.events),
-                                                                               len(ref.events)))
-    assert len(ref.events) >= case.min_events, f"the run does not switch: {ref.events}"
-    assert np.array_equal(fast.t, ref.t)
-    assert dev < case.state_tol, f"{worst}: {dev:.3g} of its range"
-    assert same, (fast.events, ref.events)
-    assert dt < case.event_tol, f"event times differ by {dt:.3g} s: {fast.events} vs {ref.events}"
+    if cm.state_names:
+        assert cm.simulation_path(kw.get("inputs")).startswith("compiled"), cm.simulation_path(kw.get("inputs"))
+    _agrees(case, cm, fast, ref, "compiled", lambda solver: solver.startswith(("CVODES", "IDAS")))
 
 
 @pytest.mark.parametrize("case", ACCEPTED)
@@ -177,20 +186,8 @@ def test_casadi_integrator_agrees_with_the_scipy_path(case, monkeypatch):
     cm, kw = model(case.name)
     ref, _ = reference(case.name)
     fast = cm.simulate(case.t_end, method="CVODES", **kw, **_grid(case))
-    if not cm.state_names:  # nothing to integrate: the same values as the reference's, as on the native loop
-        _cell(case, "compiled (CasADi)", "n/a: no states")
-        for name in cm.names()[:20] + list(case.fmu_signals):
-            np.testing.assert_array_equal(fast[name], ref[name], err_msg=name)
-        return
-    assert "CasADi" in fast.solver, fast.solver
-    dev, worst = _state_deviation(cm, fast.states, ref.states)
-    same, dt = _event_deviation(fast.events, ref.events)
-    ok = dev < case.state_tol and same and dt < case.event_tol
-    _cell(case, "compiled (CasADi)", f"{fast.solver.split()[0]} " + _verdict(ok, dev, same, dt, len(fast.events),
-                                                                              len(ref.events)))
-    assert dev < case.state_tol, f"{worst}: {dev:.3g} of its range"
-    assert same, (fast.events, ref.events)
-    assert dt < case.event_tol, f"event times differ by {dt:.3g} s: {fast.events} vs {ref.events}"
+    _agrees(case, cm, fast, ref, "compiled (CasADi)",
+            lambda solver: solver.startswith(("CVODES", "IDAS")) and "CasADi" in solver)
 
 
 @pytest.mark.parametrize("case", REFUSED)

@@ -167,6 +167,16 @@ class SegmentRunner:
 _NO_TABLES = (np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1))
 
 
+def runner_for(cm, u, accounts):
+    """``(runner, signals)`` of :func:`segment_runner` for a run of ``cm`` with signals ``u`` whose energy
+    integrals are ``accounts`` (names; those with a compiled form are integrated), or ``(None, why not)``: the
+    native loop switched off or not built here. What :func:`~acausal.simulate.simulate` and
+    :func:`~acausal.batch.simulate_many` ask before a run."""
+    if not enabled():
+        return None, "the native loop is off (ACAUSAL_NATIVE=0, or no C compiler)"
+    return segment_runner(cm, u, cm.compiled_path.integrable(accounts, u) if accounts else [])
+
+
 def segment_runner(cm, u, integrals):
     """``(runner, signals)`` for runs of ``cm`` with signals ``u`` and the quadratures ``integrals`` (those with a
     compiled form), or ``(None, why not)``. Built once per model, layout and quadratures (the library once per

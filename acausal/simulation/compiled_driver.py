@@ -25,22 +25,20 @@ def integrate(run):
     dense = run.dense_output and t_out.size > 1
     # the states at the Gauss nodes of the output intervals, integrated when first asked for (events: the steps')
     nodes = path.gauss_states(t_start, run.x0, t_out, p, run.d, u, *args) if dense and not cm.event_zeros else None
-    if native_loop.enabled():
-        names = account_integrals(cm.accounts) if dense and cm.accounts is not None else []
-        runner, sig = native_loop.segment_runner(cm, u, path.integrable(names, u) if names else [])
-        if runner is not None:
-            try:
-                return native_loop.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, run.d.copy(),
-                                                     u, *args, run.max_events, run.dense_output, run.starts, nodes)
-            except SimulationError:
-                pass  # the CasADi path runs it from the start (and says where it fails)
+    names = account_integrals(cm.accounts) if dense and cm.accounts is not None else []
+    runner, sig = native_loop.runner_for(cm, u, names)
+    if runner is not None:
+        try:
+            return native_loop.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, run.d.copy(), u,
+                                               *args, run.max_events, run.dense_output, run.starts, nodes)
+        except SimulationError:
+            pass  # the CasADi path runs it from the start (and says where it fails)
     if cm.event_zeros:
         from ..compiled.events import simulate_with_events
         return simulate_with_events(cm, t_start, run.x0.copy(), t_out, p, run.d.copy(), u, *args, run.max_events,
                                     run.dense_output, run.starts)
     x0, d, integrals = run.x0, run.d.copy(), {}
     if dense:
-        names = account_integrals(cm.accounts) if cm.accounts is not None else []
         X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
     else:
         X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
