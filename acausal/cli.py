@@ -15,13 +15,14 @@
 
     acausal export MODEL --fmu FILE.fmu [--preset NAME] [--set NAME=VALUE ...]   an FMI 2.0 Model Exchange FMU
 
+    acausal info                                                   accelerators present, the default path, data
+
 This module is the one place in ``acausal/`` that imports ``acausal.models`` (the CLI wires verbs to models;
 see the dependency rules in the design).
 """
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
 import sys
 import time
@@ -31,47 +32,12 @@ from .cli_values import (check_bench_folder, check_file_input, check_file_output
                          whole_number)
 from .fileio import atomic_write_text
 
-#: the example scripts ``acausal paper`` runs, in report order (examples/<name>.py, each with main(out_dir, results))
-EXAMPLES = ["table1", "fig07_direct_drive", "fig08_power_chain", "fig09_12_losses", "fig13_tracking",
-            "fig15_efficiency", "table2", "fig14_calibration", "fig16_17_design", "diagnosis_gear_losses"]
-#: the examples that simulate on their own (they need no protocol results): ``acausal paper`` runs them in its
-#: process pool beside the protocol sweep, longest first, so their single-core work overlaps the sweep
-SELF_CONTAINED = ["fig16_17_design", "diagnosis_gear_losses", "fig14_calibration"]
-#: example scripts outside the paper's report (each exercised by its own test)
-STANDALONE = ["servo_friction"]
-
-
-
-def examples_dir() -> Path:
-    return Path(__file__).resolve().parent.parent / "examples"
-
-
-def load_example(name: str):
-    """Import examples/<name>.py by path (the examples are scripts, not part of the installed package)."""
-    path = examples_dir() / f"{name}.py"
-    if not path.exists():
-        raise FileNotFoundError(f"acausal paper: example script {path} not found (the examples ship with the "
-                                "source tree; run from an editable install)")
-    spec = importlib.util.spec_from_file_location(f"acausal_examples_{name}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def run_example(name: str, out_dir: str, results=None) -> dict:
-    """``examples/<name>.py``'s ``main`` in this process, and the parts of its output the report reads (a
-    module-level function returning plain data, so a process pool can run it). Without ``results`` the example
-    simulates on its own (``executor="serial"``: it already runs in a worker of the pool, beside the sweep); with
-    them it plots the protocol's results."""
-    main = load_example(name).main
-    out = main(Path(out_dir), executor="serial") if results is None else main(Path(out_dir), results)
-    return {k: out[k] for k in ("title", "markdown", "figures", "csv", "comparisons") if k in out}
-
 
 def cmd_paper(args) -> int:
     from .sweep import process_pool
 
     from acausal.models.ankle import paper as report  # the CLI is the one module of acausal/ that wires to models/
+    from acausal.models.ankle.figures import SECTIONS, SELF_CONTAINED, run_section
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -81,12 +47,12 @@ def cmd_paper(args) -> int:
     print(f"acausal paper: {len(conditions)} conditions on {jobs} process(es)"
           f"{' (quick: reduced grid)' if args.quick else ''}", file=sys.stderr)
     with process_pool(jobs) as pool:
-        early = {name: pool.submit(run_example, name, str(out)) for name in SELF_CONTAINED}
+        early = {name: pool.submit(run_section, name, str(out)) for name in SELF_CONTAINED}
         results = report.run_all(conditions, progress=not args.no_progress, executor=pool)
         t_sim = time.perf_counter() - t0
-        # the examples that plot the results, in the pool as well (their figures take seconds each)
-        later = {name: pool.submit(run_example, name, str(out), results) for name in EXAMPLES if name not in early}
-        outputs = [(early[name] if name in early else later[name]).result() for name in EXAMPLES]
+        # the sections that plot the results, in the pool as well (their figures take seconds each)
+        later = {name: pool.submit(run_section, name, str(out), results) for name in SECTIONS if name not in early}
+        outputs = [(early[name] if name in early else later[name]).result() for name in SECTIONS]
     elapsed = time.perf_counter() - t0
     path = report.write_report(out, results, outputs, quick=args.quick, elapsed=elapsed)
     print(f"acausal paper: simulated in {t_sim:.1f} s, figures and report in {elapsed - t_sim:.1f} s",
@@ -362,9 +328,29 @@ def cmd_export(args) -> int:
     return 0
 
 
+def shipped_data() -> dict:
+    """The data sets that ship with the package: name -> (folder, what it is)."""
+    from importlib import resources
+    servo = resources.files("acausal.models.servo").joinpath("data/xl330/recordings")
+    return {"xl330": (Path(str(servo)), "16 recordings of a Dynamixel XL330 on a pendulum (Rhoban/bam, Apache-2.0): "
+                      "acausal diagnose DIR --model servo_pendulum")}
+
+
+def cmd_info(args) -> int:
+    from .accelerators import describe
+
+    print(describe())
+    print("\nshipped data sets:")
+    for name, (folder, what) in shipped_data().items():
+        print(f"  {name}: {folder}\n      {what}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="acausal", description="Modelica-style acausal modelling: the paper's "
                                 "results, a virtual bench, calibration, diagnosis and drive-train comparison.")
+    from . import __version__
+    p.add_argument("--version", action="version", version=f"acausal {__version__} (acausal info: the accelerators)")
     sub = p.add_subparsers(dest="verb", metavar="VERB")
     paper = sub.add_parser("paper", help="reproduce the CYBERLEGs paper's tables and figures into DIR/report.md")
     paper.add_argument("--out", required=True, help="output directory (created if missing)")
@@ -472,6 +458,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="servo_pendulum: a JSON list of your own candidates (the keys of --candidate)")
     dg.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
     dg.set_defaults(run=cmd_diagnose)
+
+    info = sub.add_parser("info", help="which optional accelerators this machine has, the path a default run "
+                          "takes, and where the shipped data sets are")
+    info.set_defaults(run=cmd_info)
     return p
 
 

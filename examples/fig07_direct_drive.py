@@ -1,114 +1,16 @@
-"""Fig. 7 of the paper: power at the driver input (source power) over one stride, 8 mm precompression,
-3 s/stride, the MACCEPA actuator against the paper's "direct drive": the bench's output motor, which imposes the
-gait angle on the joint while the actuator pushes it (``bench_output_motor``: its drive train is not published, so
-it is guessed as the actuator's own motor, driver and 860:1 gears; claim C9 reads it). Beside them the forward
-direct drive (``direct_drive``: the same drive train delivering the gait's torque and power to the joint without
-the spring), the design alternative. Peak power and energy per stride of each.
+"""Fig. 7 of the paper: power at the driver input (source power) over one stride, 8 mm precompression, 3 s/stride, the
+MACCEPA actuator against the paper's "direct drive": the bench's output motor, which imposes the gait angle on the
+joint while the actuator pushes it (``bench_output_motor``: its drive train is not published, so it is guessed as
+the actuator's own motor, driver and 860:1 gears; claim C9 reads it). Beside them the forward direct drive
+(``direct_drive``: the same drive train delivering the gait's torque and power to the joint without the spring), the
+design alternative. Peak power and energy per stride of each.
 
-Writes ``fig07_direct_drive.png``, ``fig07_direct_drive.csv`` (the curves) and ``fig07_summary.csv``.
-Run: ``python examples/fig07_direct_drive.py`` (into ``results/``).
+A section of ``acausal paper``'s report: :mod:`acausal.models.ankle.figures.fig07_direct_drive`, run on its own into
+``results/``.
 """
-from __future__ import annotations
-
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from acausal.models.ankle.paper import BESIDE, HEADLINE, comparison, pick  # noqa: E402
-from acausal.models.ankle.published import PAPER  # noqa: E402
-from acausal.models.reporting.tables import md_table, write_columns, write_csv  # noqa: E402
-from acausal.models.reporting.figures import save_figure  # noqa: E402
-
-P, T = 0.008, 3.0
-#: (label, registered model, the paper's energy per stride in PAPER) of each drive; C9 reads the first two
-DRIVES = (("MACCEPA actuator", "replay", "fig7_energy_actuator"),
-          ("bench output motor", "bench_output_motor", "fig7_energy_direct"),
-          ("forward direct drive", "direct_drive", None))
-
-
-def _paper(row: dict, unit: str = "") -> str:
-    """The paper's energy per stride of a drive, "-" for a drive the paper did not run."""
-    e = row["paper_energy_per_stride_J"]
-    return "-" if np.isnan(e) else f"{e:.0f}{unit}"
-
-
-def main(out_dir: Path, results=None) -> dict:
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for preset in (HEADLINE, BESIDE):
-        for drive, model, paper in DRIVES:
-            r = pick(results, P, T, model=model, preset=preset)
-            rows.append(dict(preset=preset, drive=drive, peak_source_power_W=r.peak_power["source"],
-                             energy_per_stride_J=r.energy["source"], output_energy_J=r.energy["output"],
-                             paper_energy_per_stride_J=PAPER[paper] if paper else float("nan")))
-    summary_csv = write_csv(out_dir / "fig07_summary.csv", rows)
-    act, dd = pick(results, P, T), pick(results, P, T, model="bench_output_motor")
-    fwd = pick(results, P, T, model="direct_drive")
-    rows = rows[:len(DRIVES)]  # the headline preset's, in the figure and the report
-    t_a, p_a = act.time, act.power["source"]
-    t_d, p_d = dd.time, dd.power["source"]
-    curves_csv = write_columns(out_dir / "fig07_direct_drive.csv",
-                               {"time_ms": 1e3 * t_a, "P_source_actuator_W": p_a,
-                                "P_source_bench_output_motor_W": np.interp(t_a, t_d, p_d),
-                                "P_source_forward_direct_drive_W": np.interp(t_a, fwd.time, fwd.power["source"])},
-                               {"preset": HEADLINE})
-    peak_ratio = dd.peak_power["source"] / act.peak_power["source"]
-
-    fig, (ax, axt) = plt.subplots(2, 1, figsize=(8.5, 6.2), gridspec_kw=dict(height_ratios=[3.2, 1]))
-    ax.plot(1e3 * fwd.time, fwd.power["source"], color="0.55", lw=1.2, ls="--",
-            label=f"forward direct drive (peak {fwd.peak_power['source']:.0f} W)")
-    ax.plot(1e3 * t_d, p_d, color="C3", lw=1.6, label=f"bench output motor (peak {dd.peak_power['source']:.0f} W)")
-    ax.plot(1e3 * t_a, p_a, color="C0", lw=1.6, label=f"MACCEPA actuator (peak {act.peak_power['source']:.0f} W)")
-    ax.axhline(0, color="0.6", lw=0.6)
-    ax.set_xlabel("time in the stride [ms]")
-    ax.set_ylabel("power at the driver input (source) [W]")
-    ax.set_xlim(0, 1e3 * T)
-    ax.set_title(f"Fig. 7: source power over one stride, {1e3 * P:g} mm precompression, {T:g} s/stride\n"
-                 f"simulated output-motor peak = {peak_ratio:.2f} x actuator peak "
-                 f"(paper: about {PAPER['fig7_peak_ratio']:.1f} x)", fontsize=10)
-    ax.legend(loc="upper left", fontsize=9)
-    ax.grid(alpha=0.3)
-    axt.axis("off")
-    cells = [[r["drive"], f"{r['peak_source_power_W']:.0f} W", f"{r['energy_per_stride_J']:.1f} J",
-              _paper(r, " J")] for r in rows]
-    tab = axt.table(cellText=cells, colLabels=["", "peak source power", "energy per stride (sim)",
-                                                "energy per stride (paper)"], loc="center", cellLoc="center")
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(9)
-    tab.scale(1, 1.4)
-    png = save_figure(fig, out_dir / "fig07_direct_drive.png",
-                      shows=f"simulation: AnkleActuator, BenchOutputMotor and DirectDrive (replay), preset {HEADLINE}")
-
-    md = md_table(["drive", "peak source power [W]", "energy per stride sim [J]", "energy per stride paper [J]",
-                   "joint work [J]"],
-                  [[r["drive"], f"{r['peak_source_power_W']:.0f}", f"{r['energy_per_stride_J']:.1f}",
-                    _paper(r), f"{r['output_energy_J']:.1f}"] for r in rows])
-    md += ("\n\nThe paper's direct drive was the bench's output motor: it holds the joint on the gait angle while "
-           "the actuator pushes, so it is back-driven at push-off (its joint work is the actuator's with the sign "
-           f"turned) and its non-regenerative supply keeps none of it. With the actuator's own drive train (a "
-           f"guess) it needs {dd.peak_power['source']:.0f} W at peak and {dd.energy['source']:.1f} J per stride "
-           f"against the actuator's {act.peak_power['source']:.0f} W and {act.energy['source']:.1f} J (paper: "
-           "peak 40 % higher, energy about the same), so the paper's output drive train was not the actuator's. "
-           f"A forward direct drive (the design alternative) needs {fwd.peak_power['source']:.0f} W and "
-           f"{fwd.energy['source']:.1f} J: the series spring stores and returns energy and cuts the peak.")
-    comps = [comparison("Fig. 7 peak source power, bench output motor / actuator", peak_ratio,
-                        PAPER["fig7_peak_ratio"], "", "direct_drive", fmt=".2f",
-                        note="The output motor's drive train is guessed as the actuator's: with it the motor that "
-                             "holds the joint needs less than the actuator."),
-             comparison("Fig. 7 energy per stride, actuator", act.energy["source"], PAPER["fig7_energy_actuator"],
-                        "J", "first_experiment"),
-             comparison("Fig. 7 energy per stride, bench output motor", dd.energy["source"],
-                        PAPER["fig7_energy_direct"], "J", ["first_experiment", "direct_drive"]),
-             comparison("Fig. 7 energy ratio, bench output motor / actuator", dd.energy["source"] / act.energy["source"],
-                        PAPER["fig7_energy_direct"] / PAPER["fig7_energy_actuator"], "", "direct_drive", fmt=".2f")]
-    return dict(title="Fig. 7: actuator against the bench's output motor and a direct drive (8 mm, 3 s/stride)", figures=[png],
-                csv=[curves_csv, summary_csv], markdown=md, comparisons=comps)
-
+from acausal.models.ankle.figures import fig07_direct_drive
 
 if __name__ == "__main__":
-    print(main(Path("results"))["markdown"])
+    print(fig07_direct_drive.main(Path("results"))["markdown"])

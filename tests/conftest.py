@@ -34,10 +34,14 @@ def pytest_configure(config):
 
 
 def pytest_report_header(config):
+    """Which accelerators this machine has and the path a default run takes (``acausal info``): a test that needs
+    one it lacks skips saying so and checks the fallback instead."""
     if config.getoption("--scipy-path"):
         return "simulation path: scipy only (--scipy-path)"
-    from acausal.compiled import available
-    return "simulation path: " + ("compiled where supported (CasADi)" if available() else "scipy (no CasADi)")
+    from acausal.accelerators import default_path, survey
+    found = survey()
+    return [f"simulation path: {default_path(found)}",
+            "accelerators: " + ", ".join(f"{a.name} {'yes' if a.present else 'no (' + a.found + ')'}" for a in found)]
 
 
 def pytest_sessionfinish(session, exitstatus):

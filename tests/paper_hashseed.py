@@ -7,7 +7,8 @@ machine (each run needs about 53 s of CPU). Every CSV they write, the bench reco
 included, must be byte-identical. The quick grid runs the same code as the full one (fewer conditions, coarser output
 grid); two full runs (seeds 0 and 12345) were also compared when this test was written: identical CSVs, only the wall
 time in report.md differs. The first run's folder is also the one ``tests/test_examples_cli.py`` reads its report
-from, so the suite pays for two quick runs, not three.
+from, and there the second run is the installed wheel's (``tests/wheel_support.py``): one pair of runs shows that
+neither the hash seed nor installing from a wheel changes a byte, so the suite pays for two quick runs, not four.
 """
 from __future__ import annotations
 
@@ -19,14 +20,17 @@ from pathlib import Path
 SEEDS = ("3", "31337")
 
 
-def quick_runs_under_hash_seeds(root: Path) -> dict[str, Path]:
-    """Run ``acausal paper --quick`` once per seed of :data:`SEEDS`, side by side; return each run's folder."""
+def quick_runs_under_hash_seeds(root: Path, commands: dict | None = None) -> dict[str, Path]:
+    """Run ``acausal paper --quick`` once per seed of :data:`SEEDS`, side by side; return each run's folder.
+    ``commands``: seed -> (the ``acausal`` command as a list, the folder to run it from), for a seed that runs
+    another installation (default: this interpreter's ``-m acausal.cli`` from here)."""
     procs = {}
     for seed in SEEDS:
         env = {**os.environ, "PYTHONHASHSEED": seed}
         out = root / f"seed{seed}"
-        procs[seed] = (out, subprocess.Popen([sys.executable, "-m", "acausal.cli", "paper", "--quick", "--jobs", "1",
-                                              "--no-progress", "--out", str(out)], env=env, stdout=subprocess.PIPE,
+        command, cwd = (commands or {}).get(seed, ([sys.executable, "-m", "acausal.cli"], None))
+        procs[seed] = (out, subprocess.Popen([*command, "paper", "--quick", "--jobs", "1", "--no-progress", "--out",
+                                              str(out)], env=env, cwd=cwd, stdout=subprocess.PIPE,
                                              stderr=subprocess.PIPE, text=True))
     for seed, (out, proc) in procs.items():
         _, stderr = proc.communicate(timeout=900)

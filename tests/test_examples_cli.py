@@ -1,13 +1,21 @@
-"""`acausal paper --quick` end to end (issue 5): the report, every figure with the CSV behind it, and the verbs
-that are not implemented yet failing loudly."""
+"""`acausal paper --quick` end to end, from this checkout and from a wheel installed into a fresh environment
+(tests/wheel_support.py): the report, every figure with the CSV behind it, the same bytes from both; the wheel's
+other verbs (info, check and diagnose on the shipped servo set, export) and a first model; bad command lines
+failing loudly."""
 import csv
+import json
 import re
+import subprocess
+import zipfile
+from pathlib import Path
 
 import pytest
 
-from acausal.cli import EXAMPLES, main
+from acausal.cli import main
+from acausal.models.ankle.figures import SECTIONS
 
 from .paper_hashseed import SEEDS, compare_csvs, quick_runs_under_hash_seeds
+from .wheel_support import installed_wheel
 
 FIGURES = ["table1_sankey", "fig07_direct_drive", "fig08_power_chain", "fig09_driver_loss", "fig10_motor_loss",
            "fig11_gearing_loss", "fig12_output_loss", "fig13_tracking", "fig15_efficiency", "table2_presets"]
@@ -15,10 +23,18 @@ TABLES = ["table1", "fig07_summary", "table2", "protocol"]
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    """`acausal paper --quick` in two fresh processes with different hash seeds, side by side (one worker each):
-    the report tests read the first, the hash-seed test compares the two."""
-    return quick_runs_under_hash_seeds(tmp_path_factory.mktemp("paper"))
+def wheel(tmp_path_factory):
+    """The package as a user gets it: a wheel of a clean copy of the checkout in a fresh environment, its
+    commands run from a folder outside the checkout (tests/wheel_support.py)."""
+    return installed_wheel(tmp_path_factory.mktemp("wheel"))
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory, wheel):
+    """`acausal paper --quick` in two fresh processes with different hash seeds, side by side (one worker each),
+    the second from the installed wheel: the report tests read the first, the hash-seed test compares the two."""
+    return quick_runs_under_hash_seeds(tmp_path_factory.mktemp("paper"),
+                                       {SEEDS[1]: ([str(wheel.script)], wheel.workdir)})
 
 
 @pytest.fixture(scope="module")
@@ -27,9 +43,19 @@ def out(runs):
 
 
 
-def test_paper_csvs_are_byte_identical_across_hash_seeds(runs):
-    """Issue 20, item 7: see ``tests/paper_hashseed.py``."""
+def test_paper_csvs_are_byte_identical_across_hash_seeds_and_from_the_wheel(runs):
+    """See ``tests/paper_hashseed.py``: the second run is also the installed wheel's."""
     compare_csvs(runs)
+
+
+def test_the_wheel_writes_the_same_report(runs):
+    """The installed wheel's report is the editable install's, line for line but the wall time."""
+    a, b = ([line for line in (runs[s] / "report.md").read_text().splitlines() if not _timed(line)] for s in SEEDS)
+    assert len(a) > 100 and a == b, next((x, y) for x, y in zip(a, b) if x != y)
+
+
+def _timed(line: str) -> bool:
+    return bool(re.search(r"\d s\b|\bin [\d.]+ ?s\b|wall time|elapsed", line))
 
 def test_report_has_table1_next_to_the_paper(out):
     text = (out / "report.md").read_text()
@@ -119,11 +145,19 @@ def test_protocol_csv_one_row_per_condition(out):
 
 
 def test_examples_registered():
-    """Every example script is run by `acausal paper` (and so exercised by these tests) or is a declared standalone
-    example with a test of its own (tests/test_servo.py)."""
-    from acausal.cli import STANDALONE, examples_dir
-    assert set(EXAMPLES) | set(STANDALONE) == {p.stem for p in examples_dir().glob("*.py")}
-    assert not set(EXAMPLES) & set(STANDALONE)
+    """Every script in examples/ runs a section of `acausal paper`'s report (which ships in the package, so these
+    tests exercise it) or is a declared standalone example with a test of its own (tests/test_servo.py)."""
+    examples = Path(__file__).resolve().parent.parent / "examples"
+    scripts = {p.stem: p.read_text() for p in examples.glob("*.py")}
+    assert set(SECTIONS) | {"servo_friction"} == set(scripts)
+    for name in SECTIONS:
+        assert f"from acausal.models.ankle.figures import {name}\n" in scripts[name], name
+
+
+def test_an_unknown_report_section_is_named():
+    from acausal.models.ankle.figures import section
+    with pytest.raises(KeyError, match="no report section 'table9'.*table1"):
+        section("table9")
 
 
 def test_diagnose_on_a_missing_folder_fails_clearly(tmp_path, capsys):
@@ -160,3 +194,57 @@ def test_every_link_in_the_report_resolves(out):
     assert links
     missing = [link for link in links if not (out / link).exists()]
     assert not missing, missing
+
+
+# ------------------------------------------------------------------------------------- the installed wheel
+def _wheel_python(wheel, code: str) -> str:
+    proc = subprocess.run([str(wheel.python), "-c", code], cwd=wheel.workdir, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout
+
+
+def test_the_wheel_says_what_it_has(wheel):
+    proc = wheel.run("info")
+    assert proc.returncode == 0, proc.stderr
+    for part in ("optional accelerators:", "CasADi", "C compiler", "native loop", "a default run takes",
+                 "shipped data sets:", str(wheel.python.parent.parent)):
+        assert part in proc.stdout, part
+
+
+def test_the_wheel_checks_and_diagnoses_the_shipped_servo_set(wheel):
+    """The XL330 recordings ship in the wheel: `acausal check` reads all 16, `acausal diagnose` calibrates on
+    them and names the load-dependent friction from the one candidate it is given."""
+    data = _wheel_python(wheel, "from acausal.cli import shipped_data; print(shipped_data()['xl330'][0])").strip()
+    assert Path(data).is_relative_to(wheel.python.parent.parent)
+    proc = wheel.run("check", data, "--model", "servo_pendulum")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "16 recordings" in proc.stdout + proc.stderr
+    out = wheel.workdir / "servo"
+    proc = wheel.run("diagnose", data, "--model", "servo_pendulum", "--candidates", "load", "--max-effects", "1",
+                     "--jobs", "1", "--no-progress", "--out", str(out), "--json", str(out / "verdict.json"))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    verdict = json.loads((out / "verdict.json").read_text())
+    assert verdict["causes"] == ["load"], verdict["causes"]
+    assert (out / "report.md").stat().st_size > 1000
+
+
+def test_the_wheel_exports_an_fmu(wheel):
+    from acausal.ccompiler import which_compiler
+    fmu = wheel.workdir / "replay.fmu"
+    binary = which_compiler()[0] is not None
+    proc = wheel.run("export", "replay", "--fmu", str(fmu), *(() if binary else ("--no-binary",)))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    with zipfile.ZipFile(fmu) as z:
+        names = z.namelist()
+    assert "modelDescription.xml" in names and any(n.startswith("sources/") for n in names), names
+    assert any(n.startswith("binaries/") for n in names) == binary, names
+
+
+def test_a_first_model_from_the_wheel(wheel):
+    """The users' guide's first model and its checks (docs/getting-started.md's first two blocks), run by the
+    wheel's interpreter outside the checkout."""
+    from .test_docs import python_blocks
+    blocks = [src for _, src in python_blocks(Path(__file__).resolve().parent.parent / "docs" / "getting-started.md")]
+    out = _wheel_python(wheel, "\n".join(blocks[:2]) + "\nprint('solver:', res.solver)")
+    assert "load speed" in out and "solver:" in out, out

@@ -33,7 +33,7 @@ def _make_small_run(out: Path) -> None:
     """A small ``acausal paper`` output folder: the bench and replay at :data:`SMALL_PS` x :data:`SMALL_TS` for both
     presets, the examples that read them (Table 1, Figs. 8-12, 15), the design maps' example on a 3 x 3 grid (its
     refinement replaced by the grid optimum) and ``write_report`` (protocol, power traces, claims, index.html)."""
-    from acausal.cli import run_example
+    from acausal.models.ankle.figures import run_section
     from acausal.models.ankle import paper
     from acausal.models.ankle.protocol import Condition
     from acausal.models.bench import design
@@ -41,14 +41,14 @@ def _make_small_run(out: Path) -> None:
     conds = [Condition(P, T, m, p, points_per_stride=101) for m in ("replay", paper.BENCH)
              for p in (paper.HEADLINE, paper.BESIDE) for P in SMALL_PS for T in SMALL_TS]
     results = paper.run_all(conds, progress=False, executor="serial")
-    outputs = [run_example(name, str(out), results) for name in ("table1", "fig08_power_chain", "fig09_12_losses",
+    outputs = [run_section(name, str(out), results) for name in ("table1", "fig08_power_chain", "fig09_12_losses",
                                                                   "fig15_efficiency")]
     full_map = design.efficiency_map
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(design, "efficiency_map", lambda *a, **k: full_map(
             *a, **{**k, "ks": [90e3, 130e3, 170e3], "Ps": [0.004, 0.007, 0.010], "executor": "serial"}))
         mp.setattr(design, "refine", lambda m, overrides=None: m.optimum())
-        outputs.append(run_example("fig16_17_design", str(out)))
+        outputs.append(run_section("fig16_17_design", str(out)))
     paper.write_report(out, results, outputs, quick=True)
 
 

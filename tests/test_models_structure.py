@@ -239,8 +239,13 @@ def test_models_is_a_shallow_house():
         if m not in depth:
             depth[m] = 1 + max((floor(d, seen + (m,)) for d in graph[m]), default=0)
         return depth[m]
-    deepest = max(mods, key=floor)
+    # the paper report's sections (ankle.figures, run by `acausal paper`) are the top floor: one above the models
+    # they plot, imported by nothing else in models/
+    sections = {m for m in mods if m.startswith("ankle.figures.")}
+    deepest = max(set(mods) - sections, key=floor)
     assert floor(deepest) <= 5, (deepest, depth)
+    assert max(floor(m) for m in sections) <= 6, {m: depth[m] for m in sections}
+    assert not [m for m in set(mods) - sections if graph[m] & sections], "a model imports a report section"
 
 
 def test_every_package_ships():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -242,9 +243,9 @@ def test_servo_example_writes_its_report(tmp_path):
     other servo (the full XL330 run takes minutes: ``python examples/servo_friction.py``): it names the load law
     and writes every section of the report and its figures."""
     import importlib.util
-    from acausal.cli import examples_dir
     from acausal.models.servo.recording_format import SERVO_FORMAT
-    spec = importlib.util.spec_from_file_location("servo_friction", examples_dir() / "servo_friction.py")
+    script = Path(__file__).resolve().parent.parent / "examples" / "servo_friction.py"
+    spec = importlib.util.spec_from_file_location("servo_friction", script)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     _other_servo_recordings(tmp_path / "data", trajectories=("sin_sin",))
