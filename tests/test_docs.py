@@ -17,8 +17,9 @@ matplotlib.use("Agg")
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
-#: chapters without code blocks: the table of contents, and the chapter the lead engineer writes
-NO_CODE_ALLOWED = {"index.md", "README.md"}
+#: chapters without code blocks: the table of contents, the chapter the lead engineer writes, and the benchmarks'
+#: figures (measured by tests/benchmarks, not by the guide)
+NO_CODE_ALLOWED = {"index.md", "README.md", "benchmarks.md"}
 
 _FENCE = re.compile(r"^(\s*)(`{3,}|~{3,})\s*([\w+-]*)")
 
