@@ -18,6 +18,10 @@ def pytest_addoption(parser):
 
 
 def pytest_collection_modifyitems(config, items):
+    # a benchmark times a run against a reference in the same run: never in the quick lane (pytest -m "not slow")
+    for item in items:
+        if "benchmarks" in item.path.parts:
+            item.add_marker(pytest.mark.slow)
     if config.getoption("--whole-jobs"):
         return
     skip = pytest.mark.skip(reason="a whole minute-scale command, timed against its goal: run with --whole-jobs "

@@ -13,6 +13,9 @@ from acausal.models.drivetrains.parallel_elastic import design_spring, peak_driv
 from acausal.models.ankle.protocol import Condition, run_condition, sweep
 from acausal.models.ankle.registry import MODELS, spec
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 P, T = 0.008, 2.0  # the paper's Table 1 condition
 WORM = ("worm.loss_power", "motor.w", "motor.i", "enable_ref.y.value", "hold_ref.y.value", "link.T", "ankle.theta")
 

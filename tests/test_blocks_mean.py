@@ -30,6 +30,7 @@ def closed_forms(k):
     return mean, np.sqrt(sq)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_mean_and_rms_of_each_period(method):
     cm = compile_model(Signals())
@@ -68,6 +69,7 @@ class Sine(Model):
         connect(self.src.y, self.rms.u)
 
 
+@pytest.mark.slow
 def test_the_integral_restarts_so_long_runs_stay_accurate():
     """500 periods at the default tolerances: the last period's RMS is as accurate as the first's, since the
     integral restarts at every sample (reinit). Integrated on without a restart it would have grown to 30 and
@@ -87,6 +89,7 @@ class Steady(Model):
         connect(self.src.y, self.mean.u)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "BDF", "LSODA"])
 def test_no_sample_is_missed_with_long_steps(method):
     """200 periods of a constant: every period's end is an event (the zero function is linear in time and jumps

@@ -53,6 +53,7 @@ def bench_set(tmp_path_factory):
     (["--signals", "joint_torque_Nm"], "calibration on joint_torque_Nm: motor.R, motor.J, motor.b cannot be "
                                        "identified"),
 ], ids=["unknown weight", "misspelt weight", "weight not a number", "hold out none", "signal that sees none"])
+@pytest.mark.slow
 def test_fit_options_are_checked(extra, message, bench_set, tmp_path, capsys):
     err = _fails(["fit", str(bench_set), "--out", str(tmp_path / "fit"), *extra], capsys, message)
     assert "inf" not in err.replace("infinite", "")

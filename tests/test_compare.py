@@ -47,6 +47,7 @@ def test_bad_input_names_what_is_wrong(kw, message):
         compare.conditions(**kw)
 
 
+@pytest.mark.slow
 def test_table_has_every_quantity_and_flags_the_direct_drive(results):
     rows = compare.records(results)
     assert [r["model"] for r in rows] == ["replay", "direct_drive", "battery"]
@@ -140,6 +141,7 @@ def test_cli_end_to_end(tmp_path, capsys):
     assert (out / "sankey_battery.png").exists() and "compare.md" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_cli_sets_a_parameter(tmp_path, capsys):
     """``--set NAME=VALUE`` (SI units) reaches the simulation: a larger winding resistance loses more in the motor."""
     rows = {}

@@ -15,6 +15,9 @@ from acausal.signals import Constant, ExpressionSignal, FourierSeries, PeriodicS
 
 from .drive_models import MotorGearLoad, MotorLossyGearLoad
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 ca = pytest.importorskip("casadi", reason="the compiled path needs CasADi (pip install acausal[fast])")
 TIGHT = dict(rtol=1e-10, atol=1e-12)
 
@@ -96,6 +99,7 @@ SIGNALS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SIGNALS))
 def test_every_signal_form_is_evaluated_exactly_inside_the_compiled_path(name):
     """The CasADi form of each numeric signal gives the signal's own values and derivatives (inside, outside
@@ -162,6 +166,7 @@ def test_models_with_events_take_the_compiled_path_by_default():
     assert ref.solver.startswith("BDF") and [e[1:] for e in res.events][-2:] == [e[1:] for e in ref.events][-2:]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n_points", [11, 201])
 def test_events_on_the_compiled_path_when_asked(n_points):
     """The half-wave rectifier switches its diode ten times in 0.1 s; on the compiled path every switch is found
@@ -264,6 +269,7 @@ CORE = ["test_circuits.py", "test_drive.py", "test_energy.py", "test_sensitivity
         "test_thermal.py", "test_partials.py", "test_sensors.py", "test_library_drive.py"]
 
 
+@pytest.mark.slow
 def test_core_tests_pass_on_the_scipy_path_too():
     """The core tests run by default on the compiled path where it applies; here again with it switched off,
     so both paths stay correct (the scipy path is what runs without CasADi)."""
@@ -307,6 +313,7 @@ def test_simulate_many_falls_back_set_by_set():
 
 
 # ---------------------------------------------------------------------------------------------- Newton blocks
+@pytest.mark.slow
 def test_newton_blocks_become_algebraic_variables_of_idas():
     from acausal.solve import NewtonSolve
     cm = compile_model(MotorLossyGearLoad())
@@ -325,6 +332,7 @@ def test_newton_blocks_become_algebraic_variables_of_idas():
     assert np.allclose(s1["load.w"], s2["load.w"])
 
 
+@pytest.mark.slow
 def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monkeypatch):
     monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # the CasADi event path's IDAS (the native loop's fallback)
     """The bench (closed loop) of the paper's actuator at 8 mm / 2 s, rtol 1e-7: IDAS's consistent initialisation
@@ -377,6 +385,7 @@ def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monke
         assert v == pytest.approx(ref.energy[k], rel=1e-5), k
 
 
+@pytest.mark.slow
 def test_events_of_the_paper_actuator_on_the_compiled_path_match_the_scipy_path():
     """The replay of the paper's actuator (brake chopper, rectifier diode, two gear stages with modes) at
     8 mm / 2 s: at the start the diode leaves an exact zero (a crossing that changes no mode) and the chopper
@@ -398,6 +407,7 @@ def test_events_of_the_paper_actuator_on_the_compiled_path_match_the_scipy_path(
         assert abs(e_fast - e_ref) <= 1e-5 * abs(e_ref), sensor
 
 
+@pytest.mark.slow
 def test_compiled_events_of_a_gently_switching_diode_match_a_tight_reference():
     """Table 2's 'optimized total (arm side)' replay at rtol 1e-9: the source energy over the run within 1e-6 of a
     tight reference (scipy BDF at rtol 1e-11: 36.55312 J; scipy BDF at rtol 1e-9: 36.55316 J). The rectifier
@@ -443,6 +453,7 @@ def test_event_gear_with_a_zero_account_runs_on_the_compiled_path():
     assert abs(res.energy_balance().residual) < 1e-6
 
 
+@pytest.mark.slow
 def test_a_dense_output_grid_is_crossed_in_wider_windows_with_the_same_events(monkeypatch):
     """An event run on a dense grid (a 1 kHz recording) may take a sixteenth of its outputs per window instead of 64
     (every window restarts CVODES): fewer runs, the same events and states as the scipy path's BDF."""

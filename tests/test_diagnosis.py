@@ -12,6 +12,9 @@ from acausal.models.bench import diagnosis
 from acausal.models.bench.virtual import BenchCondition, Sensors, run_bench
 from acausal.models.ankle.effects import EFFECTS
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 #: 2 precompressions x 2 stride times, 3 strides each (every third stride held out)
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]
 #: a smaller set for the runs that must answer "none"

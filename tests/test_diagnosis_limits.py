@@ -14,6 +14,9 @@ from acausal.models.bench.diagnosis_report import write_report
 from acausal.models.bench.recording_format import ANKLE_FORMAT
 from acausal.models.bench.virtual import BenchCondition, record, run_bench, run_session
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 #: 2 precompressions x 2 stride times, 3 strides each
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.2, 2.0)]
 

@@ -18,6 +18,9 @@ from acausal.models.ankle.effects import EFFECTS
 from acausal.models.bench import diagnosis
 from acausal.models.bench.virtual import BenchCondition, Sensors, run_bench, run_session
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 RECIPE = Sensors(rate=500.0, encoder_bits=16, motor_current_noise=0.05, supply_current_noise=0.03, torque_noise=0.6,
                  current_filter_hz=100.0)
 CONDITIONS = [BenchCondition(P, T, strides=3) for P in (0.005, 0.011) for T in (1.4, 2.2)]

@@ -68,6 +68,7 @@ def test_index_links_every_chapter():
     assert not unlinked, f"{index.name} does not link {unlinked}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [p.name for p in doc_files()])
 def test_doc_code_runs(name, tmp_path, monkeypatch):
     path = DOCS / name

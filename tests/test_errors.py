@@ -251,6 +251,7 @@ class _Pole(Model):
         return [Eq(der(self.x), 1 / (1 - time))]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["BDF", "Radau", "RK45", "LSODA"])
 def test_pole_in_time_is_reported_with_time_and_variable(method):
     sim = compile_model(_Pole())

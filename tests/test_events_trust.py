@@ -31,6 +31,7 @@ class _TripModel(Model):
         self.trip = _Trip()
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:invalid value encountered")
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_a_nan_zero_function_is_an_error_naming_the_event(method):
@@ -52,12 +53,16 @@ sys.path.insert(0, os.getcwd())  # the checkout: the shared test circuits
 from acausal import compile_model
 from tests.circuit_models import Bridge6
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 res = compile_model(Bridge6()).simulate(0.1, method=sys.argv[1], n_points=201, trust="warn")
 print(json.dumps({"events": [[t, i, d] for t, i, d in res.events], "v": res["C.v"].tolist(),
                   "residual": res.energy_balance().residual, "flagged": bool(res.trust)}))
 '''
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_a_three_phase_bridge_switches_the_same_way_in_every_process(tmp_path, method):
     """Ideal diodes switching 60 times in 0.1 s: the same events and voltages to the last bit under three hash seeds
@@ -121,6 +126,7 @@ def _check_gear_run(res):
     assert abs(res.energy_balance().residual) < 1e-8
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_stick_slip_gear_holds_inside_its_friction_band_and_breaks_away_outside(method):
     """At rest, T1 = 1 and T2 = -0.5 need a holding torque of 0.75 N m, inside the forward breakaway torque
@@ -140,6 +146,7 @@ def test_stick_slip_gear_holds_inside_its_friction_band_and_breaks_away_outside(
     _check_gear_run(res)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_stick_slip_gear_stops_and_reverses_in_one_event_when_the_load_pushes_through(method):
     """Sliding forward at 3 rad/s against T1 = -2: it decelerates (driven backward through the gear: tau_a < 0,
@@ -353,6 +360,7 @@ class _DrainModel(Model):
         self.tank = _Drain()
 
 
+@pytest.mark.slow
 def test_an_output_interval_no_run_can_cross_is_gone_in_parts(monkeypatch):
     """One output interval of 10 s, a crossing at 1 s past which the old mode blows up 1 ms later: the compiled
     path goes the interval in parts until one shows the crossing, instead of falling back to the scipy path (the

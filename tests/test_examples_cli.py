@@ -17,6 +17,9 @@ from acausal.models.ankle.figures import SECTIONS
 from .paper_hashseed import SEEDS, compare_csvs, quick_runs_under_hash_seeds
 from .wheel_support import installed_wheel
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 FIGURES = ["table1_sankey", "fig07_direct_drive", "fig08_power_chain", "fig09_driver_loss", "fig10_motor_loss",
            "fig11_gearing_loss", "fig12_output_loss", "fig13_tracking", "fig15_efficiency", "table2_presets"]
 TABLES = ["table1", "fig07_summary", "table2", "protocol"]

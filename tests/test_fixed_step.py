@@ -8,6 +8,9 @@ from acausal import Model, ModelError, Start, compile_model, connect
 from acausal.library.electrical import Capacitor, Ground, IdealDiode, PrescribedVoltage, Resistor
 from acausal.signals import SampledSignal
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 pytest.importorskip("casadi", reason="the fixed-step path needs CasADi (pip install acausal[fast])")
 
 

@@ -25,6 +25,9 @@ import fmpy  # noqa: E402
 from fmpy import read_model_description, simulate_fmu  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 TIGHT = dict(rtol=1e-11, atol=1e-13)
 
 
@@ -191,6 +194,7 @@ def _logged_events(messages):
     return [(float(f[1]), int(f[2]), f[3]) for f in found if f]
 
 
+@pytest.mark.slow
 def test_three_phase_bridge_switches_as_simulate_does(tmp_path):
     """Six ideal diodes commutate 60 times in 0.1 s; each commutation cascades (a diode turning on makes its
     neighbour's current reverse). The two diodes exactly at zero after the start are watched 1e-12 from it
@@ -236,6 +240,7 @@ def test_modes_with_no_consistent_value_are_an_error_naming_the_component(tmp_pa
                      r"and forth.*chatters\); modes c.m = 1$", str(python.value))
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:invalid value encountered")
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_a_nan_zero_function_is_an_error_naming_the_event(tmp_path):
@@ -346,6 +351,7 @@ def actuator(tmp_path_factory):
     return cm, params, export_fmu(cm, tmp_path_factory.mktemp("fmu") / "actuator.fmu", params=params)
 
 
+@pytest.mark.slow
 def test_closed_loop_actuator_matches_simulate(actuator):
     """One stride of the closed-loop actuator in fmpy: states and outputs within 1e-4 relative of simulate(),
     from the same consistent initial states (the controller's derivative part starts at zero: the FMU solves for
@@ -378,6 +384,7 @@ def test_a_replanning_parameter_set_in_the_fmu_is_flagged(actuator):
     assert any("P_nominal = 0.01 differs from the value 0.008" in m and "not rebuilt" in m for m in got), got
 
 
+@pytest.mark.slow
 def test_cli_exports_a_model_class_and_a_registered_model(actuator, tmp_path, capsys):
     """``acausal export MODEL --fmu FILE`` for a MODULE:CLASS (with a parameter set) and for a registered model
     (the closed-loop actuator, library preset); a misspelt parameter is refused with suggestions."""
@@ -414,6 +421,7 @@ def test_without_a_c_compiler_the_error_says_what_to_install(monkeypatch, tmp_pa
         export_fmu(compile_model(MotorGearLoad()), tmp_path / "drive.fmu", compiler="tcc")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["replay", "battery"])
 def test_registered_replays_export(name, tmp_path):
     """The paper's replay (the planned arm prescribed up to its third derivative, rectifier events) and the

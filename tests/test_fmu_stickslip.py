@@ -18,6 +18,9 @@ from .test_msl_conformance_friction import FRICTION, Friction, friction_referenc
 require_fmu_tools()
 from fmpy import simulate_fmu  # noqa: E402
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def friction_fmu(tmp_path_factory):

@@ -39,6 +39,9 @@ from acausal.identify import MANIFEST
 from acausal.models.bench.recording_format import ANKLE_FORMAT
 from acausal.models.bench.virtual import BenchCondition, run_bench
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 CONDS = [BenchCondition(P, 1.2, strides=3) for P in (0.005, 0.011, 0.018)]
 NAMES = ["P05.0mm_T1.2s", "P11.0mm_T1.2s", "P18.0mm_T1.2s"]
 COLUMNS = [c.name for c in ANKLE_FORMAT.columns]

@@ -25,6 +25,9 @@ from acausal.library.electrical import EMF, ConstantVoltage, Ground, Inductor, R
 from acausal.library.rotational import Damper, Fixed, Inertia
 from acausal.library.sensors import ElectricalPowerSensor, MechanicalPowerSensor
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 #: the small run's grid: precompressions [m] x stride times [s] (the Table 1 condition, 8 mm and 2 s, included)
 SMALL_PS, SMALL_TS = (0.005, 0.008), (1.2, 2.0)
 

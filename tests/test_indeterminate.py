@@ -50,6 +50,7 @@ def closed_form(t):
     return np.where(t < T_STOP, 1.0 - sum(LIMITS) * t, np.where(t < T_BREAK, 0.0, (t - T_BREAK) ** 2 / 2))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", [None, "BDF", "LSODA"])
 def test_two_brakes_hold_together_and_break_away_together(sim, method):
     """Stops at 1.25 s, holds, both brakes break away at 2.8 s (within 1e-9 s of each other and of the closed

@@ -14,6 +14,7 @@ from acausal.models.ankle.registry import MODELS
 TRUTH = {"body_mass": 66.0, "link.r_f": 2.0e-3, "planetary.tau_c": 0.5}
 
 
+@pytest.mark.slow
 def test_recovers_known_parameters_from_the_models_own_numbers():
     unknowns = [u for u in inference.UNKNOWNS if u.name in TRUTH]
     targets = [t for t in inference.TARGETS if t.claim == "C1"]  # Table 1: one condition

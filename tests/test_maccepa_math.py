@@ -253,6 +253,7 @@ def test_sympy_expressions_match_numpy():
     np.testing.assert_allclose(T(x, p, K, A, B), paper_torque(x, p, K, A, B)[0], rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_sympy_energy_derivative_is_torque():
     alpha = sp.Symbol("alpha", real=True)
     P, k, a, b = sp.symbols("P k A B", positive=True)

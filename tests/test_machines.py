@@ -63,6 +63,7 @@ def composed_sim():
     return compile_model(ComposedDCPMStart())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_dcpm_start_with_the_machine_gives_the_composed_trajectories(machine_sim, composed_sim, method):
     """DCPM_Start over its 2 s with the machine and with the composed parts: armature current, speed and angle

@@ -49,6 +49,7 @@ def _error(path):
 
 
 # ---------------------------------------------------------------------------------------------- loader errors
+@pytest.mark.slow
 def test_round_trip(one):
     rec = load_recording(one, ANKLE_FORMAT)
     assert len(rec) == 12000 and rec.meta["stride_time_s"] == 3.0 and rec.meta["strides"] == 4
@@ -165,6 +166,7 @@ def test_bench_command_line_body_mass_and_bad_input(tmp_path, capsys):
     assert rms[1] > 1.3 * rms[0]
 
 
+@pytest.mark.slow
 def test_bench_records_the_component_chain_of_a_preset(tmp_path, capsys):
     """``chain``: the truth is the whole chain with a preset's values (driver, gear and linkage losses), not Eq. 4:
     its driver's constant draw alone takes more from the supply than the Eq. 4 truth's ideal driver gives away."""
@@ -187,6 +189,7 @@ def test_bench_records_the_component_chain_of_a_preset(tmp_path, capsys):
 
 
 # ---------------------------------------------------------------------------------------------- calibration
+@pytest.mark.slow
 def test_calibration_recovers_truth(clean_set):
     cal, exps = calibration.fit(clean_set, "R,J,b")
     truth = bench.TRUTH
@@ -201,6 +204,7 @@ def test_calibration_recovers_truth(clean_set):
     assert before["datasheet"]["motor_current_A"] > 2 * before["calibrated"]["motor_current_A"]
 
 
+@pytest.mark.slow
 def test_calibration_bad_parameter_and_bounds(clean_set):
     with pytest.raises(DataError, match="unknown parameter 'Rx'"):
         calibration.fit(clean_set, "Rx")
@@ -209,6 +213,7 @@ def test_calibration_bad_parameter_and_bounds(clean_set):
 
 
 # ---------------------------------------------------------------------------------------------- design
+@pytest.mark.slow
 def test_design_energy_balance_and_bounds():
     """The design map's chain (paper_fit: gear, driver and linkage losses): per stride, source energy = output +
     every loss of the model's accounts (stored energies are periodic); and it agrees with the protocol's run at the
@@ -234,6 +239,7 @@ def test_design_energy_balance_and_bounds():
     assert one["E_source_J"][0] == pytest.approx(full.energy["source"], rel=0.02)
 
 
+@pytest.mark.slow
 def test_design_map_dask_equals_in_process():
     distributed = pytest.importorskip("distributed")
     ks, Ps = np.array([60e3, 130e3, 200e3]), np.array([0.004, 0.008, 0.014])

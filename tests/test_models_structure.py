@@ -26,6 +26,7 @@ def replay():
     return compiled("replay").sim
 
 
+@pytest.mark.slow
 def test_body_mass_acts_through_the_planned_trajectory(replay):
     """The joint torque is the gait moment times body mass: the trajectory is replanned from the run's value (the
     lossless linkage of the library preset, so the torque is exact)."""
@@ -46,6 +47,7 @@ def _unit_moment():
     return s, unit_cycle().torque(s)
 
 
+@pytest.mark.slow
 def test_a_run_parameter_replans_exactly_as_an_explicit_input(replay):
     """Setting P_nominal, link.k and body_mass gives the same run as handing the planned trajectory over."""
     params = {"stride_time": 1.5, "P_nominal": 0.011, "link.k": 150e3, "body_mass": 75.0}
@@ -194,6 +196,7 @@ def _loaded(code: str) -> list:
     return out.stdout.split()
 
 
+@pytest.mark.slow
 def test_reports_and_the_command_line_load_no_model():
     for code in ("import acausal.models.bench.diagnosis_report", "import acausal.models.reporting.tables",
                  "from acausal.cli import build_parser; build_parser()"):
@@ -260,6 +263,7 @@ def test_every_package_ships():
             assert str(init.parent.relative_to(root)) in dirs, init.parent
 
 
+@pytest.mark.slow
 def test_frictional_linkage_option_loses_energy_between_arm_and_joint():
     """``linkage="frictional"``: the link's loss is found by convention, the balance closes, the output stage
     loses energy, and the joint torque falls short of the gait moment by the friction (reported)."""

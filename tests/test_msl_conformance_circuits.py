@@ -236,6 +236,7 @@ def rlc_sim():
 RLC_TOL = phase_tol(40.0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_series_resonance_sweep_follows_the_rlc(rlc_sim, method):
     """SeriesResonance over its 1 s (sweep 0 -> 200 Hz through the 100 Hz resonance): both circuits' currents and

@@ -186,6 +186,7 @@ def check_friction(sim, res, tol, t_tol, dense=None):
         check_energy(run, sim, np.inf)  # losses >= 0 (the balance as above)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_friction_clutch_and_brake_stick_and_slip_as_the_msl(friction_sim, method):
     """MSL Friction over its 3 s. The reference (:func:`friction_reference`): the clutch slips until 6.8 ms,

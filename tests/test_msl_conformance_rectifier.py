@@ -17,6 +17,9 @@ from acausal.library.electrical import (Capacitor, ConstantCurrent, Ground, Idea
                                         SignalVoltage)
 from .msl_support import METHODS, check_energy, compiled_path_available
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 
 # ==================================================================== 4. Analog.Examples.Rectifier
 RECT = dict(VAC=400.0, f=50.0, LAC=60e-6, Ron=1e-3, Goff=1e-3, Vknee=2.0, CDC=15e-3, IDC=500.0)

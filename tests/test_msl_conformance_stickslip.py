@@ -213,6 +213,7 @@ def gear_demo1_sim():
     return compile_model(LossyGearDemo())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_lossy_gear_demo1_sticks_and_rolls_as_the_msl_gear(gear_demo1_sim, method):
     """LossyGearDemo1 over its 0.5 s: the load (-10 N m, a ramp) back-drives the gear from rest, the sine drive
@@ -235,6 +236,7 @@ def test_lossy_gear_demo1_sticks_and_rolls_as_the_msl_gear(gear_demo1_sim, metho
     assert friction_mode(res, "gear")[1] == -1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_lossy_gear_demo2_gear_and_bearing_stick_together(method):
     """LossyGearDemo2 over its 0.5 s: the same drive train with a bearing of stiction (0.5 N m) and a speed-
@@ -337,6 +339,7 @@ def check_gear_demo3(sim, res, method, bf2, elements):
     return w, mode, changes
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_lossy_gear_demo3_coasts_down_and_holds_the_load(method):
     """LossyGearDemo3 as the MSL has it (bearings on both sides of the mesh). From 10 rad/s the gear coasts down

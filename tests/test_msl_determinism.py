@@ -30,6 +30,9 @@ from pathlib import Path
 
 import pytest
 
+#: each test here takes seconds (its simulations or its shared fixture): out of the quick lane
+pytestmark = pytest.mark.slow
+
 SEEDS = ("0", "1", "2", "3", "42", "1234", "31337", "65535", "2718281828", "4294967295")
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -12,6 +12,9 @@ from acausal.compiled import native_loop
 from acausal.library.electrical import Capacitor, Ground, IdealDiode, PrescribedVoltage, Resistor
 from acausal.signals import PeriodicSpline, SampledSignal
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 pytest.importorskip("casadi", reason="the compiled path needs CasADi")
 
 TIGHT = dict(rtol=1e-10, atol=1e-12)
@@ -71,6 +74,7 @@ def test_a_run_from_a_negative_start_keeps_its_energy_integrals():
     assert res.energy("R.loss_power")[-1] == pytest.approx(ref.energy("R.loss_power")[-1], rel=1e-5)
 
 
+@pytest.mark.slow
 def test_without_the_library_the_casadi_event_path_runs_it(monkeypatch):
     """Where the library cannot be built (here: a SUNDIALS library the linker cannot find), the run takes the
     CasADi event path, with the same switches; the refusal is kept (not tried again per run)."""

@@ -23,6 +23,7 @@ RECIPES = {"default": (Sensors(), 201),
            "500 Hz, noisy currents": (Sensors(rate=500.0, motor_current_noise=0.05, supply_current_noise=0.03), 202)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("recipe", sorted(RECIPES))
 def test_clean_baseline_is_at_the_noise_floor(recipe, tmp_path):
     sensors, seed = RECIPES[recipe]

@@ -195,12 +195,14 @@ def diagnosis_set(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 def test_clean_data_gives_no_warning(diagnosis_set):
     from acausal.models.bench import diagnosis
     d, _ = diagnosis.run(diagnosis_set, candidates=["driver_quiescent_power"], max_effects=1)
     assert d.cause == "none" and d.warnings == []
 
 
+@pytest.mark.slow
 def test_swapped_columns_are_flagged_not_a_silent_none(diagnosis_set, tmp_path):
     """The reported case: one recording with its two angle columns swapped gave `Verdict: none` with residuals
     tens of times the noise. Now the recording is named and the misfit is reported."""
@@ -220,6 +222,7 @@ def test_swapped_columns_are_flagged_not_a_silent_none(diagnosis_set, tmp_path):
     assert d.to_dict()["warnings"] == d.warnings
 
 
+@pytest.mark.slow
 def test_compare_csv_is_byte_identical_across_hash_seeds(tmp_path):
     """Two fresh processes with different PYTHONHASHSEED values write the same bytes (no iteration order of a
     set or dict of symbols leaks into the generated code or the results)."""

@@ -23,6 +23,7 @@ def grid():
     return {(r.condition.P, r.condition.stride_time): r for r in res}
 
 
+@pytest.mark.slow
 def test_conditions_are_feasible_and_balanced(grid):
     for r in grid.values():
         assert r.max_duty <= 0.9, r.condition  # the motor can follow at 48 V
@@ -77,6 +78,7 @@ def test_bench_output_motor_is_pushed_by_the_gait_moment():
     assert out.peak_power["source"] < act.peak_power["source"] and out.energy["source"] < act.energy["source"]
 
 
+@pytest.mark.slow
 def test_tracking_error_at_fast_strides_exceeds_slow():
     """Fig. 13: at 18 mm the motor cannot follow the setpoint in push-off at 1.2 s/stride."""
     fast = run_condition(Condition(0.018, 1.2, model="closed_loop", strides=3))
@@ -86,6 +88,7 @@ def test_tracking_error_at_fast_strides_exceeds_slow():
     assert abs(fast.balance_residual) < 1e-6 and abs(slow.balance_residual) < 1e-6
 
 
+@pytest.mark.slow
 def test_bench_losses_grow_where_the_arm_lags():
     """4.2.3: on the bench (closed loop) the losses of the gearing and the linkage grow at high precompression and
     short strides, where the motor cannot follow the plan and the arm lags; at 3 s/stride the bench and the replay
@@ -117,6 +120,7 @@ def test_motor_point_is_the_power_computed_from_current_and_speed():
 GOLDEN = json.loads((Path(__file__).parent / "golden" / "paper_golden.json").read_text())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(GOLDEN))
 def test_golden_values(name):
     """Our own outputs, pinned (regenerate with `python -m tests.golden.regenerate` after intended changes)."""
@@ -133,6 +137,7 @@ def test_golden_values(name):
 
 
 # ----------------------------------------------------- what opposes the claims that fail (README's claims table)
+@pytest.mark.slow
 def test_the_driver_loss_bowl_is_the_burnt_regenerated_energy():
     """C3/C4: on the bench the non-regenerative front end burns what the motor sends back (rect.loss_power); it grows
     towards short strides and with precompression, against the constant draw growing towards long strides. At the
@@ -167,6 +172,7 @@ def test_softer_springs_cost_more_copper_on_both_models():
         assert cu[(130e3, 0.007)] < cu[(60e3, 0.007)] < cu[(60e3, 0.004)], (preset, cu)
 
 
+@pytest.mark.slow
 def test_motor_loss_falls_from_2_to_5_mm_whatever_the_planners_band():
     """C5: at 2 mm the MACCEPA is soft (T ~ alpha^3): with a tight torque band (1 N m) the plan moves the arm far and
     fast there, the motor runs faster than at 5 mm and draws more current (its inertia torque); the fitted 6 N m band
@@ -183,6 +189,7 @@ def test_motor_loss_falls_from_2_to_5_mm_whatever_the_planners_band():
         assert (w2 > 1.05 * w5) if tol == 1.0 else (w2 < w5), (tol, w2, w5)
 
 
+@pytest.mark.slow
 def test_r_inflation_is_the_drivers_losses(tmp_path):
     """C13: Eq. 4 (ideal driver and gears) calibrated on recordings of the fitted chain inflates R by about 4x,
     beyond the paper's 2.86x; with the chain's driver made lossless (no constant draw, conduction or switching

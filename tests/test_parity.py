@@ -49,6 +49,9 @@ from acausal.trust import UntrustedResult
 
 from .parity_cases import BY_NAME, CASES, doc_model, doc_models
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 
 # ------------------------------------------------------------------------------------------------ measuring
 TABLE: dict = {}  # case name -> {backend: cell text}
@@ -160,6 +163,7 @@ def _agrees(case, cm, fast, ref, column, solver_ok) -> None:
     assert dt < case.event_tol, f"event times differ by {dt:.3g} s: {fast.events} vs {ref.events}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ACCEPTED)
 def test_compiled_path_agrees_with_the_scipy_path(case):
     """The compiled path takes the model (``method="CVODES"`` runs it, ``method="auto"`` takes it: its
@@ -177,6 +181,7 @@ def test_compiled_path_agrees_with_the_scipy_path(case):
     _agrees(case, cm, fast, ref, "compiled", lambda solver: solver.startswith(("CVODES", "IDAS")))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ACCEPTED)
 def test_casadi_integrator_agrees_with_the_scipy_path(case, monkeypatch):
     """The compiled path on CasADi's integrators (what runs without SUNDIALS's library or a C compiler, and a run the
@@ -190,6 +195,7 @@ def test_casadi_integrator_agrees_with_the_scipy_path(case, monkeypatch):
             lambda solver: solver.startswith(("CVODES", "IDAS")) and "CasADi" in solver)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", REFUSED)
 def test_compiled_path_refuses_naming_the_construct_and_the_component(case):
     """``method="CVODES"`` raises a ModelError before integrating, naming what the compiled path cannot run and
@@ -220,6 +226,7 @@ RADAU = [pytest.param(BY_NAME["docs/fmu-export.md: HalfWave"], id="docs/fmu-expo
          pytest.param(BY_NAME["docs/writing-components.md: TripCircuit"], id="docs/writing-components.md: TripCircuit")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", RADAU)
 def test_radau_agrees_with_bdf(case):
     """The scipy path's other implicit integrator on models with diode and breaker events: states and events as
@@ -329,6 +336,7 @@ def _export(name, fmu_dir):
 _LOGGED = re.compile(r"t = (\S+) s: event (\d+) \(.*\) (rising|falling)$")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", EXPORTED)
 def test_fmu_agrees_with_simulate(case, fmu_dir):
     """The exported FMU in fmpy (CVODE at rtol ``fmu_rtol``, 1e-11 unless the case says) against simulate() (the

@@ -65,6 +65,7 @@ STAGES = {"IdealGear": lambda: IdealGear(ratio=5.0, use_support=True),
           "BeltDrive": lambda: BeltDrive(ratio=5.0, use_support=True)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("source", sorted(SOURCES))
 @pytest.mark.parametrize("stage", sorted(STAGES))
 def test_support_reactions_balance(source, stage):

@@ -188,6 +188,7 @@ def ladder_state_space(sections):
     return A[:m, :m], A[:m, m], x0, names
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(ladders())
 def test_random_ladder_matches_expm(case):
@@ -289,6 +290,7 @@ def chain_state_space(J, fixed, links, phi0, w0, at):
     return A, B, np.array(list(phi0) + list(w0)), names
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(chains())
 def test_random_rotational_chain_matches_expm(case):

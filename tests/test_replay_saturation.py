@@ -32,6 +32,7 @@ def _replay(P, T, seed, limit):
     return e, out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("P, T", [(0.011, 2.5), (0.005, 2.0)])
 def test_unsaturated_recordings_replay_as_before(P, T):
     e, res = _replay(P, T, 403, True)

@@ -9,6 +9,9 @@ from acausal.library.electrical import Capacitor, ConstantVoltage, Ground, Resis
 from acausal.library.gait import AnkleAngleSource
 from acausal.library.rotational import Inertia, LossyGear, Position, TorqueSource
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 
 def _agree(exact, fd, rel, floor=1e-8):
     """Exact sensitivity vs finite difference: relative to the largest |fd|, or both ~0 (below the FD's noise)."""

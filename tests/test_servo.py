@@ -96,6 +96,7 @@ def test_friction_terms_are_checked():
         GearFriction(terms=("coulomb", "quadratic"))
 
 
+@pytest.mark.slow
 def test_servo_pendulum_energy_balance_with_friction():
     """Supply energy = winding + friction losses + change of the pendulum's and the rotor's energy (rel. 1e-6),
     over a replay of a real recording with every friction term switched on."""
@@ -217,6 +218,7 @@ def _other_servo_recordings(folder, seed=3, trajectories=("sin_sin", "up_and_dow
                             SERVO_FORMAT)
 
 
+@pytest.mark.slow
 def test_hidden_load_friction_is_named_on_another_servo(tmp_path):
     """The CLI, unchanged, on recordings of a different servo (own gain, supply, rig) with load-dependent friction
     hidden in the truth: it names `load`, recovers k_l, and its held-out MAE beats the baseline's."""
@@ -238,6 +240,7 @@ def test_hidden_load_friction_is_named_on_another_servo(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------------ example
+@pytest.mark.slow
 def test_servo_example_writes_its_report(tmp_path):
     """The shipped example's code path (diagnosis, BAM replays, report) on four short simulated recordings of the
     other servo (the full XL330 run takes minutes: ``python examples/servo_friction.py``): it names the load law

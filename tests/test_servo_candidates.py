@@ -22,6 +22,7 @@ def _xl330(k=5):
 
 
 # ------------------------------------------------------------------------------------------------ the library
+@pytest.mark.slow
 def test_every_candidate_is_the_baseline_at_zero_and_moves_the_arm_at_its_typical_size():
     """Each candidate's zero is the baseline (to a fraction of an encoder step: the rate limit's 1 ms tracker and
     the play's stiff flanks are the only differences), and its typical size changes the replay of a real log
@@ -41,6 +42,7 @@ def test_every_candidate_is_the_baseline_at_zero_and_moves_the_arm_at_its_typica
         assert np.max(np.abs(moved - base[r.name])) > 2 * step, e.id
 
 
+@pytest.mark.slow
 def test_energy_balance_with_every_slot_filled():
     """Supply energy = winding, friction, flank damping losses + change of stored energy (rel. 1e-6) with an
     element in every slot of the servo (rate limit, delay, deadband, punch, quantisation, supply sag, the plays
@@ -68,6 +70,7 @@ def test_energy_balance_with_every_slot_filled():
         compiled(("coulomb",), (fx.EFFECTS["backlash"], fx.EFFECTS["gear_backlash"]))
 
 
+@pytest.mark.slow
 def test_bam_published_sets_replay_as_in_bams_simulator():
     """With BAM's load measure (the arm's gravity torque minus the motor's), BAM's published M3-M6 sets replay on
     the 16 XL330 logs within 5 % of BAM's own simulator (M3: 0.0691 rad there; with the transmitted-torque
@@ -145,6 +148,7 @@ def _recovered(v, eid, truth, n_se=3.0, rel=0.02):
     assert abs(value - truth) <= max(n_se * se, rel * abs(truth)), (eid, value, se, truth)
 
 
+@pytest.mark.slow
 def test_hidden_firmware_delay_is_named_from_the_whole_library(tmp_path):
     """A 3 ms loop delay hidden in a servo unlike the XL330: the whole library tried, the delay named, its size
     recovered, the held-out error below half an encoder step."""
@@ -156,6 +160,7 @@ def test_hidden_firmware_delay_is_named_from_the_whole_library(tmp_path):
     assert not v["left_out"]
 
 
+@pytest.mark.slow
 def test_clean_servo_gives_none_with_detection_limits(tmp_path):
     """No hidden effect: `none`, and every candidate's detection limit stated (finite where the data can see
     it)."""
@@ -167,6 +172,7 @@ def test_clean_servo_gives_none_with_detection_limits(tmp_path):
     assert limits["error_deadband"]["size"] < fx.EFFECTS["error_deadband"].typical
 
 
+@pytest.mark.slow
 def test_hidden_pair_that_masks_itself_is_named_together(tmp_path):
     """A 3 ms loop delay with 3 ohm of supply sag (6 recordings of 2 s), the whole library: the sag alone gains
     held out but not consistently per segment (the missing delay hides behind it), the delay only shows on top
@@ -184,6 +190,7 @@ HIDDEN = [("goal_rate_limit", 0.4), ("error_deadband", 0.01), ("error_dependent_
           ("backlash", 0.05), ("gear_backlash", 0.05), ("current_limit", 2.0)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("eid, size", HIDDEN, ids=[h[0] for h in HIDDEN])
 def test_hidden_effect_is_named_among_its_neighbours(tmp_path, eid, size):
     """Each firmware, electrical and sensing candidate hidden in turn, tried beside the candidates of other
@@ -253,6 +260,7 @@ def test_bam_raw_logs_are_read_directly(tmp_path):
         bam_logs.load(bad, error_gain=0.01)
 
 
+@pytest.mark.slow
 def test_users_own_candidate_is_named_through_the_cli(tmp_path):
     """A user's component from their own file (never imported by the package), given on the command line, is
     built in the worker processes and named when its effect is hidden in the recordings."""

@@ -22,6 +22,9 @@ from acausal.library.electrical import Capacitor, Ground, Resistor
 from acausal.partials import OnePort
 from acausal.solve import NewtonSolve
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 I_S, V_T, R_S, C, V0 = 1e-12, 0.025, 10.0, 1e-3, 20.0
 
 
@@ -127,6 +130,7 @@ def test_plain_newton_fails_on_the_diode_block(discharge, monkeypatch):
         discharge.simulate(0.05, method="BDF")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["BDF", "LSODA", "auto"])
 def test_damped_newton_solves_the_diode_block(discharge, method):
     res = discharge.simulate(0.05, method=method, n_points=51, rtol=1e-8, atol=1e-10)
@@ -178,6 +182,7 @@ def test_no_convergence_at_the_start_names_time_block_and_hint(method):
     assert np.allclose((res["C.v"] - v_d) / 100.0, I_S * np.expm1(v_d / V_T), rtol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["BDF", "LSODA", "auto"])
 def test_no_root_in_the_middle_of_a_run_names_its_time(method):
     cm = compile_model(NoRootLater())

@@ -282,6 +282,7 @@ def test_9_10_11_20_options_are_checked_before_any_work_naming_the_option(tmp_pa
     assert not out.exists() or not any(out.iterdir())  # nothing written
 
 
+@pytest.mark.slow
 def test_17_18_fit_and_diagnose_options_that_would_do_nothing_are_refused(bench_set, tmp_path, capsys):
     f = tmp_path / "f"
     _refused(capsys, ["fit", str(bench_set), "--out", str(f), "--weight", "motor_current_A=0", "--weight",

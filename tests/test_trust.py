@@ -16,6 +16,9 @@ from acausal.trust import UntrustedResult, UntrustedResultWarning
 
 from .circuit_models import RC
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 
 def _stiff_rc(R=1e-9):
     """The issue's case: 1 V sine through R into C = 1 F; R = 1e-9 ohm makes a 1 ns time constant, and the current
@@ -28,6 +31,7 @@ def stiff():
     return compile_model(_stiff_rc())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "BDF", "Radau"])
 def test_a_stiff_models_wrong_current_is_refused_naming_variable_state_and_parameter(stiff, method):
     with pytest.raises(UntrustedResult, match=r"cannot be trusted: .*R\.loss_power.*'C\.v'.*R\.R|energy balance"):

@@ -19,6 +19,7 @@ def _data(rng, slope=2.0, offset=1.0):
     return t, x, stride, slope * x + offset + wave + 0.05 * rng.standard_normal(t.size)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("loss", ["linear", "soft_l1"])
 def test_cluster_robust_errors_match_the_spread_over_repeated_experiments(loss):
     """Over 200 repeated data sets the spread of the fitted slope equals the cluster-robust standard error (within
