@@ -41,14 +41,18 @@ class Accelerator:
     get: str
 
 
+def _package(name: str, module: str, buys: str, get: str) -> Accelerator:
+    """An optional Python package: present where it is importable, found as its version."""
+    present = importlib.util.find_spec(module) is not None
+    if not present:
+        return Accelerator(name, False, "not installed", buys, get)
+    from importlib.metadata import version
+    return Accelerator(name, True, f"{module} {version(module)}", buys, get)
+
+
 def casadi() -> Accelerator:
-    present = importlib.util.find_spec("casadi") is not None
-    found = "not installed"
-    if present:
-        from importlib.metadata import version
-        found = f"casadi {version('casadi')}"
-    return Accelerator("CasADi", present, found, "the compiled path: SUNDIALS CVODES/IDAS in compiled code",
-                       'pip install "acausal[fast]"')
+    return _package("CasADi", "casadi", "the compiled path: SUNDIALS CVODES/IDAS in compiled code",
+                    'pip install "acausal[fast]"')
 
 
 def compiler() -> Accelerator:
@@ -82,13 +86,8 @@ def native_loop() -> Accelerator:
 
 
 def plotly() -> Accelerator:
-    present = importlib.util.find_spec("plotly") is not None
-    found = "not installed"
-    if present:
-        from importlib.metadata import version
-        found = f"plotly {version('plotly')}"
-    return Accelerator("plotly", present, found, "HTML pages (Result.to_html, acausal paper's index.html)",
-                       'pip install "acausal[html]"')
+    return _package("plotly", "plotly", "HTML pages (Result.to_html, acausal paper's index.html)",
+                    'pip install "acausal[html]"')
 
 
 def browser() -> Accelerator:
