@@ -12,6 +12,9 @@ import sympy as sp
 from acausal import (Component, Discrete, Eq, Event, Model, Parameter, SimulationError, Variable, compile_model,
                      connect, der)
 
+#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
+pytestmark = pytest.mark.backend
+
 
 class _Trip(Component):
     """A flag raised while sqrt(x) > 0.5, with x falling through zero: the zero function is NaN for x < 0."""
@@ -52,9 +55,6 @@ import json, os, sys
 sys.path.insert(0, os.getcwd())  # the checkout: the shared test circuits
 from acausal import compile_model
 from tests.circuit_models import Bridge6
-
-#: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
-pytestmark = pytest.mark.backend
 
 res = compile_model(Bridge6()).simulate(0.1, method=sys.argv[1], n_points=201, trust="warn")
 print(json.dumps({"events": [[t, i, d] for t, i, d in res.events], "v": res["C.v"].tolist(),
