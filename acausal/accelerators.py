@@ -57,7 +57,7 @@ def casadi() -> Accelerator:
 
 def compiler() -> Accelerator:
     from .ccompiler import which_compiler
-    cc, asked = which_compiler()
+    cc = which_compiler()[0]
     found = cc if cc else ("$CC names none that exists" if os.environ.get("CC") else "none of cc, gcc, clang found")
     return Accelerator("C compiler", cc is not None, found, "servo replays' fixed steps in C; FMU binaries",
                        "a C compiler on PATH or in $CC (Debian: apt-get install gcc)")
@@ -68,14 +68,13 @@ def native_loop() -> Accelerator:
     SUNDIALS (built here if it is not in the library cache yet)."""
     get = "apt-get install libsundials-dev (Debian; SUNDIALS 6.x), with CasADi and a C compiler"
     buys = "every compiled-path run integrated in C, without CasADi's machinery around the steps"
-    if os.environ.get("ACAUSAL_NATIVE", "1") == "0":
-        return Accelerator("native loop", False, "switched off (ACAUSAL_NATIVE=0)", buys, "unset ACAUSAL_NATIVE")
-    if importlib.util.find_spec("casadi") is None:
+    from .compiled import available
+    from .compiled.native_loop import _loop, why_off
+    off = why_off()
+    if off is not None:
+        return Accelerator("native loop", False, off, buys, "unset ACAUSAL_NATIVE" if "ACAUSAL_NATIVE" in off else get)
+    if not available():
         return Accelerator("native loop", False, "needs CasADi, not installed", buys, get)
-    from .compiled.native_loop import _loop
-    from .ccompiler import which_compiler
-    if which_compiler()[0] is None:
-        return Accelerator("native loop", False, "needs a C compiler, none found", buys, get)
     loop, why = _loop()
     if loop is None:
         text = str(why)
@@ -90,9 +89,13 @@ def plotly() -> Accelerator:
                     'pip install "acausal[html]"')
 
 
+def browser_and_driver() -> tuple:
+    """``(Chromium's binary or None, chromedriver or None)`` as found on the PATH."""
+    return next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None), shutil.which("chromedriver")
+
+
 def browser() -> Accelerator:
-    binary = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
-    driver = shutil.which("chromedriver")
+    binary, driver = browser_and_driver()
     missing = [n for n, f in (("chromium", binary), ("chromedriver", driver)) if f is None]
     found = f"{binary}, {driver}" if not missing else f"no {' and '.join(missing)}"
     return Accelerator("Chromium", not missing, found, "only the test that opens the explorer page in a browser",

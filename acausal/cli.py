@@ -330,9 +330,8 @@ def cmd_export(args) -> int:
 
 def shipped_data() -> dict:
     """The data sets that ship with the package: name -> (folder, what it is)."""
-    from importlib import resources
-    servo = resources.files("acausal.models.servo").joinpath("data/xl330/recordings")
-    return {"xl330": (Path(str(servo)), "16 recordings of a Dynamixel XL330 on a pendulum (Rhoban/bam, Apache-2.0): "
+    from acausal.models.servo.recording_format import shipped_recordings  # the CLI wires verbs to models
+    return {"xl330": (shipped_recordings(), "16 recordings of a Dynamixel XL330 on a pendulum (Rhoban/bam, Apache-2.0): "
                       "acausal diagnose DIR --model servo_pendulum")}
 
 

@@ -19,19 +19,13 @@ from __future__ import annotations
 
 import os
 import time
-from importlib import resources
 from pathlib import Path
 
 from acausal.identify import load_recordings
 from acausal.models.servo import bam, problem as servo
-from acausal.models.servo.recording_format import SERVO_FORMAT
+from acausal.models.servo.recording_format import SERVO_FORMAT, shipped_recordings
 from acausal.models.servo.report import write_json, write_report
 from acausal.sweep import process_pool
-
-
-def data_folder() -> Path:
-    """The shipped XL330 recordings."""
-    return Path(str(resources.files("acausal.models.servo").joinpath("data/xl330/recordings")))
 
 
 def main(out_dir: Path, results=None, executor=None, recordings=None, candidates=None, max_effects=None,
@@ -40,7 +34,7 @@ def main(out_dir: Path, results=None, executor=None, recordings=None, candidates
     try (default: all); ``executor``: a process pool for the replays (default: one of ``jobs`` processes, all
     cores; ``"serial"``: this process only)."""
     out_dir = Path(out_dir) / "servo_friction"
-    recs = recordings if recordings is not None else load_recordings(data_folder(), SERVO_FORMAT)
+    recs = recordings if recordings is not None else load_recordings(shipped_recordings(), SERVO_FORMAT)
     t0 = time.perf_counter()
     own = None
     if executor == "serial":

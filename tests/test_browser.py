@@ -10,7 +10,6 @@ Skips, saying why, where selenium, Chromium or its driver is missing (``.ci/run`
 from __future__ import annotations
 
 import csv
-import shutil
 import time
 
 import pytest
@@ -21,18 +20,13 @@ pytest.importorskip("plotly", reason="the pages need plotly (pip install acausal
 webdriver = pytest.importorskip("selenium.webdriver", reason="the browser test drives Chromium with selenium "
                                 "(pip install selenium, in the test extra)")
 
-BROWSERS = ("chromium", "chromium-browser", "google-chrome")
-
-
 def _browser():
-    """(chromium binary, chromedriver) or a skip naming what is missing."""
-    binary = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
-    driver = shutil.which("chromedriver")
-    if binary is None or driver is None:
-        missing = " and ".join(n for n, f in (("chromium", binary), ("chromedriver", driver)) if f is None)
-        pytest.skip(f"no {missing} on this machine (Debian: apt-get install chromium chromium-driver; .ci/run installs "
-                    "them when apt-get can)")
-    return binary, driver
+    """(chromium binary, chromedriver) or a skip naming what is missing (acausal info's lookup)."""
+    from acausal.accelerators import browser, browser_and_driver
+    found = browser()
+    if not found.present:
+        pytest.skip(f"{found.found} on this machine (Debian: {found.get}; .ci/run installs them when apt-get can)")
+    return browser_and_driver()
 
 
 @pytest.fixture(scope="module")

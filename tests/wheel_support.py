@@ -30,13 +30,12 @@ class Installed:
 
     python: Path
     script: Path
-    wheel: Path
     workdir: Path
 
-    def run(self, *args, timeout: float = 900, env: dict | None = None) -> subprocess.CompletedProcess:
+    def run(self, *args, timeout: float = 900) -> subprocess.CompletedProcess:
         """``acausal ARGS`` from the working folder; the completed process (stdout, stderr as text)."""
         return subprocess.run([str(self.script), *args], cwd=self.workdir, capture_output=True, text=True,
-                              timeout=timeout, env={**os.environ, **(env or {})})
+                              timeout=timeout)
 
 
 def clean_copy(dest: Path) -> Path:
@@ -84,4 +83,4 @@ def installed_wheel(tmp: Path) -> Installed:
     assert where.returncode == 0, where.stderr[-3000:]
     origin = Path(where.stdout.strip())
     assert origin.is_relative_to(venv) and not origin.is_relative_to(ROOT), origin
-    return Installed(python, bindir / "acausal", wheel, work)
+    return Installed(python, bindir / "acausal", work)

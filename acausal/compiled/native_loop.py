@@ -60,7 +60,14 @@ _SOURCE = Path(__file__).with_name("native_dae.c")
 
 def enabled() -> bool:
     """Whether runs may take the native loop: a C compiler is there and ``ACAUSAL_NATIVE=0`` does not say no."""
-    return os.environ.get("ACAUSAL_NATIVE", "1") != "0" and which_compiler()[0] is not None
+    return why_off() is None
+
+
+def why_off() -> str | None:
+    """Why runs may not take the native loop here (switched off, or no C compiler), or None."""
+    if os.environ.get("ACAUSAL_NATIVE", "1") == "0":
+        return "switched off (ACAUSAL_NATIVE=0)"
+    return None if which_compiler()[0] is not None else "needs a C compiler, none found"
 
 
 class RuntimeSignals(Signals):

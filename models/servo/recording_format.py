@@ -143,3 +143,10 @@ def inputs_from(t, columns: dict, name: str = "recording") -> dict:
 def start(rec) -> dict:
     """Initial state: the first measured position, at rest (the logs start with the arm still)."""
     return {"pendulum.phi": float(rec[POSITION][0]), "pendulum.w": 0.0}
+
+
+def shipped_recordings():
+    """The folder of the 16 XL330 recordings that ship with the package (Rhoban/bam, Apache-2.0), in this format."""
+    from importlib import resources
+    from pathlib import Path
+    return Path(str(resources.files("acausal.models.servo").joinpath("data/xl330/recordings")))
