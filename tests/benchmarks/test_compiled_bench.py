@@ -98,7 +98,11 @@ def test_whole_chain_closed_loop_ankle_in_hand_written_runs(benchmark):
     if benchmark.disabled or benchmark.stats is None:
         return
     t, t_hand = benchmark.stats.stats.min, min(hand)
-    benchmark.extra_info.update(hand_s=t_hand, hand_runs=t / t_hand, goal_hand_runs=50)
+    # the goal is the native loop's; where it is not built (or switched off) the run takes CasADi's event path,
+    # whose own figure guards it (docs/benchmarks.md: 193-225 runs with ACAUSAL_NATIVE=0, 2026-12-02, idle)
+    native = "native" in res.solver
+    guard = 150 if native else 700  # regression guards only: 3x the goal, and 3x the CasADi path's figure
+    benchmark.extra_info.update(hand_s=t_hand, hand_runs=t / t_hand, goal_hand_runs=50, solver=res.solver)
     print(f"\nwhole chain, closed loop, 6 s: {t * 1e3:.0f} ms = {t / t_hand:.0f} hand-written 1-s runs "
-          f"({t_hand * 1e3:.2f} ms each; goal <= 50)")
-    assert t / t_hand < 150  # regression guard only, 3x the goal (measured 26-46 on the native event loop)
+          f"({t_hand * 1e3:.2f} ms each; goal <= 50 on the native loop; this run: {res.solver})")
+    assert t / t_hand < guard, res.solver
