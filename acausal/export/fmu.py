@@ -127,10 +127,10 @@ def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None =
     ident = identifier_of(identifier or cm.flat.name)
     doc = (doc or "").strip()
     description = doc.split("\n\n")[0].replace("\n", " ") if doc else f"{cm.flat.name} (exported by acausal)"
+    # what the model cannot be as an FMU is said before what the machine lacks to build one
+    head, tail, layout, tabulated, start = ccode.generate(cm, ident, "{GUID}", params=params, inputs=inputs)
     folder, suffix, link = platform_folder() if binary else (None, None, None)
     cc = find_compiler(compiler) if binary else None
-
-    head, tail, layout, tabulated, start = ccode.generate(cm, ident, "{GUID}", params=params, inputs=inputs)
     fixed = {s for s in layout.states if getattr(cm.flat.variables.get(s), "fixed", False)}
     has_targets = any(v.fixed and n not in layout.states for n, v in cm.flat.variables.items()) or \
         bool(getattr(cm.flat, "fixed_constants", {}))
