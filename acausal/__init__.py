@@ -5,19 +5,22 @@ Write components as classes with ports, parameters and sympy equations; connect 
 numeric code); ``simulate`` many times with other parameters; read any variable by its hierarchical name.
 """
 
-from .compiler import CompiledModel, compile_model
-from .components import (Component, Connector, Discrete, Event, Flow, Indeterminate, Input, Model, Parameter,
-                         Potential, Start, Variable, connect)
-from .connectors import Flange, HeatPort, Pin, RealInput, RealOutput
+from . import _moved
+from .compiled_model import CompiledModel, compile_model
+from .model.components import (Component, Connector, Discrete, Event, Flow, Indeterminate, Input, Model, Parameter,
+                               Potential, Start, Variable, connect)
+from .model.connectors import Flange, HeatPort, Pin, RealInput, RealOutput
 from .export import export_fmu
-from .errors import (AcausalError, ConnectError, DataError, ModelError, SignalError, SimulationError,
-                     StructureError)
-from .result import Result
-from .signals import Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline, SampledSignal, Signal
-from .symbols import Eq, der, time  # equations are written as Eq(lhs, rhs)
-from .trust import UntrustedResult, UntrustedResultWarning
+from .errors import AcausalError, ConnectError, DataError, ModelError, SignalError, SimulationError, StructureError
+from .results.result import Result
+from .model.signals import (Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline,
+                            SampledSignal, Signal)
+from .model.symbols import Eq, der, time  # equations are written as Eq(lhs, rhs)
+from .results.trust import UntrustedResult, UntrustedResultWarning
 
 __version__ = "0.1.0"
+
+_moved.install()  # the module paths of the release before the stage folders, for one more release
 
 __all__ = [
     "Model", "Component", "Connector", "Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start",

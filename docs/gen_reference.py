@@ -20,7 +20,7 @@ the code at every build, and the two adapters the site needs (an MkDocs hook and
   build.
 
 A component page is made from the component itself: its class docstring (rendered by mkdocstrings), its
-declarations as :meth:`Component.describe <acausal.components.Component.describe>` lists them (tables, with the
+declarations as :meth:`Component.describe <acausal.model.components.Component.describe>` lists them (tables, with the
 formatting of ``describe()``), its constructor options, its sub-components and connections, its equations and
 events as an instance writes them, and the verbatim ``describe()`` listing.
 """
@@ -200,7 +200,7 @@ def domain_title(module: str) -> str:
 
 def component_classes(module) -> list[type]:
     """The public component classes a module defines, in source order."""
-    from acausal.components import Component, Connector
+    from acausal.model.components import Component, Connector
     return [o for n, o in vars(module).items()
             if inspect.isclass(o) and issubclass(o, Component) and not issubclass(o, Connector)
             and o.__module__ == module.__name__ and not n.startswith("_")]
@@ -220,7 +220,7 @@ def _class_ref(cls) -> str:
 
 def _options(cls) -> list[tuple[str, str]]:
     """The constructor's own keywords (structural options such as ``use_support``, ``law``): name, default."""
-    from acausal.components import Component
+    from acausal.model.components import Component
     if cls.__init__ is Component.__init__:
         return []
     out = []
@@ -237,7 +237,7 @@ def _instance(cls):
     import sympy as sp
 
     from acausal import time
-    from acausal.components import Component, Input
+    from acausal.model.components import Component, Input
     kw = {k: sp.Function(k)(time) for k, d in cls.declarations().items() if isinstance(d, Input) and d.default is None}
     hints = typing.get_type_hints(cls.__init__)
     for name, p in inspect.signature(cls.__init__).parameters.items():
@@ -257,7 +257,7 @@ def _bindings(child) -> str:
     """The parameter values a composite model gives a part (``J = J_a``: bound to its own parameter)."""
     import sympy as sp
 
-    from acausal.describe import _number
+    from acausal.model.describe import _number
     if not child._values:
         return ""
     return " (" + ", ".join(f"`{k} = {sp.sstr(v) if isinstance(v, sp.Basic) else _number(v)}`"
@@ -279,8 +279,8 @@ def _assignments(d: dict) -> str:
 
 def component_section(cls) -> list[str]:
     """The page section of one component class."""
-    from acausal.components import Connector, Model
-    from acausal.describe import _bounds, _listed, _number, _unset
+    from acausal.model.components import Connector, Model
+    from acausal.model.describe import _bounds, _listed, _number, _unset
 
     ident = f"{cls.__module__}.{cls.__qualname__}"
     lines = [f"::: {ident}", "    options:", "      show_root_full_path: false", "      members: false",
@@ -395,9 +395,9 @@ def component_page(name: str) -> str:
 
 
 def components_index(modules: list[str]) -> str:
-    import acausal.connectors as conn
-    from acausal.components import Connector
-    from acausal.describe import _listed, _number
+    import acausal.model.connectors as conn
+    from acausal.model.components import Connector
+    from acausal.model.describe import _listed, _number
 
     lines = ["# Component reference", "",
              "Every component of `acausal.library`, by domain, generated from the components themselves at every "
@@ -414,7 +414,7 @@ def components_index(modules: list[str]) -> str:
         classes = component_classes(module)
         lines.append(f"| [{domain_title(name)}]({name}.md) | `acausal.library.{name}` | {len(classes)} |")
     lines += ["", "## Connectors", "",
-              "The ports components are joined by (`acausal.connectors`, importable from `acausal`): connected "
+              "The ports components are joined by (`acausal.model.connectors`, importable from `acausal`): connected "
               "potentials are equal and connected flows sum to zero; a flow is positive into the component.", ""]
     for name, cls in vars(conn).items():
         if inspect.isclass(cls) and issubclass(cls, Connector) and cls.__module__ == conn.__name__:
@@ -644,9 +644,9 @@ if griffe is not None:
         """Docstrings written for Sphinx read as markdown by mkdocstrings (see :func:`_rst_to_markdown`).
 
         Names are resolved in the scope of the object whose docstring it is (``:class:`Parameter``` in
-        ``acausal.declarations`` is ``acausal.declarations.Parameter``); a cross-reference is *optional*: where its
-        target is documented on the site it links, elsewhere it shows as code and no warning is logged (autorefs'
-        optional references, as mkdocstrings makes for type annotations)."""
+        ``acausal.model.declarations`` is ``acausal.model.declarations.Parameter``); a cross-reference is *optional*:
+        where its target is documented on the site it links, elsewhere it shows as code and no warning is logged
+        (autorefs' optional references, as mkdocstrings makes for type annotations)."""
 
         def on_package(self, *, pkg, **kwargs):
             seen = set()

@@ -25,7 +25,7 @@ from acausal.identify import load_recordings
 from acausal.models.servo import bam, problem as servo
 from acausal.models.servo.recording_format import SERVO_FORMAT, shipped_recordings
 from acausal.models.servo.report import write_json, write_report
-from acausal.sweep import process_pool
+from acausal.simulation.sweep import process_pool
 
 
 def main(out_dir: Path, results=None, executor=None, recordings=None, candidates=None, max_effects=None,

@@ -1,7 +1,7 @@
 """Continuous-time control blocks (after MSL ``Modelica.Blocks.Continuous``/``Math``/``Nonlinear``).
 
-Blocks are causal: :class:`~acausal.connectors.RealInput` s in, :class:`~acausal.connectors.RealOutput` s out,
-each signal a plain number in whatever unit the connected quantity has (rad, A, V...). Gains therefore carry
+Blocks are causal: :class:`~acausal.model.connectors.RealInput` s in, :class:`~acausal.model.connectors.RealOutput` s
+out, each signal a plain number in whatever unit the connected quantity has (rad, A, V...). Gains therefore carry
 "output unit per input unit"; the units given below are those of a normalised loop (output and input in the same
 unit) and are multiplied by ``[y]/[u]`` in a real loop (a position controller commanding a voltage has ``kp`` in
 V/rad).
@@ -27,7 +27,7 @@ import sympy as sp
 from sympy import Max, Min
 
 from acausal import Component, Eq, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
-from acausal.partials import check_option
+from acausal.model.partials import check_option
 
 __all__ = ["PID", "PIDVariableLimit", "FirstOrder", "Limiter", "Feedback", "Add", "VelocityAccelerationFeedForward",
            "DutyPositionController",

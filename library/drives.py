@@ -7,8 +7,8 @@ delivers to its load is ``-flange.tau``).
 import sympy as sp
 
 from acausal import Component, Eq, Model, ModelError, Parameter, RealInput, RealOutput, Variable, connect, der
-from acausal.connectors import HeatPort, Pin
-from acausal.partials import PartialElementaryRotationalToElectrical, check_option
+from acausal.model.connectors import HeatPort, Pin
+from acausal.model.partials import PartialElementaryRotationalToElectrical, check_option
 
 
 class _OptionalHeatPort:
@@ -27,8 +27,8 @@ class PWMDriver(Component, _OptionalHeatPort):
     Ports: DC bus ``bus_p``/``bus_n``, motor side ``mot_p``/``mot_n``, command input ``u``. With
     ``command="duty"`` the duty cycle is ``d = clamp(u, -d_max, d_max)``; with ``command="voltage"`` it is
     ``d = clamp(u / v_bus, -d_max, d_max)`` (``u`` in volts). ``saturate=False`` drops the clamp (for inverse
-    models, where the compiler solves for the command; check ``d`` against ``d_max`` afterwards). Equations (``i_m`` motor current, out of
-    ``mot_p``; ``i_bus`` into ``bus_p``)::
+    models, where the compiler solves for the command; check ``d`` against ``d_max`` afterwards). Equations (``i_m``
+    motor current, out of ``mot_p``; ``i_bus`` into ``bus_p``)::
 
         v_m   = d v_bus - R_on i_m                                    (averaged bridge + conduction drop)
         v_bus i_bus = d v_bus i_m + P_q + k_sw |i_m| v_bus            (power balance)
@@ -36,8 +36,8 @@ class PWMDriver(Component, _OptionalHeatPort):
 
     so ``v_bus i_bus = v_m i_m + loss_power`` holds exactly. ``ideal=True`` is the lossless bridge written
     linearly (``v_m = d v_bus``, ``i_bus = d i_m``): the same for the defaults, but a resistance in series with
-    its bus is then solved in closed form instead of by Newton iterations. The motor terminals are referenced to the bus as in
-    a bridge with symmetric PWM (``mot_n.v = bus_n.v + (v_bus - v_m)/2``) and the four terminal currents sum to
+    its bus is then solved in closed form instead of by Newton iterations. The motor terminals are referenced to the bus
+    as in a bridge with symmetric PWM (``mot_n.v = bus_n.v + (v_bus - v_m)/2``) and the four terminal currents sum to
     zero, so the motor circuit needs no ground of its own (do not ground it separately). The defaults are
     neutral: no quiescent draw, no conduction or switching loss, the full duty range (``d_max`` = 1). Set them
     for your driver, or use a subclass holding one device's values (:class:`EPOS2`). The bridge passes power

@@ -8,8 +8,8 @@ import sympy as sp
 
 from acausal import (Component, Discrete, Eq, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect,
                      der)
-from acausal.connectors import Pin
-from acausal.partials import OnePort, PartialElementaryRotationalToElectrical
+from acausal.model.connectors import Pin
+from acausal.model.partials import OnePort, PartialElementaryRotationalToElectrical
 
 
 class Ground(Component):

@@ -31,8 +31,8 @@ term                budget contribution                               physics (B
 
 ``tau_a = flange_a.tau``; ``S(w) = exp(-(|w|_c / w_s)^alpha)`` is the Stribeck curve. **The load measure**
 ``G`` is, with ``load_measure="transmitted"`` (default), the torque at ``flange_a``, ``G = |tau_a|``: connect the
-driving side there through massless parts (an EMF and an ideal gear: it is then the motor's air-gap torque through the gear,
-BAM's "motor torque") and put the rotor's inertia on the ``flange_b`` side, so the budget does not depend on
+driving side there through massless parts (an EMF and an ideal gear: it is then the motor's air-gap torque through the
+gear, BAM's "motor torque") and put the rotor's inertia on the ``flange_b`` side, so the budget does not depend on
 accelerations (otherwise the law is an algebraic loop, which the compiler solves by Newton iterations, slower).
 With ``load_measure="external"`` the law has an input ``tau_ext``, the external torque on the load (a pendulum's
 gravity torque, BAM's "bias torque"), and ``G = |tau_ext - tau_a|``, BAM's definition (Rhoban/bam
@@ -49,8 +49,8 @@ import sympy as sp
 
 from acausal import Eq, Parameter, RealInput, Variable, der
 from acausal.errors import ModelError
-from acausal.partials import (PartialCompliantWithRelativeStates, PartialElementaryTwoFlangesAndSupport2,
-                              PartialFriction)
+from acausal.model.partials import (PartialCompliantWithRelativeStates, PartialElementaryTwoFlangesAndSupport2,
+                                    PartialFriction)
 
 __all__ = ["GearFriction", "CoulombViscousFriction", "StribeckFriction", "LoadDependentFriction",
            "DirectionalFriction", "TERMS", "Clutch", "Brake"]
@@ -194,7 +194,7 @@ class _DryFriction(PartialFriction):
 
 class Clutch(PartialCompliantWithRelativeStates, _DryFriction):
     """Clutch between two flanges (MSL ``Clutch``): friction torque ``tau = flange_b.tau`` opposing the relative
-    speed ``w_rel = der(flange_b.phi - flange_a.phi)``; modes of :class:`~acausal.partials.PartialFriction`
+    speed ``w_rel = der(flange_b.phi - flange_a.phi)``; modes of :class:`~acausal.model.partials.PartialFriction`
     (stuck: the flanges turn together and ``tau`` is what couples them, up to ``peak mu cgeo fn``).
     ``loss_power = tau w_rel >= 0``."""
 
@@ -210,7 +210,7 @@ class Clutch(PartialCompliantWithRelativeStates, _DryFriction):
 class _FrictionShaft(PartialElementaryTwoFlangesAndSupport2):
     """A rigid shaft whose friction torque ``tau = flange_a.tau + flange_b.tau`` acts against the support, opposing
     ``w = der(flange_a.phi - support angle)``: what :class:`Brake` and :class:`StickSlipBearingFriction` share
-    (each with :class:`~acausal.partials.PartialFriction`, whose events it watches on ``w``)."""
+    (each with :class:`~acausal.model.partials.PartialFriction`, whose events it watches on ``w``)."""
 
     phi = Variable(unit="rad", doc="shaft angle relative to the support")
     w = Variable(unit="rad/s", doc="shaft speed relative to the support")
@@ -241,8 +241,8 @@ class StickSlipBearingFriction(_FrictionShaft, PartialFriction):
     torque ``tau = flange_a.tau + flange_b.tau`` acts against the support, opposing ``w = der(flange_a.phi - support
     angle)``. Sliding it is MSL's ``tau_pos`` table as a line, ``tau = tau0 + d |w|`` against the motion
     (``tau_pos = [0, tau0; 1, tau0 + d]``); stuck, the shaft stands still relative to the support while the
-    holding torque stays within ``peak tau0`` (the modes of :class:`~acausal.partials.PartialFriction`, shared with
-    other friction elements stuck on the same shaft, as MSL's stuck groups). ``loss_power = tau w >= 0``.
+    holding torque stays within ``peak tau0`` (the modes of :class:`~acausal.model.partials.PartialFriction`, shared
+    with other friction elements stuck on the same shaft, as MSL's stuck groups). ``loss_power = tau w >= 0``.
 
     The smooth :class:`~acausal.library.rotational.BearingFriction` creeps through zero speed instead of sticking
     (no events, exact sensitivities); this one sticks, which MSL's ``LossyGearDemo2`` needs. Defaults: MSL's

@@ -27,7 +27,7 @@ import sympy as sp
 
 from acausal import Eq, Parameter, Variable
 from acausal.errors import ModelError
-from acausal.partials import PartialCompliant, PartialCompliantWithRelativeStates
+from acausal.model.partials import PartialCompliant, PartialCompliantWithRelativeStates
 
 __all__ = [
     "link_length", "spring_compression", "perpendicular_force", "torque", "spring_energy", "stiffness",

@@ -8,8 +8,8 @@ import math
 import numbers
 
 from acausal import Eq, Model, ModelError, Parameter, Variable, connect
-from acausal.connectors import Flange, Pin
-from acausal.partials import check_option
+from acausal.model.connectors import Flange, Pin
+from acausal.model.partials import check_option
 
 from .electrical import EMF, Inductor, Resistor
 from .rotational import Inertia

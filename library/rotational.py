@@ -7,9 +7,10 @@ import sympy as sp
 
 from acausal import (Component, Discrete, Eq, Event, Input, Model, Parameter, RealInput, RealOutput, Variable, connect,
                      der)
-from acausal.connectors import Flange
-from acausal.partials import (PartialCompliant, PartialCompliantWithRelativeStates, PartialFriction,
-                              PartialElementaryOneFlangeAndSupport2, PartialGear, PartialTwoFlanges, check_option)
+from acausal.model.connectors import Flange
+from acausal.model.partials import (PartialCompliant, PartialCompliantWithRelativeStates, PartialFriction,
+                                    PartialElementaryOneFlangeAndSupport2, PartialGear, PartialTwoFlanges,
+                                    check_option)
 
 from .friction import GearFriction
 
@@ -343,7 +344,7 @@ class StickSlipGear(PartialGear, PartialFriction):
     (``eta_mf2``, default ``eta``), ``tau_bf``: bearing friction torque at flange_a (``tau_bf1 = tau_bf2``; the
     speed dependence of MSL's ``lossTable`` is not modelled). Stuck, ``der(w_a) = 0`` and ``tau_loss`` is what holds
     the gear, breaking away when it leaves the band between the two sliding values (the stick/slip machine of
-    :class:`~acausal.partials.PartialFriction`, modes ``stuck`` and ``forward``, path parameter ``sa``).
+    :class:`~acausal.model.partials.PartialFriction`, modes ``stuck`` and ``forward``, path parameter ``sa``).
     ``loss_power = tau_loss w_a >= 0`` in every mode. A gear that starts moving backward needs
     ``StickSlipGear(forward=0)``.
     """

@@ -3,12 +3,12 @@
 
 Both are lossless and invisible to the circuit or drive they measure: they carry no current through a voltage
 path, drop no voltage across a current path, and transmit torque and motion rigidly. Each gives its reading twice:
-as a causal :class:`~acausal.connectors.RealOutput` ``power`` (to feed a controller or a signal block) and as a
+as a causal :class:`~acausal.model.connectors.RealOutput` ``power`` (to feed a controller or a signal block) and as a
 plain variable ``P`` [W] to read by name from a result (``res["sensor.P"]``). Sign conventions follow the MSL
 (flow into a component positive), spelled out with a sketch in each class.
 """
 from acausal import Component, Eq, RealOutput, Variable, der
-from acausal.connectors import Flange, Pin
+from acausal.model.connectors import Flange, Pin
 
 __all__ = ["ElectricalPowerSensor", "MechanicalPowerSensor"]
 

@@ -38,7 +38,7 @@ Kc 0.01283, Kv 0.003662), ``ratio`` = 288.35 (XL330-M288's nominal ratio; the ou
 it, only the split of kt between motor and gear does).
 """
 from acausal import Model, ModelError, Parameter, RealInput, connect
-from acausal.connectors import Flange, Pin
+from acausal.model.connectors import Flange, Pin
 
 from .blocks import Gain
 from .control import DutyOutput, Feedback

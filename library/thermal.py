@@ -1,6 +1,6 @@
 """Lumped 1-D heat transfer (MSL ``Modelica.Thermal.HeatTransfer`` names and sign conventions).
 
-Every component talks through :class:`~acausal.connectors.HeatPort` s: temperature ``T`` [K] and heat flow
+Every component talks through :class:`~acausal.model.connectors.HeatPort` s: temperature ``T`` [K] and heat flow
 ``Q_flow`` [W], **positive into the component**. The power entering a component through a heat port is simply
 ``port.Q_flow`` (``Result.power("name.port")``), so a thermal network balances its energy exactly: heat put in
 by sources = heat stored in capacitors + heat taken up by fixed-temperature boundaries.
@@ -24,7 +24,7 @@ import abc
 from sympy import exp
 
 from acausal import Component, Eq, Input, Parameter, RealInput, RealOutput, Variable, der, time
-from acausal.connectors import HeatPort
+from acausal.model.connectors import HeatPort
 
 __all__ = ["HeatCapacitor", "Element1D", "ThermalConductor", "ThermalResistor", "DecayingTemperatureStep",
            "FixedTemperature",

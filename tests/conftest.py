@@ -33,8 +33,8 @@ def pytest_collection_modifyitems(config, items):
 
 def pytest_configure(config):
     if config.getoption("--scipy-path"):
-        import acausal.compiled
-        acausal.compiled.available = lambda: False
+        import acausal.simulation.compiled
+        acausal.simulation.compiled.available = lambda: False
 
 
 def pytest_report_header(config):
@@ -42,7 +42,7 @@ def pytest_report_header(config):
     one it lacks skips saying so and checks the fallback instead."""
     if config.getoption("--scipy-path"):
         return "simulation path: scipy only (--scipy-path)"
-    from acausal.accelerators import default_path, survey
+    from acausal.cli.accelerators import default_path, survey
     found = survey()
     return [f"simulation path: {default_path(found)}",
             "accelerators: " + ", ".join(f"{a.name} {'yes' if a.present else 'no (' + a.found + ')'}" for a in found)]

@@ -20,7 +20,7 @@ METHODS = ["auto", "BDF"]  # the default path, and the scipy path's BDF
 
 
 def compiled_path_available() -> bool:
-    from acausal.compiled import available
+    from acausal.simulation.compiled import available
     return available()
 
 

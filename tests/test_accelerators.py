@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from acausal import compile_model
-from acausal.accelerators import default_path, describe, native_loop, survey
+from acausal.cli.accelerators import default_path, describe, native_loop, survey
 from acausal.cli import main
 
 from .circuit_models import RC

@@ -22,7 +22,7 @@ webdriver = pytest.importorskip("selenium.webdriver", reason="the browser test d
 
 def _browser():
     """(chromium binary, chromedriver) or a skip naming what is missing (acausal info's lookup)."""
-    from acausal.accelerators import browser, browser_and_driver
+    from acausal.cli.accelerators import browser, browser_and_driver
     found = browser()
     if not found.present:
         pytest.skip(f"{found.found} on this machine (Debian: {found.get}; .ci/run installs them when apt-get can)")

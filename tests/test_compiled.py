@@ -11,7 +11,7 @@ from acausal.errors import ModelError, SimulationError
 from acausal.identify.smoothing import SmoothingSpline
 from acausal.library.electrical import (Capacitor, ConstantVoltage, Ground, IdealDiode, Inductor, PrescribedVoltage,
                                         Resistor)
-from acausal.signals import Constant, ExpressionSignal, FourierSeries, PeriodicSpline, SampledSignal, Signal
+from acausal.model.signals import Constant, ExpressionSignal, FourierSeries, PeriodicSpline, SampledSignal, Signal
 
 from .drive_models import MotorGearLoad, MotorLossyGearLoad
 
@@ -104,7 +104,7 @@ SIGNALS = {
 def test_every_signal_form_is_evaluated_exactly_inside_the_compiled_path(name):
     """The CasADi form of each numeric signal gives the signal's own values and derivatives (inside, outside
     and at the breaks), and a run driven by it agrees with the scipy path."""
-    from acausal.compiled.translate import Signals
+    from acausal.backends.casadi import Signals
     sig = SIGNALS[name]
 
     class Fake:
@@ -200,8 +200,8 @@ def test_events_on_the_compiled_path_when_asked(n_points):
 
 
 def test_without_casadi_every_run_takes_scipy(drive, monkeypatch):
-    import acausal.compiled
-    monkeypatch.setattr(acausal.compiled, "available", lambda: False)
+    import acausal.simulation.compiled
+    monkeypatch.setattr(acausal.simulation.compiled, "available", lambda: False)
     res = drive.simulate(0.2, n_points=5)
     assert res.solver.startswith("LSODA") and "needs CasADi" in res.solver
     assert "acausal[fast]" in drive.simulation_path()
@@ -315,7 +315,7 @@ def test_simulate_many_falls_back_set_by_set():
 # ---------------------------------------------------------------------------------------------- Newton blocks
 @pytest.mark.slow
 def test_newton_blocks_become_algebraic_variables_of_idas():
-    from acausal.solve import NewtonSolve
+    from acausal.compile.solve import NewtonSolve
     cm = compile_model(MotorLossyGearLoad())
     assert any(isinstance(s, NewtonSolve) for s in cm.steps)
     assert cm.simulation_path() == "compiled (CasADi IDAS)"
@@ -341,7 +341,7 @@ def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monke
     variables from the Python Newton solve): the run is repeated with the state derivatives there and no
     initialisation of IDAS's own. Checked: such retries happen, every run then succeeds, the run stays on IDAS,
     its energies agree with the scipy path's (BDF) within 1e-5 and its balance closes."""
-    from acausal.compiled.path import CompiledPath
+    from acausal.simulation.compiled.path import CompiledPath
     from acausal.models.ankle import protocol
     from acausal.models.ankle.protocol import Condition, run_condition
 
@@ -457,7 +457,7 @@ def test_event_gear_with_a_zero_account_runs_on_the_compiled_path():
 def test_a_dense_output_grid_is_crossed_in_wider_windows_with_the_same_events(monkeypatch):
     """An event run on a dense grid (a 1 kHz recording) may take a sixteenth of its outputs per window instead of 64
     (every window restarts CVODES): fewer runs, the same events and states as the scipy path's BDF."""
-    import acausal.compiled.events as E
+    import acausal.simulation.compiled.events as E
     monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # the CasADi event path's windows (the native loop's fallback)
     from .circuit_models import Bridge6
 

@@ -11,7 +11,7 @@ from acausal.library.control import (PID, Add, CascadeServo, Feedback, FirstOrde
                                      VelocityAccelerationFeedForward, cascade_gains)
 from acausal.library.electrical import EMF, CurrentSensor, Ground, Inductor, Resistor, SignalVoltage
 from acausal.library.rotational import AngleSensor, Damper, Fixed, Inertia, SpeedSensor
-from acausal.result import Result
+from acausal.results.result import Result
 
 # a small DC motor (round numbers): mechanical time constant J R / k^2 = 40 ms, electrical L / R = 1 ms
 R, L, K, J, D = 1.0, 1e-3, 0.05, 1e-4, 1e-4

@@ -31,7 +31,7 @@ import pytest  # noqa: E402
 import sympy as sp  # noqa: E402
 
 from acausal import Model, Start, compile_model, connect, time  # noqa: E402
-from acausal.describe import Listing  # noqa: E402
+from acausal.model.describe import Listing  # noqa: E402
 from acausal.errors import ModelError  # noqa: E402
 from acausal.library.drives import EPOS2, PWMDriver  # noqa: E402
 from acausal.library.electrical import EMF, Ground, Inductor, PrescribedVoltage, Resistor, Supply  # noqa: E402

@@ -16,7 +16,7 @@ from acausal import (AcausalError, Component, ConnectError, Eq, Model, ModelErro
                      SimulationError, Start, StructureError, Variable, compile_model, connect, der, time)
 from acausal.library.electrical import (Capacitor, ConstantVoltage, Ground, Resistor, SignalVoltage)
 from acausal.library.rotational import Inertia, Position
-from acausal.partials import OnePort
+from acausal.model.partials import OnePort
 
 
 def _time_in(msg: str) -> float:

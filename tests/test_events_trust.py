@@ -81,14 +81,14 @@ def test_a_three_phase_bridge_switches_the_same_way_in_every_process(tmp_path, m
     first = outs[0]
     assert len(first["events"]) >= 60 and first["v"][-1] == pytest.approx(100 * np.sqrt(3), rel=1e-3)
     if method == "BDF":  # on the steps' interpolants the energies of stiff switched currents missed by 1 %: the
-        # run is repeated with them as states (acausal.quadratures), and the balance closes
+        # run is repeated with them as states (acausal.simulation.scipy.quadratures), and the balance closes
         assert not first["flagged"] and abs(first["residual"]) < 1e-4
     elif _compiled():
         assert not first["flagged"] and abs(first["residual"]) < 1e-5
 
 
 def _compiled() -> bool:
-    from acausal.compiled import available
+    from acausal.simulation.compiled import available
     return available()
 
 
@@ -402,7 +402,7 @@ class _ClockModel(Model):
 def _spy_runs(monkeypatch, fail=None):
     """Record every compiled-path run as ``(t_start, t_end)``; ``fail(t_start, t_end)`` true makes it fail as a
     solver would (a SimulationError). A run that makes 10000 calls stops with an AssertionError (it stalls)."""
-    from acausal.compiled.path import CompiledPath
+    from acausal.simulation.compiled.path import CompiledPath
     integrate, runs = CompiledPath.integrate, []
 
     def spied(self, t_start, x0, t_out, *args, **kw):
@@ -438,7 +438,7 @@ def test_a_crossing_at_the_end_of_a_part_writes_no_output_there(monkeypatch):
     solution no longer shows the sign change the part showed at its end. The part's end is no output time: the
     outputs keep their own times' values (the part's state at 0.05 s was written into the output at 0.1 s)."""
     monkeypatch.setenv("ACAUSAL_NATIVE", "0")  # parts: the CasADi event path (the native loop's fallback)
-    import acausal.compiled.events as events
+    import acausal.simulation.compiled.events as events
     sim = compile_model(_ClockModel())
     _spy_runs(monkeypatch, fail=lambda a, b: a == 0.0 and b > 0.06)
     first_crossing, snapped = events._first_crossing, []

@@ -233,7 +233,7 @@ def test_the_wheel_checks_and_diagnoses_the_shipped_servo_set(wheel):
 
 
 def test_the_wheel_exports_an_fmu(wheel):
-    from acausal.ccompiler import which_compiler
+    from acausal.backends.ccompiler import which_compiler
     fmu = wheel.workdir / "replay.fmu"
     binary = which_compiler()[0] is not None
     proc = wheel.run("export", "replay", "--fmu", str(fmu), *(() if binary else ("--no-binary",)))

@@ -1,4 +1,4 @@
-"""Which solved equations can leave the finite numbers (:mod:`acausal.finite`): the trust check's search for
+"""Which solved equations can leave the finite numbers (:mod:`acausal.results.finite`): the trust check's search for
 non-finite values evaluates only those where a run's states, parameters and divisors allow the analysis, and every
 unknown where they do not. Each case below is one the check must still find."""
 import numpy as np
@@ -6,8 +6,9 @@ import pytest
 import sympy as sp
 from sympy import Eq
 
-from acausal import Component, Model, Parameter, Variable, compile_model, der, finite
-from acausal.trust import UntrustedResult, nonfinite
+from acausal import Component, Model, Parameter, Variable, compile_model, der
+from acausal.results import finite
+from acausal.results.trust import UntrustedResult, nonfinite
 
 from .drive_models import MotorGearLoad
 

@@ -6,7 +6,7 @@ import pytest
 
 from acausal import Model, ModelError, Start, compile_model, connect
 from acausal.library.electrical import Capacitor, Ground, IdealDiode, PrescribedVoltage, Resistor
-from acausal.signals import SampledSignal
+from acausal.model.signals import SampledSignal
 
 #: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
 pytestmark = pytest.mark.backend
@@ -80,7 +80,7 @@ def test_rk4_sensitivities_are_the_derivatives_of_the_discrete_solution():
 def test_one_rollout_serves_every_recording():
     """The inputs are data of the call, not tables inside the function: another log of the same model reuses the
     compiled roll-out and gets its own answer."""
-    from acausal.compiled.fixed_step import fixed_step
+    from acausal.simulation.compiled.fixed_step import fixed_step
     t1, s1 = _model(3)
     cm = compile_model(RC(s1))
     a = cm.sensitivities(t1, [], names=["C.v"], t_start=t1[0], method="RK4")[0]["C.v"]
@@ -97,10 +97,10 @@ def test_one_rollout_serves_every_recording():
 def test_a_long_log_is_crossed_in_pieces_as_by_one_roll():
     """Logs of any length share a few cached rolls (whole chunks, then the rest's binary digits); the pieces give
     what one roll over the whole grid gives, states and sensitivities."""
-    from acausal.compiled.fixed_step import CHUNK, fixed_step
+    from acausal.simulation.compiled.fixed_step import CHUNK, fixed_step
     t, sig = _log(6, n=2 * CHUNK + 45)
     cm = compile_model(RC(SampledSignal(t, sig)))
-    from acausal.compiled.fixed_step import FixedStep
+    from acausal.simulation.compiled.fixed_step import FixedStep
     vals, sens = cm.sensitivities(t, ["R.R"], names=["C.v"], t_start=t[0], method="RK4", substeps=2)
     stepper = fixed_step(cm, 2, ("R.R",))
     bindings = {}
@@ -126,18 +126,18 @@ def test_fixed_step_refuses_what_it_cannot_run():
     rectifier = compile_model(RC(sig, diode=True))
     with pytest.raises(ModelError, match="events"):
         rectifier.sensitivities(t, [], t_start=t[0], method="RK4")
-    from acausal.compiled.fixed_step import fixed_step
-    from acausal.compiled.translate import Unsupported
+    from acausal.simulation.compiled.fixed_step import fixed_step
+    from acausal.backends.casadi import Unsupported
     with pytest.raises(Unsupported, match="event zero functions"):
         fixed_step(rectifier, 4)
 
 
 def test_the_native_loop_takes_the_same_steps_as_casadi():
-    """Where a C compiler is found, the steps run in compiled C (:mod:`acausal.compiled.native`): the same numbers
-    as CasADi's unrolled step, states and sensitivities, on an uneven log of any length and any substep count;
+    """Where a C compiler is found, the steps run in compiled C (:mod:`acausal.simulation.compiled.native`): the same
+    numbers as CasADi's unrolled step, states and sensitivities, on an uneven log of any length and any substep count;
     without a compiler the fixed step stays on CasADi and says so."""
-    from acausal.ccompiler import which_compiler
-    from acausal.compiled.fixed_step import FixedStep, fixed_step
+    from acausal.backends.ccompiler import which_compiler
+    from acausal.simulation.compiled.fixed_step import FixedStep, fixed_step
     if which_compiler()[0] is None:
         pytest.skip("no C compiler on this machine")
     t, sig = _log(7, n=300)
@@ -153,8 +153,8 @@ def test_the_native_loop_takes_the_same_steps_as_casadi():
 
 
 def test_without_a_compiler_the_fixed_step_stays_on_casadi(monkeypatch, tmp_path):
-    from acausal.ccompiler import BuildError, shared_library
-    from acausal.compiled.fixed_step import FixedStep
+    from acausal.backends.ccompiler import BuildError, shared_library
+    from acausal.simulation.compiled.fixed_step import FixedStep
     monkeypatch.setenv("CC", "no-such-compiler-here")
     monkeypatch.setenv("ACAUSAL_CACHE_DIR", str(tmp_path))
     with pytest.raises(BuildError, match="no C compiler found.*CC environment variable"):
@@ -168,7 +168,7 @@ def test_without_a_compiler_the_fixed_step_stays_on_casadi(monkeypatch, tmp_path
 
 
 def test_a_library_is_built_once_per_source_and_a_refused_source_says_why(tmp_path, monkeypatch):
-    from acausal.ccompiler import BuildError, shared_library, which_compiler
+    from acausal.backends.ccompiler import BuildError, shared_library, which_compiler
     if which_compiler()[0] is None:
         pytest.skip("no C compiler on this machine")
     monkeypatch.setenv("ACAUSAL_CACHE_DIR", str(tmp_path))

@@ -13,7 +13,7 @@ from acausal.export import ExportError, export_fmu
 from acausal.library.electrical import (EMF, Capacitor, ConstantVoltage, Ground, IdealDiode, Inductor,
                                         PrescribedVoltage, Resistor)
 from acausal.library.rotational import Damper, Fixed, IdealGear, Inertia, Position
-from acausal.signals import PeriodicSpline, SampledSignal, Signal
+from acausal.model.signals import PeriodicSpline, SampledSignal, Signal
 
 from .circuit_models import Bridge6
 from .fmu_support import require_fmu_tools
@@ -198,8 +198,8 @@ def _logged_events(messages):
 def test_three_phase_bridge_switches_as_simulate_does(tmp_path):
     """Six ideal diodes commutate 60 times in 0.1 s; each commutation cascades (a diode turning on makes its
     neighbour's current reverse). The two diodes exactly at zero after the start are watched 1e-12 from it
-    (acausal.modes.knee_offsets, in Python and in the C alike), so round-off no longer sends a commutation through
-    a cycle at the knee. After the start the FMU logs the same crossings as simulate()'s
+    (acausal.simulation.events.knee_offsets, in Python and in the C alike), so round-off no longer sends a commutation
+    through a cycle at the knee. After the start the FMU logs the same crossings as simulate()'s
     events (same events, directions and order; times within 1e-6 s), and its modes and capacitor voltage between
     the events equal simulate()'s, the modes from the start on. At t = 0 two diodes sit exactly at zero and leave
     it (the FMU switches them at t = 0 as simulate() does, not at the end of the first step); whether one of them

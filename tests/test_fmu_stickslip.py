@@ -3,7 +3,7 @@
 MSL Friction (a clutch and a brake that stick and slip; tests/test_msl_conformance_friction.py) exported as an FMI
 2.0 Model Exchange FMU and run by fmpy on output grids where simulate() once lost the clutch's breakaway. Its C
 event iteration watches the indicators the knee rule overruled, and those leaving an exact zero right after an
-event, from where they are (acausal.modes.knee_offsets, ported to the C runtime): every mode change of the
+event, from where they are (acausal.simulation.events.knee_offsets, ported to the C runtime): every mode change of the
 reference comes, at its time, and the speeds follow the MSL's law. (fmpy's own event location does not run into
 finding 4 on these grids, with or without the offsets; the test holds the offsets' C port to the MSL: a first port,
 with thresholds a fixed KNEE beyond the value, made the FMU stop at 0.534 s on the 501- and 701-point grids.)"""

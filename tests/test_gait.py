@@ -13,7 +13,7 @@ import pytest
 
 from acausal.errors import AcausalError, DataError, ModelError
 from acausal.library.gait import (DEFAULT_PATH, GaitCycle, GaitParameterError, GaitWork, load_gait_table)
-from acausal.signals import Signal
+from acausal.model.signals import Signal
 
 DEG = math.pi / 180
 

@@ -16,7 +16,7 @@ from acausal.export.ccode import ExportError
 from acausal.library.blocks import Ramp, SignalSource
 from acausal.library.friction import Brake
 from acausal.library.rotational import Inertia, SignalTorque
-from acausal.runtime import least_norm
+from acausal.backends.numpy.runtime import least_norm
 
 LIMITS = (0.2, 0.6)  # N m: the brakes' breakaway torques (mu cgeo fn_max, peak 1)
 T_STOP, T_RAMP, T_BREAK = 1.25, 2.0, 2.8  # s: stopped, the ramp starts, the pair breaks away

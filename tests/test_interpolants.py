@@ -1,10 +1,10 @@
-"""The stacked evaluation of scipy's step interpolants (:mod:`acausal.interpolants`) gives what calling each step's
-interpolant gives, for LSODA and BDF (stacked) and Radau (called step by step)."""
+"""The stacked evaluation of scipy's step interpolants (:mod:`acausal.results.interpolants`) gives what calling each
+step's interpolant gives, for LSODA and BDF (stacked) and Radau (called step by step)."""
 import numpy as np
 import pytest
 
 from acausal import compile_model
-from acausal.interpolants import states_at
+from acausal.results.interpolants import states_at
 
 from .drive_models import MotorGearLoad
 

@@ -126,7 +126,7 @@ def test_motor_winding_heats_resistance():
 
 
 from acausal import Component, Eq  # noqa: E402
-from acausal.connectors import HeatPort  # noqa: E402
+from acausal.model.connectors import HeatPort  # noqa: E402
 
 
 class _FixedT(Component):
@@ -234,7 +234,7 @@ class _RotorBench(Model):
 
 
 def test_motor_with_its_rotor_outside_moves_alike_and_reads_the_air_gap_power():
-    from acausal.energy import balance
+    from acausal.results.energy import balance
     runs = {r: compile_model(_RotorBench(r)) for r in ("internal", "external")}
     res = {r: sim.simulate(0.5, n_points=501, rtol=1e-10, atol=1e-12) for r, sim in runs.items()}
     inside, outside = res["internal"], res["external"]

@@ -55,7 +55,7 @@ def test_an_over_determined_user_component_is_named_not_its_neighbour():
     """A user's one-port that fixes both its voltage law and its current (5 equations for its 4 unknowns): the
     error names it first (Modelica's local balance), not the resistor beside it where the matching ran out."""
     from acausal import Eq, Parameter
-    from acausal.partials import OnePort
+    from acausal.model.partials import OnePort
 
     class MyLoad(OnePort):
         R = Parameter(1.0)
@@ -79,7 +79,7 @@ def test_an_inertia_without_its_torque_balance_is_named_first():
     """An inertia written without its torque balance among six other components: named first, not last of 7."""
     from acausal import Eq, Parameter, Variable, der
     from acausal.library.rotational import Damper, Fixed, Inertia, Spring
-    from acausal.partials import PartialTwoFlanges
+    from acausal.model.partials import PartialTwoFlanges
 
     class NoBalance(PartialTwoFlanges):
         J = Parameter(1.0)
@@ -108,7 +108,7 @@ def test_every_component_of_the_shipped_models_balances_locally():
     (31 classes: supply to pendulum), so it never blames a library part."""
     from acausal.models.ankle.actuator import AnkleActuator
     from acausal.models.servo.model import ServoPendulum
-    from acausal.structure.balance import unbalanced
+    from acausal.compile.structure.balance import unbalanced
 
     for model in (AnkleActuator(mode="closed_loop"), AnkleActuator(), ServoPendulum()):
         model._ensure_built()

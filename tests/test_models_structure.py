@@ -174,7 +174,7 @@ def test_efficiency_follows_the_integrator_not_the_output_grid(switched):
 
 
 def _compiled() -> bool:
-    from acausal.compiled import available
+    from acausal.simulation.compiled import available
     return available()
 
 

@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from acausal import Model, Parameter, Start, compile_model, connect, time
-from acausal.connectors import Pin
+from acausal.model.connectors import Pin
 from acausal.library.electrical import (Capacitor, CurrentSensor, Ground, IdealDiode, Inductor, PrescribedVoltage,
                                         Resistor)
 from .msl_support import BALANCE_TOL, METHODS, check_energy, phase_tol

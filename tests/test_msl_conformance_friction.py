@@ -228,7 +228,7 @@ def test_friction_does_not_depend_on_the_output_grid(friction_sim, n_points):
     outputs lie must not change the answer. (Finding 4, fixed: of 40 grids from 101 to 5001 outputs, 351, 701, 1201,
     1551, 1701 and 5001 lost a breakaway on the compiled path: a clutch kept stuck by the knee rule with its
     holding torque a hair past the limit never crossed again, and a relative speed leaving its exact zero by
-    round-off right after a breakaway stuck the clutch again. :func:`acausal.modes.knee_offsets` watches both
-    from where they are.)"""
+    round-off right after a breakaway stuck the clutch again. :func:`acausal.simulation.events.knee_offsets` watches
+    both from where they are.)"""
     res = friction_sim.simulate(FRICTION["t_end"], n_points=n_points)
     check_friction(friction_sim, res, FRICTION_TOL, FRICTION_T_TOL)

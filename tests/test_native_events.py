@@ -1,5 +1,5 @@
-"""The native loop (acausal/compiled/native_loop.py, native_dae.c) with state events: runs integrated by SUNDIALS
-in C, their crossings found in its steps. Its agreement with the scipy path on every shipped model
+"""The native loop (acausal/simulation/compiled/native_loop.py, native_dae.c) with state events: runs integrated by
+SUNDIALS in C, their crossings found in its steps. Its agreement with the scipy path on every shipped model
 is in tests/test_parity.py (and the CasADi event path's own tests ask for that path); here what is its own: table
 inputs evaluated in C from numbers passed per run, negative start times with energy quadratures, the fallback to
 the CasADi event path where the library cannot be built, and that it is what runs by default."""
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from acausal import Model, Start, compile_model, connect
-from acausal import ccompiler
-from acausal.compiled import native_loop
+from acausal.backends import ccompiler
+from acausal.simulation.compiled import native_loop
 from acausal.library.electrical import Capacitor, Ground, IdealDiode, PrescribedVoltage, Resistor
-from acausal.signals import PeriodicSpline, SampledSignal
+from acausal.model.signals import PeriodicSpline, SampledSignal
 
 #: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
 pytestmark = pytest.mark.backend

@@ -11,7 +11,7 @@ import pytest
 
 from acausal import DataError, ModelError
 from acausal.cli import main
-from acausal.fileio import atomic_write_text
+from acausal.results.files import atomic_write_text
 from acausal.identify import MANIFEST, load_recordings
 from acausal.models.bench.recording_format import ANKLE_FORMAT
 from acausal.models.bench.virtual import BenchCondition, run_bench
@@ -262,7 +262,7 @@ def test_an_odd_power_law_is_solved_with_the_real_root_on_both_signs():
 
     from acausal import Model, Parameter, Start, compile_model, connect, time
     from acausal.library.electrical import Capacitor, Ground, PrescribedVoltage
-    from acausal.partials import OnePort
+    from acausal.model.partials import OnePort
 
     class Cubic(OnePort):
         a = Parameter(2.0, unit="V/A3")

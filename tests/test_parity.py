@@ -4,7 +4,8 @@ that accepts them, and the backends agree.
 Backends: the scipy path (``method="BDF"``, the reference; ``method="Radau"`` on three models with diode and breaker
 events), the compiled path (``method="CVODES"``: CVODES, or IDAS for a model with a Newton block) as it runs by
 default (the native loop where it is built) and on CasADi's integrators (``ACAUSAL_NATIVE=0``: what runs without
-SUNDIALS's library or a C compiler), and an exported FMI 2.0 Model Exchange FMU run by fmpy (its CVODE and the FMU's C event iteration). Models:
+SUNDIALS's library or a C compiler), and an exported FMI 2.0 Model Exchange FMU run by fmpy (its CVODE and the FMU's C
+event iteration). Models:
 
 * every model of ``acausal compare --list`` (:mod:`acausal.models.ankle.registry`), as the protocol runs it
   (library preset, 8 mm, 1.2 s/stride, the model's condition inputs); the windings run the replay's FMU with
@@ -45,7 +46,7 @@ import numpy as np
 import pytest
 
 from acausal import ModelError, SimulationError
-from acausal.trust import UntrustedResult
+from acausal.results.trust import UntrustedResult
 
 from .parity_cases import BY_NAME, CASES, doc_model, doc_models
 
@@ -114,7 +115,7 @@ def compiled_run(name):
 
 
 def _compiled_available():
-    from acausal.compiled import available
+    from acausal.simulation.compiled import available
 
     if not available():
         pytest.skip("the compiled path is off (CasADi missing, or --scipy-path)")

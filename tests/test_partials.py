@@ -13,7 +13,7 @@ from acausal.library.drives import DCMotor, PWMDriver
 from acausal.library.electrical import EMF, ConstantVoltage, Ground, Resistor
 from acausal.library.rotational import (BearingFriction, Damper, Fixed, Gearbox, IdealGear, Inertia, LossyGear,
                                         Position, SelfLockingGear, Spring, TorqueSource)
-from acausal.partials import PartialElementaryOneFlangeAndSupport2, PartialGear
+from acausal.model.partials import PartialElementaryOneFlangeAndSupport2, PartialGear
 
 
 class BeltDrive(PartialGear):

@@ -1,11 +1,11 @@
-"""A process pool's workers run their BLAS on one thread (acausal.sweep.process_pool): two workers each with a
-BLAS thread per core only contend on a machine with as many cores as workers."""
+"""A process pool's workers run their BLAS on one thread (acausal.simulation.sweep.process_pool): two workers each with
+a BLAS thread per core only contend on a machine with as many cores as workers."""
 import ctypes
 import importlib
 
 import pytest
 
-from acausal.sweep import one_blas_thread, process_pool
+from acausal.simulation.sweep import one_blas_thread, process_pool
 
 GETTERS = ("openblas_get_num_threads", "openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
            "scipy_openblas_get_num_threads64_")

@@ -1,4 +1,4 @@
-"""The lowered program (acausal.program): one record per compile that every backend prints, and its one rule for
+"""The lowered program (acausal.compile.program): one record per compile that every backend prints, and its one rule for
 common subexpressions."""
 from dataclasses import replace
 
@@ -6,9 +6,9 @@ import numpy as np
 import sympy as sp
 
 from acausal import compile_model
-from acausal.codegen import CodeGenerator
-from acausal.program import lower
-from acausal.signals import SampledSignal
+from acausal.backends.numpy.printer import CodeGenerator
+from acausal.compile.program import lower
+from acausal.model.signals import SampledSignal
 
 from .circuit_models import RC, Bridge6
 
@@ -64,8 +64,8 @@ def test_the_program_slices_its_steps_and_lists_its_signal_reads():
     calls = program.signal_calls
     assert calls and {c[0] for c in calls} == set(cm.input_names) and all(c[1] == 0 for c in calls)
     # the state derivative needs fewer steps than every unknown, and its slice computes it
-    from acausal.solve import step_vars
-    from acausal.symbols import der_name, var_symbol
+    from acausal.compile.solve import step_vars
+    from acausal.model.symbols import der_name, var_symbol
 
     target = var_symbol(der_name(cm.state_names[0]))
     part = program.slice([target])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from acausal import DataError, ModelError, Model, compile_model, connect
-from acausal.energy import balance
+from acausal.results.energy import balance
 from acausal.identify import load_recordings
 from acausal.identify.recordings import write_recording
 from acausal.library.friction import (CoulombViscousFriction, DirectionalFriction, GearFriction,

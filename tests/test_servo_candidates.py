@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from acausal import DataError, ModelError
-from acausal.energy import balance
+from acausal.results.energy import balance
 from acausal.identify import load_recordings
 from acausal.models.servo import effects as fx
 from acausal.models.servo.model import compiled

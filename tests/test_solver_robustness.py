@@ -17,10 +17,10 @@ import pytest
 import sympy as sp
 
 from acausal import Eq, Model, Parameter, SimulationError, Start, Variable, compile_model, connect, der, time
-from acausal import runtime
+from acausal.backends.numpy import runtime
 from acausal.library.electrical import Capacitor, Ground, Resistor
-from acausal.partials import OnePort
-from acausal.solve import NewtonSolve
+from acausal.model.partials import OnePort
+from acausal.compile.solve import NewtonSolve
 
 #: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
 pytestmark = pytest.mark.backend

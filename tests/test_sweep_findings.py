@@ -109,7 +109,7 @@ def test_19_the_result_and_batch_api_name_the_argument_at_fault(rc, tmp_path):
         res.sankey(ax=3)
     with pytest.raises(ModelError, match=r"simulate_many: params\[0\] is 1, not a dict of parameter overrides"):
         sim.simulate_many(1.0, [1, 2])
-    from acausal.sweep import sweep
+    from acausal.simulation.sweep import sweep
     with pytest.raises(ModelError, match=r"sweep: args must be a list .* got 5"):
         sweep(abs, 5, executor="serial")
     with pytest.raises(ModelError, match=r"sweep: fn must be a function"):

@@ -6,7 +6,7 @@ from scipy.linalg import expm
 
 from acausal import Model, compile_model, connect
 from acausal import Component, Eq, Parameter
-from acausal.connectors import HeatPort
+from acausal.model.connectors import HeatPort
 from acausal.library.thermal import (DecayingTemperatureStep, FixedHeatFlow, FixedTemperature, HeatCapacitor, HeatFlowSensor,
                                      PrescribedHeatFlow, PrescribedTemperature, TemperatureSensor,
                                      ThermalConductor, ThermalResistor)

@@ -1,4 +1,4 @@
-"""Trust checks on every simulation (issue 20, item 3; :mod:`acausal.trust`): a stiff model's silently wrong
+"""Trust checks on every simulation (issue 20, item 3; :mod:`acausal.results.trust`): a stiff model's silently wrong
 result is refused with the variable, the state and the parameter at fault; a run that would take forever on an
 explicit method stops with an error saying so; models that are right pass; a loss passed on as heat into a
 thermal network is not counted twice."""
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from acausal.accelerators import native_loop
+from acausal.cli.accelerators import native_loop
 from acausal import Model, ModelError, Start, SimulationError, compile_model, connect, time
 from acausal.library.electrical import ConstantVoltage, Ground
-from acausal.trust import UntrustedResult, UntrustedResultWarning
+from acausal.results.trust import UntrustedResult, UntrustedResultWarning
 
 from .circuit_models import RC
 
@@ -74,7 +74,7 @@ def test_warn_returns_the_result_with_its_findings_and_off_checks_nothing(stiff)
 def test_the_check_finds_the_same_before_and_after_the_results_values_are_evaluated(R):
     """A result of plain assignments evaluates its unknowns when first asked for: before that the check evaluates
     the watched variables itself (a slice of the steps), after it every unknown at the moved samples only."""
-    from acausal.trust import conditioning
+    from acausal.results.trust import conditioning
     cm = compile_model(_stiff_rc(R))
     lazy = cm.simulate(1.0, method="BDF", trust="off")
     assert not lazy.evaluated()
@@ -124,7 +124,7 @@ def test_an_explicit_method_on_a_stiff_model_stops_with_an_error_instead_of_runn
 
 
 def test_the_default_step_cap_of_an_explicit_method_is_finite():
-    from acausal.simulate import MAX_STEPS, MAX_STEPS_EXPLICIT
+    from acausal.simulation.simulate import MAX_STEPS, MAX_STEPS_EXPLICIT
     assert 0 < MAX_STEPS_EXPLICIT < MAX_STEPS < np.inf
 
 
@@ -268,7 +268,7 @@ def test_a_wrong_loss_account_is_caught_and_named_even_without_a_source(factor, 
     fails at every instant), not stiffness."""
     from acausal import Eq, Parameter, Variable
     from acausal.library.electrical import Capacitor
-    from acausal.partials import OnePort
+    from acausal.model.partials import OnePort
 
     class BadResistor(OnePort):
         R = Parameter(1.0, unit="Ohm")
@@ -321,7 +321,7 @@ def test_a_half_wave_rectifier_is_accepted_on_the_scipy_path_with_its_energies_a
 def test_a_variable_through_a_pole_is_refused_naming_its_divisor():
     """Issue 39, item 2: y = 1/x with x falling through zero gave 5.6e14, then the other sign, both finite."""
     from acausal import Eq, Variable, der
-    from acausal.components import Component
+    from acausal.model.components import Component
 
     class Falling(Component):
         x = Variable(start=1.0, fixed=True)
@@ -344,7 +344,7 @@ def test_a_composite_components_inner_parts_are_not_taken_for_its_ports():
     energy): its power balance takes its pins and its flange, not its inner one-ports (whose v and i look like a
     pin's). Before, every such composite (also the library's rectifier) was named as a wrong account whenever
     its balance was checked."""
-    from acausal.trust import wrong_accounts
+    from acausal.results.trust import wrong_accounts
     from .test_msl_conformance import DCPMStart
 
     res = compile_model(DCPMStart()).simulate(2.0, method="BDF")

@@ -1,6 +1,6 @@
 """C code of a compiled model for an FMI 2.0 Model Exchange FMU, printed from the same lowered program
-(:class:`~acausal.program.Program`) as the Python code generator (:mod:`acausal.codegen`) and the CasADi
-translation; shared subexpressions by their one rule (:func:`acausal.program.lower`).
+(:class:`~acausal.compile.program.Program`) as the Python code generator (:mod:`acausal.backends.numpy.printer`) and the
+CasADi translation; shared subexpressions by their one rule (:func:`acausal.compile.program.lower`).
 
 Every real variable of the FMU lives in one array ``r`` at the index of its value reference (:class:`Layout`):
 parameters, states, unknowns (state derivatives included), aliases and discrete modes. The generated functions are
@@ -8,17 +8,18 @@ parameters, states, unknowns (state derivatives included), aliases and discrete 
 * ``model_bound_parameters``: parameters bound to an expression of others, in dependency order;
 * ``model_check_parameter``: one parameter's value against its bounds (finite, ``min``, ``max``);
 * ``model_check_assertions``: the conditions on parameters (:meth:`Component.assertions
-  <acausal.components.Component.assertions>`), each failure logged with its component and message;
+  <acausal.model.components.Component.assertions>`), each failure logged with its component and message;
 * ``model_evaluate``: every unknown (assignments, linear blocks by Gaussian elimination, Newton blocks with their
-  exact Jacobian and the same start guesses, iteration limits and tolerances as :func:`acausal.runtime.newton`),
-  every alias and every event zero function, from time, states, parameters and modes;
+  exact Jacobian and the same start guesses, iteration limits and tolerances as
+  :func:`acausal.backends.numpy.runtime.newton`), every alias and every event zero function, from time, states,
+  parameters and modes;
 * ``model_event``: the assignments of an event (rising or falling), evaluated before any is made.
 
 Numeric input signals are compiled in: a signal with polynomial pieces (:meth:`Signal.table
-<acausal.signals.Signal.table>`: splines, sampled data) becomes a constant table looked up by binary search; one
-with a closed form (:meth:`Signal.symbolic <acausal.signals.Signal.symbolic>`) becomes its expression, differentiated
-by sympy to the orders the equations use. Common subexpressions are shared (sympy ``cse``), each emitted just before
-its first use.
+<acausal.model.signals.Signal.table>`: splines, sampled data) becomes a constant table looked up by binary search; one
+with a closed form (:meth:`Signal.symbolic <acausal.model.signals.Signal.symbolic>`) becomes its expression,
+differentiated by sympy to the orders the equations use. Common subexpressions are shared (sympy ``cse``), each emitted
+just before its first use.
 """
 from __future__ import annotations
 
@@ -29,11 +30,11 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
 from ..errors import ModelError
-from ..modes import CASCADE_ITER, KNEE, ROUNDOFF, SETTLE_ITER
-from ..signals import ParametricSignal, SignalCall
-from ..solve import Assign, LinearSolve, NewtonSolve
-from ..program import lower
-from ..symbols import der_name, time
+from ..simulation.events import CASCADE_ITER, KNEE, ROUNDOFF, SETTLE_ITER
+from ..model.signals import ParametricSignal, SignalCall
+from ..compile.solve import Assign, LinearSolve, NewtonSolve
+from ..compile.program import lower
+from ..model.symbols import der_name, time
 
 
 class ExportError(ModelError):
@@ -65,7 +66,7 @@ class Layout:
 @dataclass
 class Tabulated:
     """A numeric input compiled into the FMU: ``kind`` ``"table"`` (pieces, degree, outside) or ``"symbolic"``;
-    ``parameters``: for an input rebuilt from parameters (a :class:`~acausal.signals.ParametricSignal`), those
+    ``parameters``: for an input rebuilt from parameters (a :class:`~acausal.model.signals.ParametricSignal`), those
     parameters' names and the values it was built with at export."""
 
     name: str
@@ -194,7 +195,7 @@ def _array(ctype: str, name: str, values, fmt=str) -> str:
 # ---------------------------------------------------------------------------------------------- inputs
 def input_forms(cm, params: dict | None, inputs: dict | None) -> tuple:
     """The run's numeric inputs as ``(signals, tabulated)``: the bound signal per input name (a
-    :class:`~acausal.signals.ParametricSignal` built with the export's parameter values) and the
+    :class:`~acausal.model.signals.ParametricSignal` built with the export's parameter values) and the
     :class:`Tabulated` description of each. An input with neither a table nor a symbolic form, or a table of
     too few derivatives, is an :class:`ExportError` naming it."""
     p = cm.param_vector(params)
@@ -290,7 +291,7 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     order = program.evaluation_order()
     origins = sorted({ev.origin for ev in program.events})  # the events' components, sorted as modes.py's messages
     out += [f"#define NT {len(targets)}", f"#define NPT {len(tabulated)}", f"#define NO {len(origins)}",
-            # the event iteration's rules, from their one home (acausal.modes)
+            # the event iteration's rules, from their one home (acausal.simulation.events)
             f"#define KNEE {_c_double(KNEE)}", f"#define ROUNDOFF {_c_double(ROUNDOFF)}",
             f"#define MAX_CASCADE {CASCADE_ITER}", f"#define MAX_SETTLE {SETTLE_ITER}",
             _array("double", "start_values", start, _c_double),

@@ -14,7 +14,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..ccompiler import COMPILERS, library_form, which_compiler
+from ..backends.ccompiler import COMPILERS, library_form, which_compiler
 from . import ccode
 from .ccode import ExportError
 from .model_description import documentation, model_description
@@ -39,8 +39,8 @@ def platform_folder() -> tuple:
 
 
 def find_compiler(compiler: str | None = None) -> str:
-    """The C compiler to use (:func:`acausal.ccompiler.which_compiler`: ``compiler``, else ``$CC``, else the first
-    of its list on the PATH); an :class:`ExportError` saying what to install when there is none."""
+    """The C compiler to use (:func:`acausal.backends.ccompiler.which_compiler`: ``compiler``, else ``$CC``, else the
+    first of its list on the PATH); an :class:`ExportError` saying what to install when there is none."""
     found, origin = which_compiler(compiler)
     if found:
         return found
@@ -94,7 +94,7 @@ def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None =
     ``params``: parameter values by name [SI units] that become the FMU's start values (default: the model's
     defaults); every parameter stays settable through FMI before ``fmi2ExitInitializationMode``. ``inputs``:
     replacement signals for numeric inputs, as in :meth:`simulate`. Numeric inputs are compiled in (tables or
-    expressions); an input rebuilt from parameters (a :class:`~acausal.signals.ParametricSignal`, e.g. a planned
+    expressions); an input rebuilt from parameters (a :class:`~acausal.model.signals.ParametricSignal`, e.g. a planned
     trajectory) is built once with the export's parameter values, and setting those parameters in the FMU does
     not rebuild it (the FMU logs a warning; the documentation and the parameters' descriptions say so).
     ``doc``: the model's documentation (default: the docstring of the model's class when a Model is given).
@@ -106,8 +106,8 @@ def export_fmu(model, path, *, params: dict | None = None, inputs: dict | None =
     an unknown parameter, no C compiler (with what to install), a platform without binary support.
     """
     from .. import __version__
-    from ..compiler import CompiledModel, compile_model
-    from ..components import Component
+    from ..compiled_model import CompiledModel, compile_model
+    from ..model.components import Component
 
     if isinstance(model, CompiledModel):
         cm = model

@@ -18,7 +18,7 @@ import html
 import re
 from xml.sax.saxutils import quoteattr
 
-from ..symbols import der_name, split_der
+from ..model.symbols import der_name, split_der
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 
@@ -201,7 +201,8 @@ def documentation(cm, layout, start, tabulated, *, description: str, doc: str, i
         "<h2>Events</h2>",
         ("<ul>" + "".join(events) + "</ul><p>An indicator that crosses zero applies its rising or falling "
          "assignments in <code>fmi2NewDiscreteStates</code>; mode changes that flip other indicators cascade until "
-         "nothing flips, in the same call, as in <code>simulate()</code> (acausal.modes). A return to modes "
+         "nothing flips, in the same call, as in <code>simulate()</code> (acausal.simulation.events). A return to "
+         "modes "
          "already visited keeps the present modes when the flips that close it are within 1e-6 of zero (a "
          "switching point); otherwise no mode is consistent, and the call fails (<code>fmi2Error</code>) with a "
          "message naming the components. A NaN or infinite indicator is an error naming its event.</p>")

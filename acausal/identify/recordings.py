@@ -18,7 +18,7 @@ an error (a parser would silently keep the last value), and so is a gap in time 
 Torn and mixed sets: a format may declare the span a recording must cover (``RecordingFormat.expected_span``, e.g.
 strides x stride time), and a writer of a whole set writes ``manifest.json`` (:func:`write_manifest`: first as not
 complete, then with every recording's rows and SHA-256); :func:`load_recordings` refuses a set whose manifest is
-incomplete, lists other files or other contents. Every file is written atomically (:mod:`acausal.fileio`).
+incomplete, lists other files or other contents. Every file is written atomically (:mod:`acausal.results.files`).
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import DataError
-from ..fileio import atomic_write_text, sha256
+from ..results.files import atomic_write_text, sha256
 
 #: the file a writer of a recording set writes last: the recordings it wrote, with row counts and checksums
 MANIFEST = "manifest.json"

@@ -26,7 +26,7 @@ from scipy.interpolate import BSpline, PPoly, make_lsq_spline
 from scipy.linalg import LinAlgError, solveh_banded
 
 from ..errors import DataError
-from ..signals import PiecewisePolynomial, Signal
+from ..model.signals import PiecewisePolynomial, Signal
 
 DEFAULT_KNOT_SPACING = 0.025  # s
 

@@ -3,8 +3,8 @@ consistent start, tolerances, output grid), the choice of the backend that integ
 (:func:`~.choose.choose_path`, shared by ``simulate``, ``simulate_many``, ``sensitivities`` and
 ``CompiledModel.simulation_path``), and one driver per backend, each ``integrate(run, ...) -> Result``:
 :mod:`.scipy_driver` (scipy's integrators, stepped with state events), :mod:`.compiled_driver` (CasADi CVODES/IDAS,
-:mod:`acausal.compiled`) and :mod:`.algebraic` (a model without states). :func:`acausal.simulate.simulate` reads:
-validate -> Run -> choose -> integrate -> trust check."""
+:mod:`acausal.simulation.compiled`) and :mod:`.algebraic` (a model without states).
+:func:`acausal.simulation.simulate.simulate` reads: validate -> Run -> choose -> integrate -> trust check."""
 from .choose import COMPILED, FALLBACK, ROBUST, choose_path
 from .initial import initialize
 from .run import Run, check_finite_times, check_run, check_tolerances, prepare

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..modes import algebraic_modes
+from .events import algebraic_modes
 
 SOLVER = "algebraic (no states: evaluated at the output times)"  # what res.solver and simulation_path() say
 
 
 def integrate(run):
-    """The :class:`~acausal.result.Result` of ``run`` (:class:`~.run.Run`) whose model has no states."""
-    from ..result import Result
+    """The :class:`~acausal.results.result.Result` of ``run`` (:class:`~.run.Run`) whose model has no states."""
+    from ..results.result import Result
 
     cm, t_out, p, d, u = run.cm, run.t_out, run.p, run.d, run.u
     modes = algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else d

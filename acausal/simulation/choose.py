@@ -1,5 +1,5 @@
 """Which backend integrates a run: the compiled path (CasADi) when it is installed and supports the model and the
-run, else a scipy integrator, with the reason (:attr:`Result.solver <acausal.result.Result.solver>` says it)."""
+run, else a scipy integrator, with the reason (:attr:`Result.solver <acausal.results.result.Result.solver>` says it)."""
 from __future__ import annotations
 
 from ..errors import ModelError
@@ -16,7 +16,7 @@ def choose_path(cm, method: str, u, rtol, atol) -> tuple[str, str]:
     ModelError saying why not; a scipy integrator's name is taken as asked for."""
     if method not in ("auto", COMPILED):
         return method, "asked for"
-    from ..compiled import available
+    from .compiled import available
     if not available():
         why = 'the compiled path needs CasADi (pip install "acausal[fast]")'
     else:

@@ -10,16 +10,16 @@ import numpy as np
 from ..errors import ModelError
 from .choose import COMPILED
 from .initial import initialize, number, whole
-from .scipy_driver import METHODS
+from .scipy.driver import METHODS
 
 
 @dataclasses.dataclass(frozen=True)
 class Run:
     """One simulation of a compiled model, ready for a backend (:mod:`acausal.simulation`): the model ``cm``, the
     span ``t_start``..``t_end`` [s] and output times ``t_out``, the parameter vector ``p``, the discrete start
-    ``d``, the inputs ``u`` (:meth:`~acausal.compiler.CompiledModel.input_tuple`), the consistent start ``x0``
-    (:func:`~.initial.initialize`), and the settings of :func:`acausal.simulate.simulate` (``method`` as asked:
-    ``"auto"``, ``"CVODES"`` or a scipy integrator). A backend copies what it changes."""
+    ``d``, the inputs ``u`` (:meth:`~acausal.compiled_model.CompiledModel.input_tuple`), the consistent start ``x0``
+    (:func:`~.initial.initialize`), and the settings of :func:`acausal.simulation.simulate.simulate` (``method`` as
+    asked: ``"auto"``, ``"CVODES"`` or a scipy integrator). A backend copies what it changes."""
 
     cm: object
     t_start: float
@@ -49,7 +49,7 @@ class Run:
 
 def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,
             first_step, max_events, dense_output, max_steps) -> Run:
-    """Check the settings of :func:`acausal.simulate.simulate` (each error names its setting) and build the
+    """Check the settings of :func:`acausal.simulation.simulate.simulate` (each error names its setting) and build the
     :class:`Run`: the parameter vector, the inputs, the discrete start and the consistent initial states."""
     t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
                                       n_points, max_steps, cm.state_names, dense_output)
@@ -58,7 +58,7 @@ def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t
         batch = [name for name, value in (params or {}).items() if np.ndim(value) > 0]
         raise ModelError(f"simulate runs one parameter set, but {', '.join(map(repr, batch))} "
                          f"{'is an array' if len(batch) == 1 else 'are arrays'} of values: give numbers, or run the "
-                         f"sets with sim.simulate_many(t_end, [{{...}}, ...]) or acausal.sweep.sweep")
+                         f"sets with sim.simulate_many(t_end, [{{...}}, ...]) or acausal.simulation.sweep.sweep")
     u = cm.input_tuple(inputs, p)
     d = cm.discrete_start()
     x0 = initialize(cm, t_start, p, d, u, starts)  # without states too: fixed starts must still hold

@@ -10,7 +10,8 @@ side), driver output (electrical, at the motor terminals), motor (the air-gap po
 it from the motor current and speed, Eq. 6: the motor's rotor inertia and friction, ``motor.J`` and ``motor.b``,
 sit behind the sensor as ``rotor`` and ``rotor_friction``), moment arm ("link") and joint ("output"), mechanical
 ones positive in the direction supply -> joint. The energy accounts (losses, stored energies, the
-measurement points) are found by convention from the components (:mod:`acausal.energy`): nothing here lists them.
+measurement points) are found by convention from the components (:mod:`acausal.results.energy`): nothing here lists
+them.
 
 :class:`DriveTrain` is the partial model every ankle drive shares (supply to gear output); :class:`AnkleActuator`
 completes it with the MACCEPA, the joint and the way the moment arm is moved. Options (constructor keywords):
@@ -67,7 +68,7 @@ from __future__ import annotations
 import abc
 
 from acausal import Eq, Model, ModelError, ParametricSignal, Parameter, Variable, connect
-from acausal.partials import check_option
+from acausal.model.partials import check_option
 from acausal.library.blocks import Bias, Gain, SignalConstraint, SignalSource, SmoothLimiter
 from acausal.library.control import PIDVariableLimit, VelocityAccelerationFeedForward
 from acausal.library.drives import EPOS2, DCMotor, MotorFeedForward
@@ -188,7 +189,7 @@ class DriveTrain(Model):
         push while it is saturated: the part of the prescribed motion the recording's smoothing could not
         resolve (in the truth, the motion itself follows the voltage-limited current). The limit is smooth rather
         than a clamp with events: the motor current is now a state, and exact parameter sensitivities
-        (:meth:`CompiledModel.sensitivities <acausal.compiler.CompiledModel.sensitivities>`) take models with
+        (:meth:`CompiledModel.sensitivities <acausal.compiled_model.CompiledModel.sensitivities>`) take models with
         states or events, not both."""
         self.follow = SignalConstraint()
         self.motion_support = SignalTorque()

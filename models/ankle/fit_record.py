@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from acausal.fileio import atomic_write_text
+from acausal.results.files import atomic_write_text
 
 
 def write(record: dict, path: Path) -> Path:

@@ -36,7 +36,7 @@ from typing import Callable
 import numpy as np
 
 from acausal import SimulationError
-from acausal.sweep import sweep
+from acausal.simulation.sweep import sweep
 
 from .protocol import D_MAX, Condition, compiled, follows_as_in_the_paper, run_condition
 from .targets import (GRID, PLAN_GRID, TARGETS, WHOLE_GRID, driver_loss, grid_extreme, grid_mean, in_corner,

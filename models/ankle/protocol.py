@@ -3,8 +3,8 @@ stride time, stage efficiencies and losses (Table 1 layout), peak powers, tracki
 
 One condition = one compiled model simulated over ``strides`` strides with that condition's run-time parameters;
 the last stride is evaluated (what comes before lets the bus and, in closed loop, the controller settle). Sweeps run
-conditions through any ``concurrent.futures.Executor`` (:func:`acausal.sweep.sweep`; default: a process pool on all
-cores); each worker process compiles each model once.
+conditions through any ``concurrent.futures.Executor`` (:func:`acausal.simulation.sweep.sweep`; default: a process pool
+on all cores); each worker process compiles each model once.
 
 Any model of the registry (:mod:`acausal.models.ankle.registry`: the paper's actuator in replay and closed
 loop, the direct drive and the alternative actuators) runs through the same protocol. Its measurement points,
@@ -23,8 +23,8 @@ import numpy as np
 from acausal import ModelError, compile_model
 from acausal.library.drives import EPOS2
 from acausal.library.gait import unit_cycle
-from acausal.energy import balance
-from acausal.sweep import sweep as run_sweep
+from acausal.results.energy import balance
+from acausal.simulation.sweep import sweep as run_sweep
 
 from .registry import spec
 from .presets import preset

@@ -32,7 +32,7 @@ from scipy.optimize import minimize
 
 from acausal import Signal, compile_model
 from acausal.library.maccepa import max_torque
-from acausal.sweep import chunks, sweep
+from acausal.simulation.sweep import chunks, sweep
 
 from ..ankle.actuator import AnkleActuator
 from ..ankle.planning import arm_angles, gait_samples

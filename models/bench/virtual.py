@@ -26,9 +26,9 @@ import numpy as np
 from scipy.signal import lfilter
 
 from acausal import DataError, compile_model
-from acausal.fileio import atomic_write_text
+from acausal.results.files import atomic_write_text
 from acausal.identify.recordings import write_manifest, write_recording
-from acausal.sweep import sweep
+from acausal.simulation.sweep import sweep
 
 from acausal.library.drives import DCMotor
 from acausal.library.maccepa import Maccepa
@@ -225,7 +225,7 @@ def run_bench(out_dir, conditions=None, effects: dict | None = None, truth: dict
               chain: str | None = None) -> list:
     """Record every condition into ``out_dir`` (``P08mm_T2.0s.csv`` + ``.json`` ...) and describe the run in
     ``out_dir/README.md`` (truth, hidden effects, sensors: the answer key, which a loader ignores).
-    ``executor`` as in :func:`acausal.sweep.sweep` (default: a process pool on all cores; ``"serial"``);
+    ``executor`` as in :func:`acausal.simulation.sweep.sweep` (default: a process pool on all cores; ``"serial"``);
     ``chain``: record the component chain with this preset instead of Eq. (4) (module docstring).
     Returns the CSV paths."""
     out = Path(out_dir)

@@ -30,9 +30,9 @@ from concurrent.futures import Executor
 from pathlib import Path
 
 from acausal import ModelError
-from acausal.cli_values import whole_number
-from acausal.fileio import atomic_write_text
-from acausal.sweep import process_pool
+from acausal.cli.values import whole_number
+from acausal.results.files import atomic_write_text
+from acausal.simulation.sweep import process_pool
 
 from ..ankle.presets import preset as preset_overrides
 from ..ankle.protocol import POINTS, STAGES, Condition, StrideResult, sweep
@@ -226,7 +226,7 @@ def write_sankeys(results, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acausal.sankey import sankey
+    from acausal.results.sankey import sankey
 
     from ..reporting.sankey import LABELS, loss_names_from_groups
 

@@ -1,14 +1,14 @@
 """The energy-chain explorer (issue 40): ``acausal paper --out DIR`` writes ``DIR/index.html`` and ``acausal compare
-... --html`` ``DIR/index.html``, one self-contained page each (:mod:`acausal.html`: plotly.js inline, the data
+... --html`` ``DIR/index.html``, one self-contained page each (:mod:`acausal.results.html`: plotly.js inline, the data
 embedded, opens from the file system, offline).
 
-Every number on a page is read from the CSV files of its run and embedded as they are (``acausal.html.read_csv``),
-so the page and the CSVs cannot disagree; the page's scripts only select, convert units (m to mm, fractions to %)
-and take differences of those numbers. The paper's page shows, for the bench condition picked with the stride-time
-and precompression sliders (or a click on a map cell), the five-point energy chain of ``paper_fit`` and ``library``
-side by side as Sankey diagrams (``protocol.csv``) with the power at the five points over the stride
-(``power_traces.csv``); the loss and efficiency maps of Figs. 9-12 and 15 with the Table 1 cell and the paper's
-claims about each figure; the design maps of Figs. 16-17 (spring stiffness x precompression, a Sankey per
+Every number on a page is read from the CSV files of its run and embedded as they are
+(``acausal.results.html.read_csv``), so the page and the CSVs cannot disagree; the page's scripts only select, convert
+units (m to mm, fractions to %) and take differences of those numbers. The paper's page shows, for the bench condition
+picked with the stride-time and precompression sliders (or a click on a map cell), the five-point energy chain of
+``paper_fit`` and ``library`` side by side as Sankey diagrams (``protocol.csv``) with the power at the five points over
+the stride (``power_traces.csv``); the loss and efficiency maps of Figs. 9-12 and 15 with the Table 1 cell and the
+paper's claims about each figure; the design maps of Figs. 16-17 (spring stiffness x precompression, a Sankey per
 design); Table 1 with each cell's deviation from the paper; the claims table. A CSV the run did not write (a
 partial run) leaves its part out and the page says which file is missing.
 """
@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from acausal import ModelError
-from acausal.html import INSTALL, page, plotly_available, read_csv, write_page
+from acausal.results.html import INSTALL, page, plotly_available, read_csv, write_page
 
 from .sankey import LABELS
 

@@ -1,5 +1,5 @@
 """Labels of the paper's five-point Sankey diagram (``examples/table1.py``, ``acausal compare``); the drawing is
-:func:`acausal.sankey.sankey`."""
+:func:`acausal.results.sankey.sankey`."""
 from __future__ import annotations
 
 #: the note under the output stage of the paper's actuator, whose MACCEPA is modelled lossless

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from acausal.fileio import atomic_write_text
+from acausal.results.files import atomic_write_text
 
 
 def write_csv(path: Path, rows: list[dict]) -> Path:

@@ -31,7 +31,7 @@ from pathlib import Path
 from acausal import Component, DataError, ModelError
 from acausal.library.friction import TERMS
 from acausal.library.servo import SLOTS
-from acausal.references import load_class
+from acausal.cli.references import load_class
 
 
 @dataclass(frozen=True)

@@ -43,16 +43,16 @@ def candidate(e) -> Candidate:
 
 CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 
-#: the replays' integrator: RK4 on the recording's own samples (:mod:`acausal.compiled.fixed_step`), the logged
-#: inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per recording and
+#: the replays' integrator: RK4 on the recording's own samples (:mod:`acausal.simulation.compiled.fixed_step`), the
+#logged : inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per recording and
 #: model while the fixed step's error exceeds :func:`replay_tolerance` (checked as the fit moves:
 #: :class:`ReplayBatch`). On the XL330 set the baseline's replays with sensitivities take 4 to 8 substeps at a
 #: fifth of the cost of CVODES at rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain)
 #: is what needs more.
 SUBSTEPS = 4
 #: the most substeps tried before a recording's replays go to CVODES (:func:`max_substeps`): with the steps in C
-#: (:mod:`acausal.compiled.native`) RK4 with sensitivities at 128 substeps costs less than half of CVODES at rtol
-#: 1e-5 on an XL330 recording with load friction and play (230 ms against 525 ms, and nearer the tight solution:
+#: (:mod:`acausal.simulation.compiled.native`) RK4 with sensitivities at 128 substeps costs less than half of CVODES at
+#rtol : 1e-5 on an XL330 recording with load friction and play (230 ms against 525 ms, and nearer the tight solution:
 #: the play's replay at 16 substeps is within 2e-8 rad of one at 256, CVODES within 1.5e-4); on CasADi's virtual
 #: machine RK4 at 16 substeps costs about a third of CVODES, at 32 as much (the play of ``backlash`` takes 8 to 16
 #: with its flanks, ``effects.FLANKS``)
@@ -122,17 +122,17 @@ def replay_job(key, rec, values: dict, names=(), substeps: int | None = SUBSTEPS
 
 def max_substeps(cm) -> int:
     """The most substeps a replay of ``cm`` takes before CVODES: :data:`MAX_SUBSTEPS` of the backend its fixed
-    step runs on (:attr:`FixedStep.backend <acausal.compiled.fixed_step.FixedStep.backend>`: C where the machine's
-    compiler built its loop, else CasADi's virtual machine)."""
-    from acausal.compiled.fixed_step import fixed_step
+    step runs on (:attr:`FixedStep.backend <acausal.simulation.compiled.fixed_step.FixedStep.backend>`: C where the
+    machine's compiler built its loop, else CasADi's virtual machine)."""
+    from acausal.simulation.compiled.fixed_step import fixed_step
     return MAX_SUBSTEPS[fixed_step(cm, SUBSTEPS).backend]
 
 
 def fixed_step_runs(cm) -> bool:
-    """Whether the replays of ``cm`` can take the fixed step (:mod:`acausal.compiled.fixed_step`): CasADi is
+    """Whether the replays of ``cm`` can take the fixed step (:mod:`acausal.simulation.compiled.fixed_step`): CasADi is
     installed and the model has neither events nor a Newton block."""
     try:
-        from acausal.compiled.fixed_step import unsupported
+        from acausal.simulation.compiled.fixed_step import unsupported
     except ImportError:
         return False
     return unsupported(cm) is None
@@ -161,7 +161,7 @@ def replay(job: tuple) -> tuple:
 
 
 #: the inputs of the recordings a process replayed last (by content: the same objects for the same recording,
-#: so a fit's replays reuse their stage values, :meth:`~acausal.compiled.fixed_step.FixedStep.run`)
+#: so a fit's replays reuse their stage values, :meth:`~acausal.simulation.compiled.fixed_step.FixedStep.run`)
 _INPUTS: dict = {}
 
 

@@ -3,15 +3,15 @@ on 2 cores, issue 8).
 
 The command runs in a fresh Python process, as a user would start it (imports, compilation in the workers,
 simulation, CSV, markdown and Sankey PNGs all included): through ``acausal.cli`` once the verb is wired there,
-else through :func:`acausal.models.drivetrains.compare.configure`/``run`` (the functions the CLI wires). One round; the wall
-time is in the benchmark table and in ``extra_info``, beside the goal; it is not asserted (a wall time depends on
+else through :func:`acausal.models.drivetrains.compare.configure`/``run`` (the functions the CLI wires). One round; the
+wall time is in the benchmark table and in ``extra_info``, beside the goal; it is not asserted (a wall time depends on
 the machine's load, not on the code alone); the written table is the functional check.
 """
 import csv
 import subprocess
 import sys
 
-from acausal import cli
+from acausal.cli import main as cli
 
 ARGS = ["replay", "direct_drive", "sea", "--stride-time", "1.5", "2.0", "--jobs", "2", "--no-progress"]
 _VIA_MODELS = ("import argparse, sys; from acausal.models.drivetrains import compare; p = argparse.ArgumentParser(); "

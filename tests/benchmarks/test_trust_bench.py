@@ -8,7 +8,8 @@ ratio (3x the goal), never an absolute time.
 """
 import pytest
 
-from acausal import compile_model, trust
+from acausal import compile_model
+from acausal.results import trust
 
 from ..drive_models import MotorGearLoad
 from .timing import best_of, min_time

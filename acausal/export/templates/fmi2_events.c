@@ -1,5 +1,5 @@
 /* ---------------------------------------------------------------------------------------------------------
- * acausal FMI 2.0 runtime, events: acausal.modes' rules in C, so that an FMU switches as simulate() does.
+ * acausal FMI 2.0 runtime, events: acausal.simulation.events' rules in C, so that an FMU switches as simulate() does.
  *
  * check_indicators   modes.check_zeros: a NaN or infinite indicator is an error naming the event's component,
  *                    its zero function, the time and the modes (it has no sign to switch on)
@@ -17,7 +17,7 @@
  * --------------------------------------------------------------------------------------------------------- */
 
 /* KNEE (an indicator this close to zero is at its switching point), ROUNDOFF, MAX_CASCADE and MAX_SETTLE are
- * generated from acausal.modes (KNEE, ROUNDOFF, CASCADE_ITER, SETTLE_ITER) */
+ * generated from acausal.simulation.events (KNEE, ROUNDOFF, CASCADE_ITER, SETTLE_ITER) */
 #define MODES (m->r + OFF_D)
 #define NO1 (NO > 0 ? NO : 1)
 

@@ -14,7 +14,7 @@
  * set through fmi2SetReal; the modes are settled by the signs of the event indicators, and the states initialised
  * again with the settled modes.
  *
- * Events (fmi2NewDiscreteStates) follow acausal.modes, in fmi2_events.c (after this file): the crossings since the
+ * Events (fmi2NewDiscreteStates) follow acausal.simulation.events, in fmi2_events.c (after this file): the crossings since the
  * last event apply their assignments, and the event iteration runs to its end in the same call (a cycle of modes
  * is kept at the knee or is an error naming the components; a NaN or infinite indicator is an error naming it).
  * --------------------------------------------------------------------------------------------------------- */
@@ -106,7 +106,7 @@ MAYBE_UNUSED static int solve_linear(int n, double *A, double *b) {
 
 typedef void (*residual_fn)(Inst *m, const double *y, double *res, double *jac);
 
-/* Newton's method with the exact Jacobian, as acausal.runtime.newton: at most 60 steps, converged when every
+/* Newton's method with the exact Jacobian, as acausal.backends.numpy.runtime.newton: at most 60 steps, converged when every
  * step is below 1e-12 relative to 1 + |y|; otherwise accepted when every residual is below 1e-8. */
 MAYBE_UNUSED static int solve_newton(Inst *m, int n, double *y, residual_fn f, const char *label) {
     double res[16], jac[256];
@@ -191,7 +191,7 @@ static int first_non_finite(Inst *m) {
     return -1;
 }
 
-/* acausal.simulate.initialize: states at their start values; fixed starts of other variables (targets) met by
+/* acausal.simulation.simulate.initialize: states at their start values; fixed starts of other variables (targets) met by
  * a minimum-norm Gauss-Newton iteration on the free states (finite-difference Jacobian). */
 static int initialize_states(Inst *m) {
     double want[NT1], res[NT1], res2[NT1], J[NT1 * NX1], G[NT1 * NT1 > NX1 * NX1 ? NT1 * NT1 : NX1 * NX1];
@@ -580,7 +580,7 @@ FMI2_EXPORT fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
 
 /* An indicator that left an exact zero (a diode at rest at the start) shows no sign change to the environment's
  * root finding: the step that leaves it asks for an event, in which its direction applies its assignments (as
- * acausal.modes.crossings does when a step leaves an exact zero). */
+ * acausal.simulation.events.crossings does when a step leaves an exact zero). */
 FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                                    fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
     int i;

@@ -18,7 +18,7 @@ from acausal.models.ankle.paper import BENCH, BESIDE, HEADLINE, comparison, pick
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
 from acausal.models.reporting.sankey import LABELS, LOSSLESS_LINKAGE, loss_names_from_groups  # noqa: E402
-from acausal.sankey import sankey  # noqa: E402
+from acausal.results.sankey import sankey  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 
 P, T = 0.008, 2.0

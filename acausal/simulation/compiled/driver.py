@@ -1,0 +1,50 @@
+"""The compiled backend: the run integrated by SUNDIALS CVODES (IDAS for a Newton block), the step loop in compiled
+code. Where a C compiler and SUNDIALS's library are there, the native loop
+(:mod:`acausal.simulation.compiled.native_loop`: SUNDIALS in C on the model's functions printed as C, a state event's
+crossing found in its steps) runs it; else, or for a run the native loop fails on, CasADi's integrators
+(:mod:`acausal.simulation.compiled`) do: in one call for a model without state events, in windows between its crossings
+for one with them (:mod:`acausal.simulation.compiled.events`)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ...compile.accounts import account_integrals
+from ...errors import SimulationError
+from ...results.result import Result
+
+
+def integrate(run):
+    """Integrate ``run`` (:class:`~.run.Run`) on the compiled path. With ``dense_output`` the energy integrals of
+    the model's accounts are integrated by the solver beside the states (under its error control); the integral of
+    anything else takes the states at the Gauss nodes of the output intervals, integrated again when first asked
+    for. A SimulationError says the run failed there (the caller runs it on the scipy path, which names where)."""
+    from . import native_loop  # here: the module needs CasADi, which the scipy path does not
+
+    cm, t_start, t_out, p, u = run.cm, run.t_start, run.t_out, run.p, run.u
+    path = cm.compiled_path
+    args = (run.rtol, run.atol, run.max_step, run.first_step)
+    dense = run.dense_output and t_out.size > 1
+    # the states at the Gauss nodes of the output intervals, integrated when first asked for (events: the steps')
+    nodes = path.gauss_states(t_start, run.x0, t_out, p, run.d, u, *args) if dense and not cm.event_zeros else None
+    names = account_integrals(cm.accounts) if dense and cm.accounts is not None else []
+    runner, sig = native_loop.runner_for(cm, u, names)
+    if runner is not None:
+        try:
+            return native_loop.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, run.d.copy(), u,
+                                               *args, run.max_events, run.dense_output, run.starts, nodes)
+        except SimulationError:
+            pass  # the CasADi path runs it from the start (and says where it fails)
+    if cm.event_zeros:
+        from .events import simulate_with_events
+        return simulate_with_events(cm, t_start, run.x0.copy(), t_out, p, run.d.copy(), u, *args, run.max_events,
+                                    run.dense_output, run.starts)
+    x0, d, integrals = run.x0, run.d.copy(), {}
+    if dense:
+        X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
+    else:
+        X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
+    if not np.isfinite(X).all():
+        raise SimulationError("compiled path: non-finite states")
+    later = path.quadratures_later(t_start, x0, t_out, p, d, u, *args) if dense else None
+    return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals, more_integrals=later,
+                  solver=f"{path.integrator_name(u)} (compiled path, CasADi)")

@@ -1,0 +1,91 @@
+"""Simulation: ``simulate()`` checks a run's settings, builds its :class:`~acausal.simulation.run.Run`, chooses the
+backend, integrates and checks the result (:mod:`acausal.results.trust`); the pieces live in :mod:`acausal.simulation`.
+
+Two paths give the same answers (to the tolerances):
+
+* the **compiled path** (:mod:`acausal.simulation.compiled`, optional CasADi): the model's equations as CasADi
+expressions,
+  integrated by SUNDIALS CVODES (BDF, exact sparse Jacobian) with the step loop in compiled code, numeric inputs
+  looked up inside it. It runs models without state events whose state derivatives need no Newton block.
+* the **scipy path**: scipy's integrators (``BDF``, ``Radau``, ``LSODA``, ``RK45``...) driven step by step, so that a
+  failure is reported with the time, the step size and the variable, and events stop the step exactly at the zero
+  crossing (located by Brent's method on the dense output).
+
+``method="auto"`` (the default) takes the compiled path when the model and the run allow it and scipy's ``LSODA``
+otherwise (it switches between Adams and BDF by itself and was the fastest of scipy's integrators at the same
+accuracy: 5x BDF on the reference drive), ``BDF`` for a model with state events (LSODA's switching stumbles at an
+ideal diode's switch: convergence failures and events found twice);
+:attr:`Result.solver <acausal.results.result.Result.solver>` says which ran and why. A model with no states
+after index reduction is evaluated algebraically at the output times.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SimulationError
+from . import COMPILED, ROBUST, check_tolerances, choose_path, initialize, prepare  # noqa: F401
+from .choose import fallback
+from . import algebraic
+from .compiled import driver as compiled_driver
+from .scipy import driver as scipy_driver
+from .scipy.driver import MAX_STEPS, MAX_STEPS_EXPLICIT, METHODS  # noqa: F401
+from ..results.trust import check, check_mode, integration_fault
+
+__all__ = ["simulate", "check_tolerances", "initialize", "MAX_STEPS", "MAX_STEPS_EXPLICIT", "METHODS"]
+
+
+def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = None, inputs: dict | None = None,
+             starts: dict | None = None, method: str = "auto", rtol: float = 1e-6, atol: float = 1e-9,
+             t_eval=None, n_points: int = 501, max_step: float = np.inf, first_step: float | None = None,
+             max_events: int = 10_000, dense_output: bool = True, trust: str = "raise", max_steps: int | None = None):
+    """Simulate a :class:`~acausal.compiled_model.CompiledModel` and return a :class:`~acausal.results.result.Result`.
+
+    ``params``: parameter overrides by name (no recompilation). ``inputs``: replacement :class:`Signal` s for
+    numeric inputs by name. ``starts``: start values by variable name (fixed initial conditions).
+    ``t_eval``: output times (default ``n_points`` evenly spaced). ``method``: ``"auto"`` (the compiled path when
+    the model allows it, else scipy's LSODA), ``"CVODES"`` (the compiled path or a ModelError saying why not) or a
+    scipy integrator name. ``dense_output``: keep what :meth:`Result.energy` needs to integrate to solver
+    accuracy (every step's interpolant; on the compiled path the states at Gauss nodes); set False for the
+    fastest runs (energies then use Simpson's rule on the output grid, and the energy balance is not checked).
+    ``trust``: what the trust checks (:mod:`acausal.results.trust`: conditioning of every variable on the states'
+    tolerances, the energy balance) do with a result they reject: ``"raise"`` an
+    :class:`~acausal.results.trust.UntrustedResult`, ``"warn"``, or ``"off"``; their findings are ``res.trust``.
+    ``max_steps``: steps of a scipy integrator at most (default :data:`MAX_STEPS` for an implicit method,
+    :data:`MAX_STEPS_EXPLICIT` for an explicit one: a stiff model on RK45 stops with an error saying so instead of
+    running for hours); given, ``method="auto"`` takes the scipy path.
+    """
+    check_mode(trust)
+    run = prepare(cm, t_end, t_start=t_start, params=params, inputs=inputs, starts=starts, method=method, rtol=rtol,
+                  atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step, first_step=first_step,
+                  max_events=max_events, dense_output=dense_output, max_steps=max_steps)
+    res, on_scipy = integrate(run)
+    if trust != "off" and dense_output and integration_fault(res, rtol):
+        # the scipy path's energies, integrated on the steps' interpolants, miss what every account holds: the
+        # run again with them as states, under the integrator's error control (acausal.simulation.scipy.quadratures)
+        res = scipy_driver.integrate(run, *on_scipy, quadratures=True)
+    with_quadratures = on_scipy is not None and bool(res._integrals)
+
+    def retry(k):  # the same run, both tolerances divided by k, unchecked (the balance's cause, acausal.results.trust)
+        tight = run.tighter(k)
+        return scipy_driver.integrate(tight, *on_scipy, quadratures=with_quadratures) if on_scipy else \
+            integrate(tight)[0]
+
+    check(res, rtol, atol, trust, dense_output, retry)
+    return res
+
+
+def integrate(run) -> tuple:
+    """``(result, (method, why) or None)``: ``run`` integrated by the backend :func:`choose_path` picks (a model
+    without states evaluated algebraically); a failed compiled run is run again on the scipy path, which names
+    where it fails. The second item is the scipy integrator that ran and why (None: it was not the scipy path)."""
+    if not run.cm.state_names:
+        return algebraic.integrate(run), None
+    method, why = choose_path(run.cm, run.method, run.u, run.rtol, run.atol)
+    if method == COMPILED and run.max_steps is not None:  # method="auto" (check_run refuses it with "CVODES")
+        method, why = fallback(run.cm), "max_steps limits a scipy integrator's steps"
+    if method == COMPILED:
+        try:
+            return compiled_driver.integrate(run), None
+        except SimulationError as exc:  # the scipy path names the time, the step and the variable
+            method, why = ROBUST, str(exc)
+    return scipy_driver.integrate(run, method, why), (method, why)
