@@ -98,7 +98,7 @@ class Split:
     spacing sets how much of the encoder's quantisation reaches the current. It depends on the encoder step, the
     sample rate and the motion (60-80 knots per stride for 14-bit encoders at 1 kHz, 80-140 for 16-bit ones). On
     clean virtual-bench recordings at 2-2.5 s per stride this brings the held-out motor-current RMSE from 1.16 to
-    1.07 times the sensor noise (tests/test_noise_floor.py). Where the driver reaches its voltage limit (fast
+    1.07 times the sensor noise (tests/models/bench/test_noise_floor.py). Where the driver reaches its voltage limit (fast
     strides, small precompression) the motor current drops within ~4 ms (the motor's electromechanical time
     constant J R / k^2), a step no smoothing of 14-bit angles can follow: there the held-out RMSE stays 2-3 times
     the noise (1.2-1.5 s per stride) whatever the spacing.

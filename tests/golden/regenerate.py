@@ -5,7 +5,7 @@ Run after an *intended* change of the models or the integrator, inspect the diff
     python -m tests.golden.regenerate
 
 The golden file pins energies per stride at the five measurement points, peak powers and tracking errors for a
-few conditions, so that unintended changes show up in tests/test_paper_findings.py.
+few conditions, so that unintended changes show up in tests/models/ankle/test_paper_findings.py.
 """
 import json
 from pathlib import Path

@@ -4,7 +4,7 @@ function (:func:`acausal.backends.ccompiler.shared_library`) and called through 
 
 The arithmetic is CasADi's own code for the same expression graph, and the loop takes the steps in the order of
 :class:`~acausal.simulation.compiled.fixed_step.FixedStep`'s unrolled CasADi step (stage times ``t_i + j h/2``, the same
-sums), so the two give the same numbers (bit for bit on the servo replays; ``tests/test_fixed_step.py`` checks
+sums), so the two give the same numbers (bit for bit on the servo replays; ``tests/simulation/test_fixed_step.py`` checks
 1e-14); the loop runs about ten times faster than CasADi's virtual machine evaluating the unrolled step (a whole
 servo replay, inputs and outputs included, five times), and one library serves every substep count. Without a C
 compiler, or where it refuses the source, the fixed step stays on CasADi's virtual machine (:func:`rk4_driver`
