@@ -1,6 +1,6 @@
 """Test configuration: a non-interactive matplotlib backend, no silent pass on an empty collection,
-``--scipy-path`` to run tests with the compiled simulation path switched off (the test matrix of issue 16:
-``tests/simulation/test_compiled.py`` runs the core tests that way), and ``--whole-jobs`` for the benchmarks of whole
+``--scipy-path`` to run tests with the compiled simulation path switched off (``tests/simulation/test_compiled.py`` runs the core tests
+that way), and ``--whole-jobs`` for the benchmarks of whole
 minute-scale commands (marked ``whole_job``: ``acausal paper`` on its full grids, ``acausal diagnose`` on 36
 recordings). Those time a command against its goal and take four minutes of both cores between them; the
 README's test command leaves them out (each says so as a skip), its speed section runs them."""

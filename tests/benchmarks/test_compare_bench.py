@@ -1,5 +1,5 @@
 """Benchmark of ``acausal compare`` on three models at two stride times, 2 worker processes (goal: under 20 s
-on 2 cores, issue 8).
+on 2 cores).
 
 The command runs in a fresh Python process, as a user would start it (imports, compilation in the workers,
 simulation, CSV, markdown and Sankey PNGs all included): through ``acausal.cli`` once the verb is wired there,

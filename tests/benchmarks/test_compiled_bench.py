@@ -1,10 +1,10 @@
-"""The compiled path against the scipy path on the models the fits and diagnoses repeat (issue 16), both
+"""The compiled path against the scipy path on the models the fits and diagnoses repeat, both
 measured in the same run:
 
 * the Eq. 4 ankle actuator in closed loop (5 states, the gait spline and the planned moment-arm spline as inputs),
   6 s of gait: the default ``simulate()`` vs scipy's BDF (the previous default);
 * the same model's exact sensitivities of the motor current and speed to three parameters over 2 s;
-* the whole chain in closed loop (issue 38: ``AnkleActuator(mode="closed_loop")``: rectifier, EPOS2 driver, motor,
+* the whole chain in closed loop (``AnkleActuator(mode="closed_loop")``: rectifier, EPOS2 driver, motor,
   lossy gears, MACCEPA; 6 s of gait at 2 s/stride, 3001 outputs), the default ``simulate()``, in units of the
   hand-written 1-s scipy LSODA run of ``handwritten.py`` (goal: at most 50 of them), the two interleaved (four
   hand-written runs before each run of the chain, each side's fastest).

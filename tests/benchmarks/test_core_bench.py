@@ -1,12 +1,12 @@
 """Core speed benchmarks (pytest-benchmark). Goals, reported in the README:
 
-* compile time of motor_gear_load <= 0.5 s (issue 3);
+* compile time of motor_gear_load <= 0.5 s;
 * its 1-s simulation at rtol 1e-6 / atol 1e-9 with the default ``simulate()`` (the compiled path) <= 0.5x a
-  hand-written solve_ivp of the same equations with LSODA, measured in the same run (issue 16; issue 38: <= 0.3x),
-  and <= 1.5x the same equations written by hand for CasADi's CVODES (issue 38); on the scipy path
-  (``method="LSODA"``) <= 1.5x (issue 3), and at its default settings (dense output, trust checks with the energy balance; 1001 outputs) <= 2x
-  the hand-written LSODA with as many outputs (issue 38);
-* 100 runs with R swept over 0.5-0.9 ohm, no recompilation, <= 0.5x the hand-written loop (issue 16).
+  hand-written solve_ivp of the same equations with LSODA, measured in the same run (goal: <= 0.3x),
+  and <= 1.5x the same equations written by hand for CasADi's CVODES; on the scipy path
+  (``method="LSODA"``) <= 1.5x, and at its default settings (dense output, trust checks with the energy balance; 1001 outputs) <= 2x
+  the hand-written LSODA with as many outputs;
+* 100 runs with R swept over 0.5-0.9 ohm, no recompilation, <= 0.5x the hand-written loop.
 
 Ratios are stored in ``extra_info`` (see ``--benchmark-json``) and printed. The only assertions on time are loose
 regression guards on *ratios* (3x the goal), never on absolute times (the compile time is recorded, not asserted).
@@ -78,7 +78,7 @@ def test_simulate_vs_handwritten(benchmark, sim):
 
 def test_simulate_vs_handwritten_casadi(benchmark, sim):
     """The default path (the native loop where it is built, else CasADi's own CVODES) against the same equations
-    written by hand for CasADi's CVODES (issue 38: <= 1.5x): the whole default ``simulate()``, its run's set-up,
+    written by hand for CasADi's CVODES (<= 1.5x): the whole default ``simulate()``, its run's set-up,
     result and trust checks included. ``extra_info["solver"]`` says which integrator ran."""
     pytest.importorskip("casadi")
     hand = handwritten.casadi_cvodes()
@@ -97,7 +97,7 @@ def test_simulate_scipy_path_vs_handwritten(benchmark, sim):
 
 def test_simulate_scipy_path_default_settings_vs_handwritten(benchmark, sim):
     """``method="LSODA"`` at ``simulate()``'s default settings (dense output kept, the trust checks with the energy
-    balance on) against the hand-written LSODA with the same 1001 outputs (issue 38: <= 2x)."""
+    balance on) against the hand-written LSODA with the same 1001 outputs (<= 2x)."""
     run = dict(method="LSODA", rtol=1e-6, atol=1e-9, n_points=1001)
     res = sim.simulate(1.0, **run)
     assert res.trust == [] and res.solver.startswith("LSODA")

@@ -1,4 +1,4 @@
-"""Benchmarks of issue 6: the Fig. 16 design map (>= 300 designs, goal < 5 s on 2 cores, and <= 2x a
+"""Benchmarks of the design studies: the Fig. 16 design map (>= 300 designs, goal < 5 s on 2 cores, and <= 2x a
 hand-vectorised numpy evaluation of the same replay equations in the same run) and calibration over 36
 recordings (goal < 60 s). Wall times are recorded beside their goals, not asserted (they depend on the machine's
 load); the ratio to numpy has a loose regression guard (3x the goal); correctness is asserted."""

@@ -1,5 +1,5 @@
 """Benchmark of ``acausal diagnose`` on the paper's 36 conditions (6 precompressions x 6 stride times, 3 recorded
-strides each) with a gear mesh loss hidden (goal: under 3 minutes on 2 cores, issue 7).
+strides each) with a gear mesh loss hidden (goal: under 3 minutes on 2 cores).
 
 The recordings are made first (not timed); the command then runs in a fresh Python process as a user would start
 it (imports, compilation, calibration, fingerprints, refits, report and figures). One round; the wall time is in

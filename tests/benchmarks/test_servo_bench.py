@@ -1,4 +1,4 @@
-"""Speed of the servo replays that the real-data diagnosis repeats (issue 17), against a hand-written reference
+"""Speed of the servo replays that the real-data diagnosis repeats, against a hand-written reference
 measured in the same run.
 
 One XL330 recording (6 s, ~1100 samples, closed loop on the logged goal, supply voltage and torque enable) with

@@ -1,4 +1,4 @@
-"""Benchmarks of the servo diagnosis as a user starts it (issue 37's speed goals, 2 cores): the shipped XL330
+"""Benchmarks of the servo diagnosis as a user starts it (its speed goals, 2 cores): the shipped XL330
 example (goal 60 s) and ``acausal diagnose`` on 48 simulated recordings of another servo (goal 3 minutes).
 
 Each runs in a fresh Python process with an empty library cache (``ACAUSAL_CACHE_DIR`` in the test's folder), so

@@ -1,4 +1,4 @@
-"""What the trust checks cost against the run they check (issue 38, item 4: at most a quarter of a run on either
+"""What the trust checks cost against the run they check (at most a quarter of a run on either
 path), on the 1-s ``motor_gear_load`` at rtol 1e-6 / atol 1e-9 with 1001 outputs and dense output (the default):
 the check (non-finite values, poles, conditioning, the energy balance) timed on fresh results, the run without it
 measured in the same session.

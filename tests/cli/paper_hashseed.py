@@ -1,4 +1,4 @@
-"""`acausal paper` writes the same bytes under any PYTHONHASHSEED (issue 20, item 7): no iteration order of a set or
+"""`acausal paper` writes the same bytes under any PYTHONHASHSEED: no iteration order of a set or
 a dict of symbols leaks into the generated code, the order of floating-point operations or the tables.
 
 Two fresh processes with different hash seeds run ``acausal paper --quick`` (its smallest option) side by side, one

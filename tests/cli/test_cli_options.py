@@ -1,4 +1,4 @@
-"""Issue 39, item 5: every CLI option is checked before any work starts, the option named; a fit whose parameters
+"""Every CLI option is checked before any work starts, the option named; a fit whose parameters
 the chosen signals cannot see says so instead of printing ``+- inf``."""
 import pytest
 

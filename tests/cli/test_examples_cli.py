@@ -87,7 +87,7 @@ def test_every_figure_has_its_csv(out):
 
 
 def test_the_explorer_page_is_written_beside_the_report(out):
-    """Issue 40: with plotly installed (the test extra) the run writes its page, linked from the report."""
+    """With plotly installed (the test extra) the run writes its page, linked from the report."""
     pytest.importorskip("plotly", reason="the page needs plotly (the html and test extras)")
     page = out / "index.html"
     assert page.stat().st_size > 1_000_000  # plotly.js inline

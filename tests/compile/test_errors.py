@@ -421,8 +421,8 @@ def test_fixed_start_contradicting_a_source_is_reported():
 
 
 def test_overriding_a_bound_parameter_names_what_it_is_bound_to():
-    """A gearbox's inner mesh ratio follows the gearbox's ratio; overriding it alone would make the two disagree
-    (issue 22): the error names the binding and the parameter to set."""
+    """A gearbox's inner mesh ratio follows the gearbox's ratio; overriding it alone would make the two disagree:
+    the error names the binding and the parameter to set."""
     from acausal.library.rotational import Gearbox
 
     class Drive(Model):

@@ -1,4 +1,5 @@
-"""Friction elements stuck together on one rigid shaft (issue 21, finding 3 of ``tests/msl/msl_conformance_findings.md``):
+"""Friction elements stuck together on one rigid shaft (finding 3 of
+``tests/msl/msl_conformance_findings.md``):
 the equations give only the sum of their holding torques, and :class:`acausal.Indeterminate` says how the solver
 splits it (equal fractions of each element's breakaway band), so that the group breaks away exactly when no split
 holds the shaft any more.

@@ -1,4 +1,4 @@
-"""The explorer in a real browser (issue 40): headless Chromium, driven by selenium, opens the paper's page from disk
+"""The explorer in a real browser: headless Chromium, driven by selenium, opens the paper's page from disk
 (the small run of ``tests/results/test_html_page.py``), finds no console error, moves the stride-time and precompression
 sliders, and reads the Sankey diagrams' link values back from the drawn figures: they equal the energies of
 ``protocol.csv`` for the condition the sliders show. A screenshot goes to the test's temporary folder; the load time

@@ -1,4 +1,4 @@
-"""FMU export (issue 19): exported FMI 2.0 Model Exchange FMUs validated and simulated by fmpy, compared with
+"""FMU export: exported FMI 2.0 Model Exchange FMUs validated and simulated by fmpy, compared with
 ``simulate()``. Each FMU is exported (C compiled) once per module."""
 import ctypes
 import re

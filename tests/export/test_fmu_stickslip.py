@@ -1,4 +1,5 @@
-"""An exported FMU switches stick/slip modes as simulate() does (issue 21, finding 4 in the FMU's C runtime).
+"""An exported FMU switches stick/slip modes as simulate() does (finding 4 of ``tests/msl/msl_conformance_findings.md``, in the FMU's
+C runtime).
 
 MSL Friction (a clutch and a brake that stick and slip; tests/msl/test_msl_conformance_friction.py) exported as an FMI
 2.0 Model Exchange FMU and run by fmpy on output grids where simulate() once lost the clutch's breakaway. Its C

@@ -1,4 +1,4 @@
-"""Cluster-robust standard errors (issue 18, item 5): honest when residuals are correlated within a stride."""
+"""Cluster-robust standard errors: honest when residuals are correlated within a stride."""
 import numpy as np
 import pytest
 from scipy.optimize import least_squares

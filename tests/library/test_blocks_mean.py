@@ -1,4 +1,4 @@
-"""Mean and RMS over a period (MSL Modelica.Blocks.Math.Mean / RootMeanSquare), issue 21: sampled at the end of
+"""Mean and RMS over a period (MSL Modelica.Blocks.Math.Mean / RootMeanSquare): sampled at the end of
 every period by an event that cannot be missed, on both simulation paths and in an exported FMU."""
 import numpy as np
 import pytest
@@ -50,7 +50,7 @@ def test_mean_and_rms_of_each_period(method):
 
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_a_sample_at_t_end_shows_in_the_value_at_t_end(method):
-    """Issue 38, item 6: the run ends on a sample (3 periods); the value at t_end is the one after that event, the
+    """The run ends on a sample (3 periods); the value at t_end is the one after that event, the
     final value a Modelica tool reports (the mean of the third period), not the left limit (the second's). An
     output at an earlier sample keeps the value before it."""
     cm = compile_model(Signals())

@@ -1,4 +1,4 @@
-"""Self-describing declarations (issue 22, item 1): help() and a notebook show a parameter's default, unit, bounds
+"""Self-describing declarations: help() and a notebook show a parameter's default, unit, bounds
 and doc, and a variable's start, unit and flags, not an object address."""
 import pydoc
 
@@ -160,7 +160,7 @@ def test_a_generic_pwm_driver_is_lossless_and_the_epos2_has_the_papers_losses():
 
 
 def test_a_parameter_set_by_a_rule_shows_the_rule_not_required():
-    """Issue 39, item 10: PID.describe() marked k_aw and y_min "(required)" although the constructor sets them
+    """PID.describe() marked k_aw and y_min "(required)" although the constructor sets them
     (ki/kp, -y_max) when they are not given; y_max, which has no rule, stays required."""
     from acausal.library.control import PID
 
@@ -170,7 +170,7 @@ def test_a_parameter_set_by_a_rule_shows_the_rule_not_required():
 
 
 def test_a_causal_port_reads_by_its_own_name_in_a_result():
-    """Issue 39, item 10: res["ref.y"] reads the output's value (it needed res["ref.y.value"])."""
+    """Res["ref.y"] reads the output's value (it needed res["ref.y.value"])."""
     from acausal import Model, compile_model, connect
     from acausal.library.blocks import Gain, Step
 

@@ -1,4 +1,4 @@
-"""Issue 39, item 6: model errors name the user's mistake, not a symptom of it (a RecursionError, an
+"""Model errors name the user's mistake, not a symptom of it (a RecursionError, an
 over-determined system blamed on the neighbours, a silently dropped component)."""
 import pytest
 
@@ -116,7 +116,7 @@ def test_every_component_of_the_shipped_models_balances_locally():
 
 
 def test_text_is_never_executed_as_an_expression():
-    """Issue 39, item 8: `ExpressionSignal("...")` and `der("...")` ran the text through sympify (Python's eval);
+    """`ExpressionSignal("...")` and `der("...")` ran the text through sympify (Python's eval);
     both refuse text, naming what to give instead."""
     from acausal import ExpressionSignal, SignalError, der
 

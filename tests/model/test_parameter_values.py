@@ -1,5 +1,5 @@
-"""Parameter values that are not numbers are refused where they are given, naming the parameter (issue 20: nothing
-silently wrong; found in the new-user trial of issue 22): a string is not parsed into a number, a bool is not
+"""Parameter values that are not numbers are refused where they are given, naming the parameter (nothing
+silently wrong): a string is not parsed into a number, a bool is not
 taken as 1, and an array given to ``simulate`` (a batch) is pointed to the batch API instead of failing inside
 numpy."""
 import numpy as np

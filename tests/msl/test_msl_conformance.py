@@ -1,4 +1,4 @@
-"""Conformance suite (issue 21, item 6): examples of the Modelica Standard Library rebuilt from this library's
+"""Conformance suite: examples of the Modelica Standard Library rebuilt from this library's
 components, each run at the default simulation settings (``sim.simulate(t_end)``: rtol 1e-6, atol 1e-9, the
 default path) and, where cheap, with ``method="BDF"`` (the scipy path), and checked against an independent
 solution written here (a closed form, or a scipy integration of the same physics that does not use acausal), its
@@ -21,7 +21,7 @@ Association, BSD-3-Clause; read from github.com/modelica/ModelicaStandardLibrary
 
 The Rectifier is the full example (not a reduced one), checked switching by switching against a scipy
 event-by-event integration; and once more with its AC switched off by a Step and run over a thousand times longer
-than its commutations last, the test of issue 21 that no event is lost when the integrator makes long steps.
+than its commutations last, the test that no event is lost when the integrator makes long steps.
 
 No Modelica code is copied: the examples are rebuilt with ``acausal.library`` components; where the MSL has a
 component this library does not (the Graetz bridge), it is composed from library parts, and where the example is

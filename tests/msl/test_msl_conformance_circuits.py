@@ -1,4 +1,4 @@
-"""MSL conformance (issue 21, item 6), the diode circuits and the resonance: ``CharacteristicIdealDiodes``,
+"""MSL conformance, the diode circuits and the resonance: ``CharacteristicIdealDiodes``,
 ``DiodeBridge2Pulse`` and ``SeriesResonance`` rebuilt from the library's components (sources, conventions and
 tolerances: ``tests/msl/test_msl_conformance.py``)."""
 

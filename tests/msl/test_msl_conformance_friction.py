@@ -1,4 +1,4 @@
-"""MSL conformance (issue 21, item 6), ``Modelica.Mechanics.Rotational.Examples.Friction``: a clutch and a brake that
+"""MSL conformance, ``Modelica.Mechanics.Rotational.Examples.Friction``: a clutch and a brake that
 stick and slip, rebuilt from the library's ``Clutch`` and ``Brake``, checked against a hand-written reference of
 the MSL's friction elements (references, conventions and tolerances: ``tests/msl/test_msl_conformance_stickslip.py``
 and ``tests/msl/test_msl_conformance.py``)."""

@@ -1,4 +1,4 @@
-"""MSL conformance (issue 21, item 6), ``Modelica.Electrical.Analog.Examples.Rectifier``: the full six-pulse
+"""MSL conformance, ``Modelica.Electrical.Analog.Examples.Rectifier``: the full six-pulse
 bridge rebuilt from the library's components, checked switching by switching against a scipy event-by-event
 integration, and once more with its AC switched off by a Step and run a thousand times longer than its
 commutations last (no event lost in long steps). Sources, conventions and tolerances:
@@ -262,7 +262,7 @@ def rectifier_off_sim():
 
 @pytest.mark.parametrize("method", ["auto", "BDF"])
 def test_rectifier_switched_off_runs_long_steps_without_losing_an_event(rectifier_off_sim, method):
-    """Issue 21: "No event is lost in a test built to make long steps". The MSL Rectifier with its AC sources
+    """No event is lost in a test built to make long steps. The MSL Rectifier with its AC sources
     switched off by a Step at 0.04 s, run to 100 s at the default 501 outputs (0.2 s apart): two periods of
     commutations, then the line currents die out, the 500 A load discharges the DC link until all six diodes
     conduct at 55.7 ms and carry it as a freewheeling current, and nothing changes for the remaining 99.9 s.

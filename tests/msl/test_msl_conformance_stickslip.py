@@ -1,4 +1,4 @@
-"""Conformance suite, part 2 (issue 21, item 6): the stick/slip examples of the Modelica Standard Library (Modelica
+"""Conformance suite, part 2: the stick/slip examples of the Modelica Standard Library (Modelica
 Association, BSD-3-Clause), ``Modelica.Mechanics.Rotational.Examples.LossyGearDemo1``, ``LossyGearDemo2``,
 ``LossyGearDemo3`` (this module) and ``Friction`` (``tests/msl/test_msl_conformance_friction.py``), rebuilt from this
 library's components (the gear is ``StickSlipGear``; the MSL's ``Clutch``, ``Brake`` and ``BearingFriction`` are

@@ -1,5 +1,5 @@
-"""The ten MSL conformance examples give the same bytes in every fresh process, whatever the hash seed (issue 21:
-"deterministic across 10 fresh processes with different hash seeds").
+"""The ten MSL conformance examples give the same bytes in every fresh process, whatever the hash seed (the conformance suite's
+goal: "deterministic across 10 fresh processes with different hash seeds").
 
 Ten subprocesses, each with its own ``PYTHONHASHSEED``, two at a time, each compiling and running all ten examples
 of ``tests/test_msl_conformance*.py`` from scratch at the default

@@ -1,4 +1,4 @@
-"""Nothing silently wrong (issue 20, first part): atomic writes, a manifest that catches torn or mixed recording
+"""Nothing silently wrong: atomic writes, a manifest that catches torn or mixed recording
 sets, recordings checked against their declared length, outputs that cannot overwrite inputs, clear messages for
 bad CSV separators and CLI path errors, upper-case extensions, and the bench's winding starting at ambient."""
 from __future__ import annotations
@@ -252,7 +252,7 @@ def test_an_infinite_or_undefined_end_time_is_refused(t_end):
         cm.simulate(1.0, t_start=-float("inf"))
 
 
-# ------------------------------------------------------------------ real roots in symbolic solves (issue 20, item 3)
+# ------------------------------------------------------------------ real roots in symbolic solves
 def test_an_odd_power_law_is_solved_with_the_real_root_on_both_signs():
     """``v = a i**3`` driven by 8 sin(2 pi t): sympy's principal cube root would be NaN for v < 0; the compiled
     solution is the real root on both paths. (The capacitor starts charged: at exactly v = 0 the law's
@@ -289,7 +289,7 @@ def test_an_odd_power_law_is_solved_with_the_real_root_on_both_signs():
 
 
 def test_sweep_findings_a_value_without_its_name_empty_outputs_and_non_finite_sensitivity_times():
-    """Issue 39's sweep (tests/regressions/trust_sweep_findings.md, 1, 2 and 5): Resistor(0.386) became a doc text and kept
+    """The hostile-user sweep (tests/regressions/trust_sweep_findings.md, 1, 2 and 5): Resistor(0.386) became a doc text and kept
     R = 1 ohm; sensitivities at an infinite time hung and at a NaN returned 0; t_eval=[] was a raw IndexError."""
     import numpy as np
     from acausal import ModelError, compile_model

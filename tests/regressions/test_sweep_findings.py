@@ -1,4 +1,4 @@
-"""Issue 39's hostile-user sweep (tests/regressions/trust_sweep_findings.md): each finding's reproduction, with the clear outcome
+"""The hostile-user sweep (tests/regressions/trust_sweep_findings.md): each finding's reproduction, with the clear outcome
 it now gets (an error naming the argument, option, key or file at fault, or a flagged answer). The test names
 carry the finding's number."""
 from __future__ import annotations
@@ -24,7 +24,7 @@ def rc():
     return sim, sim.simulate(1.0)
 
 
-def test_3_energy_of_something_that_is_not_a_power_is_refused_and_an_efficiency_above_one_is_flagged(rc):
+def test_energy_of_something_that_is_not_a_power_is_refused_and_an_efficiency_above_one_is_flagged(rc):
     sim, res = rc
     for name, unit in (("C.v", "V"), ("R.R", "Ohm"), ("C.energy", "J")):
         with pytest.raises(ModelError, match=rf"energy: '{name}' \[{unit}\] is not a power \(W\)"):
@@ -50,7 +50,7 @@ def test_3_energy_of_something_that_is_not_a_power_is_refused_and_an_efficiency_
     (("a", 0.05), r"window: t0 must be a time in s \(a finite number\), got 'a'"),
     ((0.0, float("nan")), r"window: t1 must be a time in s"),
 ])
-def test_4_an_energy_balance_window_outside_the_run_or_reversed_is_refused(rc, window, message):
+def test_an_energy_balance_window_outside_the_run_or_reversed_is_refused(rc, window, message):
     _, res = rc
     with pytest.raises(ModelError, match=message):
         res.energy_balance(*window)
@@ -58,7 +58,7 @@ def test_4_an_energy_balance_window_outside_the_run_or_reversed_is_refused(rc, w
         res.sankey(None, *window)
 
 
-def test_5_one_output_point_is_refused(rc):
+def test_one_output_point_is_refused(rc):
     sim, _ = rc
     with pytest.raises(ModelError, match=r"n_points must be an integer >= 2 .* got 1; for one time give t_eval"):
         sim.simulate(1.0, n_points=1)
@@ -75,7 +75,7 @@ def test_5_one_output_point_is_refused(rc):
     (dict(first_step=10.0, method="BDF"), r"first_step = 10 s is longer than the run \(1 s"),
     (dict(max_steps=3, method="CVODES"), r"max_steps limits a scipy integrator's steps; method='CVODES'"),
 ])
-def test_6_integrator_settings_are_checked_naming_the_setting(rc, settings, message):
+def test_integrator_settings_are_checked_naming_the_setting(rc, settings, message):
     sim, _ = rc
     with pytest.raises(ModelError, match=message):
         sim.simulate(1.0, **settings)
@@ -84,13 +84,13 @@ def test_6_integrator_settings_are_checked_naming_the_setting(rc, settings, mess
             sim.sensitivities([0.0, 1.0], ["R.R"], **settings)
 
 
-def test_6_one_tolerance_per_state_is_taken(rc):
+def test_one_tolerance_per_state_is_taken(rc):
     sim, _ = rc
     res = sim.simulate(1.0, atol=[1e-9], rtol=[1e-6])
     assert abs(res["C.v"][-1] - (1 - np.exp(-1.0))) < 1e-5
 
 
-def test_19_the_result_and_batch_api_name_the_argument_at_fault(rc, tmp_path):
+def test_the_result_and_batch_api_name_the_argument_at_fault(rc, tmp_path):
     sim, res = rc
     for key in (0, None, ["C.v"]):
         with pytest.raises(ModelError, match=r"index it by a variable's name \(a str"):
@@ -127,13 +127,13 @@ def test_19_the_result_and_batch_api_name_the_argument_at_fault(rc, tmp_path):
     (lambda sim: sim.sensitivities([0.0, 1.0], ["R.R"], substeps=-1), r"substeps must be a positive integer"),
     (lambda sim: sim.device_defaults({"R.RR": 1}), r"unknown parameter 'R.RR' .* did you mean 'R.R'"),
 ])
-def test_23_loose_acceptance_in_simulate_and_friends_is_gone(rc, call, message):
+def test_loose_acceptance_in_simulate_and_friends_is_gone(rc, call, message):
     sim, _ = rc
     with pytest.raises(ModelError, match=message):
         call(sim)
 
 
-def test_23_max_steps_is_honoured_on_auto_by_the_scipy_path(rc):
+def test_max_steps_is_honoured_on_auto_by_the_scipy_path(rc):
     sim, _ = rc
     from acausal import SimulationError
     with pytest.raises(SimulationError, match=r"took 3 steps"):
@@ -142,7 +142,7 @@ def test_23_max_steps_is_honoured_on_auto_by_the_scipy_path(rc):
     assert "max_steps" in res.solver
 
 
-def test_14_an_upper_limit_below_the_lower_one_is_refused_on_every_run():
+def test_an_upper_limit_below_the_lower_one_is_refused_on_every_run():
     from acausal import Model, Parameter, connect
     from acausal.library.blocks import Sine
     from acausal.library.control import PID, Limiter
@@ -175,7 +175,7 @@ def test_14_an_upper_limit_below_the_lower_one_is_refused_on_every_run():
         Parameter(1.0, "Ohm", min=5.0, max=0.0)
 
 
-def test_15_a_negative_absolute_temperature_is_refused_with_a_celsius_hint():
+def test_a_negative_absolute_temperature_is_refused_with_a_celsius_hint():
     from acausal.library.thermal import FixedTemperature, HeatCapacitor
     with pytest.raises(ModelError, match=r"FixedTemperature: parameter 'T' = -10.0 is outside its bounds \[0.0, inf\] "
                                          r"K \(an absolute temperature: 25 degC is 298.15 K\)"):
@@ -193,7 +193,7 @@ def test_15_a_negative_absolute_temperature_is_refused_with_a_celsius_hint():
     (lambda C, Start: C(C=sp.I), r"Capacitor: parameter 'C' = I is not a finite real number \[F\]"),
     (lambda C, Start: C(C=sp.zoo), r"parameter 'C' = zoo is not a finite real number"),
 ])
-def test_16_start_values_and_parameters_of_the_wrong_type_are_refused_where_given(make, message):
+def test_start_values_and_parameters_of_the_wrong_type_are_refused_where_given(make, message):
     from acausal import Start
     from acausal.library.electrical import Capacitor
     with pytest.raises(ModelError, match=message):
@@ -228,7 +228,7 @@ def _refused(capsys, argv, message):
     return err
 
 
-def test_7_a_json_that_is_not_utf8_is_named_with_its_byte_and_a_bom_is_read(bench_set, tmp_path, capsys):
+def test_a_json_that_is_not_utf8_is_named_with_its_byte_and_a_bom_is_read(bench_set, tmp_path, capsys):
     d = _copy(bench_set, tmp_path / "d")
     js = d / "P05.0mm_T1.2s.json"
     js.write_bytes(js.read_bytes() + b"\xff")
@@ -248,7 +248,7 @@ def test_7_a_json_that_is_not_utf8_is_named_with_its_byte_and_a_bom_is_read(benc
     ("lever_A_m", 100.0, r"key 'lever_A_m' = 100: outside 0.001-1"),
     ("gear_ratio", 0.5, r"key 'gear_ratio' = 0.5: outside 1-10000"),
 ])
-def test_8_unit_slips_in_the_optional_ankle_keys_are_refused(bench_set, tmp_path, key, value, message):
+def test_unit_slips_in_the_optional_ankle_keys_are_refused(bench_set, tmp_path, key, value, message):
     import json
 
     from acausal import DataError
@@ -276,14 +276,14 @@ def test_8_unit_slips_in_the_optional_ankle_keys_are_refused(bench_set, tmp_path
      r"--effect gear_coulomb_friction: given twice"),
     (["bench", "--quick", "--truth", "R=0.8", "--truth", "R=0.9"], r"--truth R: given twice"),
 ])
-def test_9_10_11_20_options_are_checked_before_any_work_naming_the_option(tmp_path, capsys, argv, message):
+def test_options_are_checked_before_any_work_naming_the_option(tmp_path, capsys, argv, message):
     out = tmp_path / "o"
     _refused(capsys, argv + ["--out", str(out)], message)
     assert not out.exists() or not any(out.iterdir())  # nothing written
 
 
 @pytest.mark.slow
-def test_17_18_fit_and_diagnose_options_that_would_do_nothing_are_refused(bench_set, tmp_path, capsys):
+def test_fit_and_diagnose_options_that_would_do_nothing_are_refused(bench_set, tmp_path, capsys):
     f = tmp_path / "f"
     _refused(capsys, ["fit", str(bench_set), "--out", str(f), "--weight", "motor_current_A=0", "--weight",
                       "supply_current_A=0"], r"every fitted signal \(motor_current_A, supply_current_A\) has weight 0")
@@ -298,7 +298,7 @@ def test_17_18_fit_and_diagnose_options_that_would_do_nothing_are_refused(bench_
     assert not f.exists()  # refused before any work
 
 
-def test_20_a_quantity_given_twice_in_a_servo_json_must_agree(tmp_path):
+def test_a_quantity_given_twice_in_a_servo_json_must_agree(tmp_path):
     import json
     from importlib import resources
 
@@ -325,7 +325,7 @@ def test_20_a_quantity_given_twice_in_a_servo_json_must_agree(tmp_path):
         load_recordings(d, SERVO_FORMAT)
 
 
-def test_22_loader_messages_name_the_real_problem(bench_set, tmp_path, capsys):
+def test_loader_messages_name_the_real_problem(bench_set, tmp_path, capsys):
     d = _copy(bench_set, tmp_path / "d")
     (d / "P05.0mm_T1.2s.csv").unlink()
     (d / "P05.0mm_T1.2s.csv").mkdir()
@@ -362,7 +362,7 @@ class Raises(Model):
 '''
 
 
-def test_12_13_21_export_names_the_users_file_the_compiler_and_the_setting(tmp_path, capsys):
+def test_export_names_the_users_file_the_compiler_and_the_setting(tmp_path, capsys):
     import zipfile
 
     from acausal.cli import main
@@ -390,7 +390,7 @@ def test_12_13_21_export_names_the_users_file_the_compiler_and_the_setting(tmp_p
     assert 'description="RC (exported by acausal)"' in xml  # not the framework's Model docstring
 
 
-def test_14_the_fmu_checks_the_components_assertions_too(tmp_path):
+def test_the_fmu_checks_the_components_assertions_too(tmp_path):
     """An FMU user who sets a limit below the other is refused at fmi2ExitInitializationMode, with the component's
     message in the FMU's log, as simulate() refuses it."""
     from ..export.fmu_support import require_fmu_tools

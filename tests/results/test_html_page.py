@@ -1,4 +1,4 @@
-"""The HTML pages of issue 40, without a browser: the paper's explorer embeds exactly the numbers of the run's CSVs,
+"""The HTML pages, without a browser: the paper's explorer embeds exactly the numbers of the run's CSVs,
 is self-contained, deterministic and under 10 MB; ``Result.to_html`` embeds the accounts, the Sankey flows and the
 balance of any run; ``acausal compare --html`` writes its page; without plotly the paper run still completes and
 says why there is no page, and ``to_html`` fails naming the package and the install command.

@@ -1,4 +1,4 @@
-"""Result.plot: labels, one y axis per unit, clear errors (issue 22, item 6)."""
+"""Result.plot: labels, one y axis per unit, clear errors."""
 import warnings
 
 import matplotlib

@@ -1,4 +1,4 @@
-"""Trust checks on every simulation (issue 20, item 3; :mod:`acausal.results.trust`): a stiff model's silently wrong
+"""Trust checks on every simulation (:mod:`acausal.results.trust`): a stiff model's silently wrong
 result is refused with the variable, the state and the parameter at fault; a run that would take forever on an
 explicit method stops with an error saying so; models that are right pass; a loss passed on as heat into a
 thermal network is not counted twice."""
@@ -93,7 +93,7 @@ def test_the_same_circuit_with_a_sane_resistance_passes():
 
 
 def test_a_balance_the_tolerance_leaves_open_names_the_rtol_that_closes_it():
-    """Issue 39: "tolerance too loose for this balance" told apart from "stiff" and from "an account is wrong".
+    """"Tolerance too loose for this balance" told apart from "stiff" and from "an account is wrong".
     A 10 micro-ohm RC on LSODA at the default rtol 1e-6 leaves 0.39 % of the energy unaccounted (the limit 0.1 %),
     with its energies already integrated as states and every account right. The residual falls with the tolerance
     (2.6e-5 at rtol 1e-8, still over that run's own limit 1e-5; 1e-7 at 1e-10), so the check's own tighter runs
@@ -214,7 +214,7 @@ class _NanStart(Model):
 
 
 def test_a_nan_start_or_output_time_is_refused_by_name():
-    """Issue 39, item 6: ``Start(nan)`` reached scipy raw; a NaN in ``t_eval`` hung the run."""
+    """``Start(nan)`` reached scipy raw; a NaN in ``t_eval`` hung the run."""
     cm = compile_model(RC())
     with pytest.raises(ModelError, match=r"t_eval\[1\] is nan; output times must be finite"):
         cm.simulate(1.0, t_eval=[0.0, np.nan, 1.0])
@@ -223,7 +223,7 @@ def test_a_nan_start_or_output_time_is_refused_by_name():
 
 
 def test_a_pendulum_beside_an_unconnected_fixed_flange_is_accepted():
-    """Issue 39, item 1: the pendulum's kinetic and potential energy trade 0.86 J inside its one `energy` account
+    """The pendulum's kinetic and potential energy trade 0.86 J inside its one `energy` account
     while the account moves by 1.9e-4 J; the balance residual (a few rtol of the 0.86 J) was divided by the swing
     of the account, and a spare `Fixed()` (a boundary account, so the balance is checked at all) made the run
     refused on every path. Scaled by the energy exchanged inside the account, it passes; a wrong account still
@@ -291,7 +291,7 @@ def test_a_wrong_loss_account_is_caught_and_named_even_without_a_source(factor, 
 
 
 def test_a_half_wave_rectifier_is_accepted_on_the_scipy_path_with_its_energies_as_states():
-    """Issue 39, item 1: an ideal diode feeding an RC (50 Hz, 0.1 s) on the scipy path (the default for a model
+    """An ideal diode feeding an RC (50 Hz, 0.1 s) on the scipy path (the default for a model
     with state events when the compiled path is not taken): its states are right, but the source's energy, taken
     on BDF's interpolants through the diode's 1e-5 ohm, was 11 % off and the run was refused as stiff. Every
     account holds at each instant, so the energies are integrated again as states (outside the error control,
@@ -319,7 +319,7 @@ def test_a_half_wave_rectifier_is_accepted_on_the_scipy_path_with_its_energies_a
 
 
 def test_a_variable_through_a_pole_is_refused_naming_its_divisor():
-    """Issue 39, item 2: y = 1/x with x falling through zero gave 5.6e14, then the other sign, both finite."""
+    """Y = 1/x with x falling through zero gave 5.6e14, then the other sign, both finite."""
     from acausal import Eq, Variable, der
     from acausal.model.components import Component
 

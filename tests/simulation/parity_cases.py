@@ -1,4 +1,4 @@
-"""The cases of the backend parity suite (``tests/simulation/test_parity.py``, issue 38 item 3): each model, how it is built
+"""The cases of the backend parity suite (``tests/simulation/test_parity.py``): each model, how it is built
 and run, what the compiled path and the exporter must say when they refuse it, and the tolerances (see that
 module's docstring for what agreement means)."""
 from __future__ import annotations

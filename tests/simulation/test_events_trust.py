@@ -1,4 +1,4 @@
-"""Events as trustworthy as Modelica's (issue 21): a zero function without a sign is an error, never a crossing;
+"""Events as trustworthy as Modelica's: a zero function without a sign is an error, never a crossing;
 three-phase diode bridges switch the same way in every process."""
 import os
 import subprocess

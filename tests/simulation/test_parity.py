@@ -1,4 +1,4 @@
-"""Backend parity (issue 38, item 3): every shipped model and the MSL conformance examples run on every backend
+"""Backend parity: every shipped model and the MSL conformance examples run on every backend
 that accepts them, and the backends agree.
 
 Backends: the scipy path (``method="BDF"``, the reference; ``method="Radau"`` on three models with diode and breaker
@@ -250,7 +250,7 @@ STATELESS = [pytest.param(c, id=c.name) for c in CASES if c.min_events == 0 and 
 
 @pytest.mark.parametrize("case", STATELESS)
 def test_a_model_without_states_says_how_it_ran(case):
-    """Issue 38: ``res.solver`` says which path ran. A model without states is evaluated algebraically at the
+    """``res.solver`` says which path ran. A model without states is evaluated algebraically at the
     output times, whatever the method (``method="CVODES"`` is not refused: there is nothing to integrate), and
     ``res.solver`` says so in ``cm.simulation_path()``'s words (it was '', found by this suite)."""
     cm, kw = model(case.name)

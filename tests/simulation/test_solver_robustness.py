@@ -1,4 +1,4 @@
-"""Robustness of the algebraic blocks (issue 22, item 5): damped Newton, and failure messages that say when, where
+"""Robustness of the algebraic blocks: damped Newton, and failure messages that say when, where
 and what to try.
 
 * A junction diode with series resistance, discharging a capacitor from 20 V, is a Newton block on the junction

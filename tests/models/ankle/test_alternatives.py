@@ -1,4 +1,4 @@
-"""The alternative actuators of issue 8 (models/): energy balance of every registered model, and what physics
+"""The alternative actuators (models/drivetrains/): energy balance of every registered model, and what physics
 predicts of each alternative against the paper's actuator. Each test compares two simulations (or a simulation
 with an independent calculation) and fails if the predicted relation does not hold."""
 import numpy as np

@@ -154,6 +154,6 @@ def test_cli_sets_a_parameter(tmp_path, capsys):
             rows[label] = next(csv.DictReader(f))
     loss = {k: float(r["E_driver_J"]) - float(r["E_motor_J"]) for k, r in rows.items()}
     assert loss["hot"] > 1.2 * loss["datasheet"]
-    # the table records what it was run with (issue 39, item 10)
+    # the table records what it was run with
     assert "- `--set battery:motor.R=0.6`" in (tmp_path / "hot" / "compare.md").read_text()
     assert "No `--set` values" in (tmp_path / "datasheet" / "compare.md").read_text()

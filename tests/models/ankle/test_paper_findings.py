@@ -1,4 +1,4 @@
-"""The paper's findings, checked in our simulation of the ankle actuator (issue 5), and golden values.
+"""The paper's findings, checked in our simulation of the ankle actuator, and golden values.
 
 Replay conditions where the motor cannot follow (the required duty exceeds the driver's 0.9 at 48 V, i.e. low
 precompression and fast strides) are outside what the bench could do; the findings are checked where the motor

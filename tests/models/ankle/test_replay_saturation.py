@@ -1,5 +1,5 @@
-"""The replay that knows the driver's duty limit (``AnkleActuator.eq4(mode="replay", driver_limit=True)``,
-issue 18 item 8): the driver is commanded with the voltage the motor needs for the prescribed motion, limited to
+"""The replay that knows the driver's duty limit (``AnkleActuator.eq4(mode="replay", driver_limit=True)``):
+the driver is commanded with the voltage the motor needs for the prescribed motion, limited to
 ``d_max`` times the bus voltage, and a torque on the motor shaft (``motion_support``) holds the prescribed motion.
 
 Where the driver stays within its limit the limited replay predicts what the plain replay predicts (the motor

@@ -1,4 +1,4 @@
-"""Issue 39, items 4 and 7: the bench loader checks physics (a value outside what the ankle actuator's bench can
+"""The bench loader checks physics (a value outside what the ankle actuator's bench can
 read is a unit slip or a broken sensor) and a data file that is not CSV text is named as such."""
 import gzip
 

@@ -1,4 +1,4 @@
-"""Issue 39, item 3: session times that cannot be what they say are refused, naming the recordings (they were
+"""Session times that cannot be what they say are refused, naming the recordings (they were
 clamped to a zero pause, and one recording without the key silently turned session handling off)."""
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""What a diagnosis says it cannot see (issue 18): detection limits that predict what is named, confusable pairs
+"""What a diagnosis says it cannot see: detection limits that predict what is named, confusable pairs
 with the evidence that separated them, drift of the per-recording fit over a session, and the verdict JSON that
 carries all of it with the standard-error method named.
 
@@ -65,7 +65,7 @@ def test_confusable_pair_comes_with_the_evidence_that_separated_it(tmp_path_fact
     text = (out / "report.md").read_text()
     assert "**Verdict: `gear_coulomb_friction`**" in text and "N m at the gear output" in text
     assert "J of supply energy per stride" in text and "detection limits" in text and "Drift over the session" in text
-    # the drift's parameters carry their units (issue 39: the drift plot had none)
+    # the drift's parameters carry their units (the drift plot had none)
     assert d.drift["units"]["motor.R"] == "Ohm" and "`motor.R` [Ohm]" in text and "| `motor.J` | kg.m2 |" in text
     assert pair["evidence"] in text
     for png in ("diagnosis_residual_time.png", "diagnosis_drift.png"):

@@ -1,4 +1,4 @@
-"""Issue 18's acceptance: the diagnosis on recordings made by another recipe than the virtual bench's defaults.
+"""The diagnosis on recordings made by another recipe than the virtual bench's defaults.
 
 The recipe: half the sample rate (500 Hz), 16-bit encoders, noisier current and torque sensors, current readings
 through a 100 Hz first-order filter (which the model does not know), other stride times (1.4 and 2.2 s), seeds

@@ -1,4 +1,4 @@
-"""Fuzzing corrupted recordings (issue 20): `acausal fit` and `acausal diagnose` never return an unflagged result on
+"""Fuzzing corrupted recordings: `acausal fit` and `acausal diagnose` never return an unflagged result on
 a corrupted recording set.
 
 One small clean set is recorded once on the virtual bench (three conditions of three 1.2-s strides, with its

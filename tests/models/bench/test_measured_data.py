@@ -1,4 +1,4 @@
-"""Issue 6: the recording format's loader (every error names file and column/key), the virtual bench
+"""The recording format's loader (every error names file and column/key), the virtual bench
 (deterministic), calibration recovering known parameters, the design map and its executors."""
 import json
 import shutil

@@ -1,4 +1,4 @@
-"""Issue 18, item 8: on clean recordings (nothing hidden) the calibrated Eq. (4) baseline predicts the held-out
+"""On clean recordings (nothing hidden) the calibrated Eq. (4) baseline predicts the held-out
 currents to within the sensor noise, because the replay's smoothing is chosen from the data
 (:func:`acausal.identify.smoothing.derivative_spacing`) rather than fixed at 80 knots per stride.
 

@@ -1,4 +1,4 @@
-"""Issue 39, item 4: the servo loader checks physics, not only format. Each case edits one shipped XL330 recording
+"""The servo loader checks physics, not only format. Each case edits one shipped XL330 recording
 the way a careless user's export would, and the load must fail at once with the file and the column, line or key
 at fault (before any replay: a 1-sample log used to fail 56 s later naming neither)."""
 import importlib.resources as res
