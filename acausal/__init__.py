@@ -6,7 +6,7 @@ numeric code); ``simulate`` many times with other parameters; read any variable 
 """
 
 from . import _moved
-from .compiled_model import CompiledModel, compile_model
+from .compiled_model import CompiledModel, compile_model, compile_once
 from .model.components import (Component, Connector, Discrete, Event, Flow, Indeterminate, Input, Model, Parameter,
                                Potential, Start, Variable, connect)
 from .model.connectors import Flange, HeatPort, Pin, RealInput, RealOutput
@@ -24,7 +24,7 @@ _moved.install()  # the module paths of the release before the stage folders, fo
 
 __all__ = [
     "Model", "Component", "Connector", "Parameter", "Variable", "Potential", "Flow", "Discrete", "Input", "Start",
-    "Event", "Indeterminate", "connect", "der", "time", "Eq", "compile_model", "CompiledModel", "Result", "export_fmu",
+    "Event", "Indeterminate", "connect", "der", "time", "Eq", "compile_model", "compile_once", "CompiledModel", "Result", "export_fmu",
     "Pin", "Flange", "HeatPort", "RealInput", "RealOutput",
     "Signal", "Constant", "ExpressionSignal", "ParametricSignal", "PeriodicSpline", "SampledSignal", "FourierSeries",
     "AcausalError", "ModelError", "ConnectError", "StructureError", "SignalError", "SimulationError", "DataError",

@@ -27,6 +27,24 @@ def compile_model(model) -> "CompiledModel":
     c = run_stages(model)
     return CompiledModel(c.flat, c.system, c.program, c.seconds, c.accounts)
 
+
+_ONCE: dict = {}  # the process's compiled models by build key (compile_once)
+
+
+def compile_once(key, build) -> "CompiledModel":
+    """The model ``build()`` makes, compiled once per process: later calls with an equal ``key`` return the same
+    :class:`CompiledModel` without building or compiling again. ``key`` is a hashable description of everything
+    the build depends on, led by what the model is (``("servo_pendulum", terms, effects)``), so that two builds
+    share a compiled model only when they make the same one. Each worker of a process pool compiles its own."""
+    try:
+        hash(key)
+    except TypeError:
+        raise TypeError(f"compile_once: the key {key!r} is not hashable (use tuples, not lists)") from None
+    if key not in _ONCE:
+        _ONCE[key] = compile_model(build())
+    return _ONCE[key]
+
+
 class CompiledModel:
     """A compiled model: numeric functions plus everything needed to name, initialise and simulate.
 

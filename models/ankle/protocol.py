@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acausal import ModelError, compile_model
+from acausal import ModelError, compile_once
 from acausal.library.drives import EPOS2
 from acausal.library.gait import unit_cycle
 from acausal.results.energy import balance
@@ -96,9 +96,6 @@ POINTS = ("source", "driver", "motor", "link", "output")
 STAGES = [("driver", "source", "driver"), ("motor", "driver", "motor"), ("gearing", "motor", "link"),
           ("output", "link", "output")]  # (stage, from point, to point)
 
-_COMPILED: dict = {}  # per-process cache: build key -> Compiled (compiled once per worker)
-
-
 @dataclass
 class Compiled:
     """A registered model, compiled, with its measurement points (label -> power-sensor reading) and the loss
@@ -113,20 +110,25 @@ def compiled(name: str) -> Compiled:
     """The compiled model of registered model ``name`` (compiled once per process; shared by models with the
     same build key), with the measurement points found from its power sensors."""
     s = spec(name)
-    if s.key not in _COMPILED:
-        model = s.build()
-        sim = compile_model(model)
+    built = []
+
+    def build():
+        built.append(s.build())
+        return built[-1]
+    sim = compile_once(("ankle_registry", s.key), build)
+    if "protocol.compiled" not in sim.derived:
+        model = built[-1] if built else s.build()  # its shared points (a build without a compile is cheap)
         acc = sim.accounts
         labels = [p for p in POINTS if p not in model.shared_points]
         if len(acc.sensors) != len(labels):
             raise ModelError(f"model {name!r}: {len(acc.sensors)} power sensors {acc.sensors}, expected one per "
-                               f"measurement point {labels}")
+                             f"measurement point {labels}")
         points = dict(zip(labels, acc.sensors))
         points.update({a: points[b] for a, b in model.shared_points.items()})
         stages = {st: (list(acc.stages.get(points[b], [])) if points[a] != points[b] else [])
                   for st, a, b in STAGES}
-        _COMPILED[s.key] = Compiled(sim, points, stages)
-    return _COMPILED[s.key]
+        sim.derived["protocol.compiled"] = Compiled(sim, points, stages)
+    return sim.derived["protocol.compiled"]
 
 
 @dataclass

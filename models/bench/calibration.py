@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acausal import DataError, compile_model
+from acausal import DataError, compile_once
 from acausal.identify import load_recordings
 from acausal.identify.calibrate import Calibration, Experiment, Free, calibrate, rmse_table
 from acausal.identify.smoothing import SmoothingSpline, derivative_spacing, edge_margin
@@ -42,17 +42,13 @@ DEFAULT_SIGNALS = ("motor_current_A", "supply_current_A")
 #: on clean fast strides it does not bring the motor current closer to the noise (measured, see :class:`Split`)
 DRIVER_LIMIT = False
 
-_COMPILED: dict = {}
-
-
 def replay_model(effects=(), driver_limit: bool | None = None):
     """The compiled replay model with ``effects`` (cached per process); ``driver_limit``: the replay knows the
     driver's duty limit (default :data:`DRIVER_LIMIT`)."""
     limit = DRIVER_LIMIT if driver_limit is None else bool(driver_limit)
-    key = (tuple(sorted(effects)), limit)
-    if key not in _COMPILED:
-        _COMPILED[key] = compile_model(AnkleActuator.eq4(mode="replay", effects=key[0], driver_limit=limit))
-    return _COMPILED[key]
+    chosen = tuple(sorted(effects))
+    return compile_once(("ankle_eq4_replay", chosen, limit),
+                        lambda: AnkleActuator.eq4(mode="replay", effects=chosen, driver_limit=limit))
 
 
 def parameter_names(spec) -> list:

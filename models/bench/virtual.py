@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import lfilter
 
-from acausal import DataError, compile_model
+from acausal import DataError, compile_once
 from acausal.results.files import atomic_write_text
 from acausal.identify.recordings import write_manifest, write_recording
 from acausal.simulation.sweep import sweep
@@ -99,9 +99,6 @@ class BenchCondition:
                 raise DataError(f"BenchCondition: {name} must be positive, got {getattr(self, name):g} {unit}")
 
 
-_COMPILED: dict = {}
-
-
 def _check_truth(effects: tuple, truth: dict | None, chain: str | None) -> None:
     """A chain with hidden effects, or an unknown preset: the error, before anything is simulated."""
     if chain is not None and effects:
@@ -113,9 +110,8 @@ def _check_truth(effects: tuple, truth: dict | None, chain: str | None) -> None:
 def _truth_model(effects: tuple, chain: str | None = None):
     if chain is not None:
         return compiled(BENCH).sim
-    if effects not in _COMPILED:
-        _COMPILED[effects] = compile_model(AnkleActuator.eq4(mode="closed_loop", effects=effects))
-    return _COMPILED[effects]
+    return compile_once(("ankle_eq4_closed_loop", tuple(effects)),
+                        lambda: AnkleActuator.eq4(mode="closed_loop", effects=effects))
 
 
 def truth_values(truth: dict | None = None, chain: str | None = None) -> dict:

@@ -14,7 +14,7 @@ recording's position is compared with.
 """
 from __future__ import annotations
 
-from acausal import Model, SampledSignal, compile_model, connect
+from acausal import Model, SampledSignal, compile_once, connect
 from acausal.library.blocks import SignalSource
 from acausal.library.electrical import Ground, PrescribedVoltage
 from acausal.library.rotational import Pendulum
@@ -55,16 +55,11 @@ class ServoPendulum(Model):
             connect(self.pendulum.tau_bias, self.servo.load_torque)
 
 
-_COMPILED: dict = {}
-
-
 def compiled(friction_terms=("coulomb",), effects=(), load_measure: str = "transmitted"):
     """The compiled model with the friction ``terms`` (and their ``load_measure``) and the candidate ``effects``
     put into the servo's slots (:mod:`~.effects` records; cached per process)."""
     from .effects import inserts
 
-    key = (tuple(friction_terms), tuple(effects), load_measure)
-    if key not in _COMPILED:
-        _COMPILED[key] = compile_model(ServoPendulum(friction_terms=key[0], inserts=inserts(key[1]),
-                                                     load_measure=load_measure))
-    return _COMPILED[key]
+    terms, chosen = tuple(friction_terms), tuple(effects)
+    return compile_once(("servo_pendulum", terms, chosen, load_measure),
+                        lambda: ServoPendulum(friction_terms=terms, inserts=inserts(chosen), load_measure=load_measure))
