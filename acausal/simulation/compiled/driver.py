@@ -30,14 +30,12 @@ def integrate(run):
     runner, sig = native_loop.runner_for(cm, u, names)
     if runner is not None:
         try:
-            return native_loop.simulate_native(cm, runner, sig, t_start, run.x0.copy(), t_out, p, run.d.copy(), u,
-                                               *args, run.max_events, run.dense_output, run.starts, nodes)
+            return native_loop.simulate_native(run, runner, sig, nodes)
         except SimulationError:
             pass  # the CasADi path runs it from the start (and says where it fails)
     if cm.event_zeros:
         from .events import simulate_with_events
-        return simulate_with_events(cm, t_start, run.x0.copy(), t_out, p, run.d.copy(), u, *args, run.max_events,
-                                    run.dense_output, run.starts)
+        return simulate_with_events(run)
     x0, d, integrals = run.x0, run.d.copy(), {}
     if dense:
         X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)

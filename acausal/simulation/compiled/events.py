@@ -33,6 +33,8 @@ each function at most once per output interval, and zeroes in on a crossing with
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ...errors import SimulationError
@@ -51,19 +53,21 @@ INTERVAL_HALVINGS = 40  # an output interval no run can cross is gone in parts d
 SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
 
 
-def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
-                         dense_output, starts=None, integrals=None):
-    """The run of a model with state events on the compiled path; returns the Result. ``integrals``: the names
-    integrated as quadratures with the states (default: the energy accounts, with ``dense_output``); the Result
-    runs the same integration again for a name it is asked the energy of that is not among them."""
+def simulate_with_events(run, integrals=None):
+    """The run (:class:`~acausal.simulation.run.Run`) of a model with state events on the compiled path; returns
+    the Result. ``integrals``: the names integrated as quadratures with the states (default: the energy accounts,
+    with ``dense_output``); the Result runs the same integration again for a name it is asked the energy of that is
+    not among them."""
     from ...compile.accounts import account_integrals
     from ...results.result import Result
+    cm, t_start, t_out, p, u, starts = run.cm, run.t_start, run.t_out, run.p, run.u, run.starts
+    rtol, atol, max_step, first_step, max_events = run.rtol, run.atol, run.max_step, run.first_step, run.max_events
+    dense_output, x0, d = run.dense_output, run.x0.copy(), run.d.copy()
     path = cm.compiled_path
     args = (rtol, atol, max_step, first_step)
     if integrals is None:
         integrals = account_integrals(cm.accounts) if dense_output and cm.accounts is not None else []
     names = path.integrable(integrals, u) if integrals else []
-    x_start, d_start = x0, d
     d, x0 = start(cm, t_start, x0, p, d, u, starts)
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
@@ -133,9 +137,7 @@ def simulate_with_events(cm, t_start, x0, t_out, p, d, u, rtol, atol, max_step, 
     def later(more):  # the same run again, those integrated with the states
         if not path.integrable(more, u):  # none has a compiled form: nothing to run again for
             return {}
-        run = simulate_with_events(cm, t_start, x_start, t_out, p, d_start, u, rtol, atol, max_step, first_step,
-                                   max_events, False, starts, integrals=list(more))
-        return run._integrals
+        return simulate_with_events(dataclasses.replace(run, dense_output=False), integrals=list(more))._integrals
 
     return Result(cm, t_out, X, p, u, D, events=events, integrals=Q, more_integrals=later if dense_output else None,
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi; events located between its runs)")

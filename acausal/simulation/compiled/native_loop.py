@@ -39,6 +39,7 @@ integrators. ``ACAUSAL_NATIVE=0`` in the environment keeps every run there.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import os
 from pathlib import Path
 
@@ -296,16 +297,18 @@ FAILURES = {-1: "the solver failed", -2: "a model function failed", -4: f"more t
             -5: "out of memory"}
 
 
-def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, max_events,
-                    dense_output, starts=None, nodes=None):
-    """The run of a model on the native loop (see the module; a model without state events is one segment);
-    returns the Result (``nodes``: its :class:`~acausal.results.result.Result` argument). Raises
-    :class:`SimulationError` where the solver fails (the caller then runs it on the CasADi path)."""
+def simulate_native(run, runner, sig, nodes=None):
+    """The run (:class:`~acausal.simulation.run.Run`) of a model on the native loop, with the ``runner`` and
+    signals ``sig`` of :func:`runner_for` (see the module; a model without state events is one segment); returns
+    the Result (``nodes``: its :class:`~acausal.results.result.Result` argument). Raises :class:`SimulationError`
+    where the solver fails (the caller then runs it on the CasADi path)."""
     from ...results.result import Result
+    cm, t_start, t_out, p, u, starts = run.cm, run.t_start, run.t_out, run.p, run.u, run.starts
+    rtol, atol, max_step, first_step, max_events = run.rtol, run.atol, run.max_step, run.first_step, run.max_events
+    dense_output, x0, d = run.dense_output, run.x0.copy(), run.d.copy()
 
     path = cm.compiled_path
     names = runner.names
-    x_start, d_start = x0, d
     d, x0 = start(cm, t_start, x0, p, d, u, starts)
     n, N = len(x0), t_out.size
     X, D = np.empty((n, N)), np.empty((len(d), N))
@@ -365,9 +368,7 @@ def simulate_native(cm, runner, sig, t_start, x0, t_out, p, d, u, rtol, atol, ma
         again, why = segment_runner(cm, u, more)
         if again is None:
             return {}
-        run = simulate_native(cm, again, why, t_start, x_start, t_out, p, d_start, u, rtol, atol, max_step,
-                              first_step, max_events, False, starts)
-        return run._integrals
+        return simulate_native(dataclasses.replace(run, dense_output=False), again, why)._integrals
 
     located = ", events located in its steps" if cm.event_zeros else ""
     return Result(cm, t_out, X, p, u, D if events else d, events=events, nodes=nodes, integrals=Q,
