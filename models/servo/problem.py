@@ -44,7 +44,7 @@ def candidate(e) -> Candidate:
 CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 
 #: the replays' integrator: RK4 on the recording's own samples (:mod:`acausal.simulation.compiled.fixed_step`), the
-#logged : inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per recording and
+#: logged inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per recording and
 #: model while the fixed step's error exceeds :func:`replay_tolerance` (checked as the fit moves:
 #: :class:`ReplayBatch`). On the XL330 set the baseline's replays with sensitivities take 4 to 8 substeps at a
 #: fifth of the cost of CVODES at rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain)
@@ -52,7 +52,7 @@ CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 SUBSTEPS = 4
 #: the most substeps tried before a recording's replays go to CVODES (:func:`max_substeps`): with the steps in C
 #: (:mod:`acausal.simulation.compiled.native`) RK4 with sensitivities at 128 substeps costs less than half of CVODES at
-#rtol : 1e-5 on an XL330 recording with load friction and play (230 ms against 525 ms, and nearer the tight solution:
+#: rtol 1e-5 on an XL330 recording with load friction and play (230 ms against 525 ms, and nearer the tight solution:
 #: the play's replay at 16 substeps is within 2e-8 rad of one at 256, CVODES within 1.5e-4); on CasADi's virtual
 #: machine RK4 at 16 substeps costs about a third of CVODES, at 32 as much (the play of ``backlash`` takes 8 to 16
 #: with its flanks, ``effects.FLANKS``)
