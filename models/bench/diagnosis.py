@@ -28,7 +28,7 @@ from ..ankle.actuator import WINDING_G
 from ..ankle.presets import N_TOTAL
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT
-from .session import carry_winding, check_session, free_winding_starts, is_session, own_start
+from .session import carry_winding, check_session, free_winding_starts, is_session, own_start, replay_params
 
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
@@ -126,7 +126,7 @@ class AnkleProblem(Problem):
 
     def regressors(self, exp, values: dict) -> dict:
         cm = replay_model(exp.info["effects"])
-        v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params={**exp.info["params"], **values},
+        v = cm.simulate(exp.t[-1], t_start=exp.t[0], t_eval=exp.t, params=replay_params(exp, values),
                         inputs=exp.info["inputs"], dense_output=False)
         w = np.asarray(v["motor.w"])
         i = np.asarray(v["motor.i"])

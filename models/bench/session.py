@@ -39,6 +39,7 @@ from .recording_format import SIGNALS
 
 HEATING = EFFECTS["winding_temperature"].parameter
 EXCESS, START, CONDUCTANCE = "winding_excess", "winding_t0", "winding_G"
+REPLAY_PARAMS = "replay_params"  # an experiment's info key: values -> the parameters its replay runs with
 WINDING_T = "motor.heat_port.T"  # the winding's temperature in the replay model [K]
 
 
@@ -62,6 +63,7 @@ def free_winding_starts(exps) -> None:
             return {**kept, EXCESS: float(values.get(own, 0.0)), START: t0}
 
         e.predict = (lambda values, f=predict, m=mapped: f(m(values)))
+        e.info[REPLAY_PARAMS] = (lambda values, m=mapped, e=e: {**e.info["params"], **m(values)})
         if sensitivity is not None:
             e.sensitivity = (lambda values, names, f=sensitivity, m=mapped, own=own:
                              _own_rows(f, m(values), list(names), own))
@@ -128,6 +130,16 @@ def carry_winding(exps, cm) -> None:
         e.predict = (lambda values, k=k: chain.run(k, values, ())[0])
         e.sensitivity = (lambda values, names, k=k: chain.run(k, values, tuple(names))[:2])
         e.info["session_gap_s"] = chain.gaps[k]
+        e.info[REPLAY_PARAMS] = (lambda values, k=k: chain.params(k, values))
+
+
+def replay_params(exp, values: dict) -> dict:
+    """The parameters recording ``exp``'s replay runs with at the fit's ``values``: its own and the fit's, with its
+    winding start where the winding candidate set one (carried over the session, or its own start parameter); what
+    a report's extra simulation of a recording must take, so that it replays what the fit replayed."""
+    if REPLAY_PARAMS in exp.info:
+        return exp.info[REPLAY_PARAMS](values)
+    return {**exp.info["params"], **values}
 
 
 class _Chain:
@@ -156,6 +168,20 @@ class _Chain:
         if k not in runs:
             runs[k] = self._replay(k, values, names)
         return runs[k]
+
+    def params(self, k: int, values: dict) -> dict:
+        """The parameters recording ``k`` replays with at ``values``: the fit's, with its start temperature."""
+        theta0 = 0.0
+        if k:
+            *_, theta_end, _ = self.run(k - 1, values, ())
+            theta0 = theta_end * self._decay(k, values)
+        return {**self.exps[k].info["params"], **values, EXCESS: theta0, START: float(self.exps[k].t[0])}
+
+    def _decay(self, k, values) -> float:
+        e = self.exps[k]
+        h = float(values.get(HEATING, e.info["params"].get(HEATING, EFFECTS["winding_temperature"].typical)))
+        G = float(values.get(CONDUCTANCE, e.info["params"].get(CONDUCTANCE, WINDING_G)))
+        return float(np.exp(-self.gaps[k] * G * h))
 
     def _replay(self, k, values, names):
         e = self.exps[k]

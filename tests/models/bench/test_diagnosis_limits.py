@@ -179,10 +179,14 @@ def test_winding_warming_without_session_times_is_named_with_a_start_temperature
         del meta["session_time_s"]
         js.write_text(json.dumps(meta))
     (tmp_path / "manifest.json").unlink()
-    d, _ = diagnosis.run(tmp_path, max_effects=1)
+    d, problem = diagnosis.run(tmp_path, max_effects=1)
     assert d.causes == ["winding_temperature"], d.to_dict()["steps"]
     h, sd = d.final.values["winding_heating"], d.final.cal.std["winding_heating"]
     assert abs(h - 0.1) < 3 * sd, (h, sd)
+    # the report replays each recording from its own start (its residual analysis once failed on the per-recording
+    # start parameters, "unknown parameter 'winding_excess@S00...'")
+    write_report(tmp_path / "out", d, problem, "virtual bench")
+    assert "**Verdict: `winding_temperature`**" in (tmp_path / "out" / "report.md").read_text()
     starts = [d.final.values[f"winding_excess@{e.name}"] for e in d.final.exps]
     # only their rise is seen: a common offset of every start is a higher R
     assert starts[-1] - starts[0] > 10.0 and all(b > a - 1.0 for a, b in zip(starts, starts[1:])), starts
