@@ -85,14 +85,16 @@ class Component:
         for key, value in values.items():
             d = decl.get(key)
             if isinstance(d, Parameter):
-                if isinstance(value, (str, bytes, bool)):  # "0.5" would be parsed, True taken as 1
-                    raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is a "
-                                     f"{type(value).__name__}; give a number [{d.unit}] or an expression of "
-                                     f"parameters")
+                if isinstance(value, (str, bytes, bool, np.bool_)) or \
+                        (isinstance(value, np.ndarray) and value.dtype.kind in "bSUO"):  # "0.5" parsed, True as 1
+                    kind = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else \
+                        f"a {'bool' if isinstance(value, np.bool_) else type(value).__name__}"
+                    raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is {kind}; give a "
+                                     f"number [{d.unit}] or an expression of parameters")
                 if isinstance(value, sp.Basic) and value.is_number and not (value.is_real and value.is_finite):
                     raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value} is not a finite real "
                                      f"number [{d.unit}]")
-                if isinstance(value, (int, float)) and not _within(d, value):  # refused where it is given
+                if isinstance(value, (int, float, np.integer, np.floating)) and not _within(d, float(value)):
                     raise ModelError(f"{type(self).__name__}: parameter {key!r} = {value!r} is "
                                      + ("not finite" if value != value or abs(value) == float("inf") else
                                         _outside(d.min, d.max, d.unit)))

@@ -16,9 +16,11 @@ def sim():
     return compile_model(RC(v_ref=1.0))
 
 
-@pytest.mark.parametrize("value", ["0.5", "0.5 ohm", True, b"1"])
+@pytest.mark.parametrize("value", ["0.5", "0.5 ohm", True, b"1", np.True_, np.array([True, False])])
 def test_a_component_refuses_a_parameter_that_is_not_a_number(value):
-    with pytest.raises(ModelError, match=r"Resistor: parameter 'R' = .* is a (str|bool|bytes); give a number \[Ohm\]"):
+    """numpy's bool too (it was a 1 ohm resistor that described itself as ``R = True Ohm``)."""
+    with pytest.raises(ModelError, match=r"Resistor: parameter 'R' = .* is (a str|a bool|a bytes|an array of bool); "
+                                         r"give a number \[Ohm\]"):
         Resistor(R=value)
 
 
@@ -43,7 +45,9 @@ def test_numpy_numbers_are_numbers(sim):
 
 
 @pytest.mark.parametrize("value, why", [(-0.4, r"outside its bounds \[0.0, inf\] Ohm"), (float("nan"), "not finite"),
-                                        (float("inf"), "not finite")])
+                                        (float("inf"), "not finite"),
+                                        (np.int64(-1), r"outside its bounds \[0.0, inf\] Ohm"),
+                                        (np.float32(np.nan), "not finite")])
 def test_a_number_outside_the_bounds_is_refused_where_it_is_given(value, why):
     with pytest.raises(ModelError, match=rf"Resistor: parameter 'R' = .* is {why}"):
         Resistor(R=value)
