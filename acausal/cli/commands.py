@@ -28,8 +28,8 @@ import sys
 import time
 from pathlib import Path
 
-from .values import (check_bench_folder, check_file_input, check_file_output, check_outputs, number, pairs,
-                     whole_number)
+from .values import (check_beside_report, check_bench_folder, check_file_input, check_file_output, check_outputs,
+                     number, pairs, whole_number)
 from ..results.files import atomic_write_text
 
 
@@ -149,6 +149,7 @@ DIAGNOSE_MODELS = ("ankle", "servo_pendulum")
 def cmd_diagnose(args) -> int:
     check_outputs(args.data, out=args.out, json=args.json)
     check_file_output(args.json, "--json")
+    check_beside_report(args.json, "--json", args.out)
     out = Path(args.out)
     candidates = None
     if args.candidates is not None:

@@ -70,6 +70,21 @@ def check_file_output(path, flag: str) -> None:
         raise DataError(f"{flag} {path}: is a folder; give a file path (e.g. {Path(path) / 'verdict.json'})")
 
 
+#: the kinds of file a report writes into its --out folder
+REPORT_SUFFIXES = (".md", ".png", ".csv", ".html")
+
+
+def check_beside_report(path, flag: str, out) -> None:
+    """An option's output file inside the ``--out`` folder must not be a file of the kind the report writes there
+    (``report.md``, its figures and tables): one output would silently replace another."""
+    if path is None or out is None:
+        return
+    p, folder = Path(path).resolve(), Path(out).resolve()
+    if p.parent == folder and p.suffix.lower() in REPORT_SUFFIXES:
+        raise DataError(f"{flag} {path}: inside --out {out}, where the report writes its {', '.join(REPORT_SUFFIXES)} "
+                        f"files (one would replace the other); give another name, e.g. {folder / 'verdict.json'}")
+
+
 def check_file_input(path, flag: str, what: str) -> None:
     """An option's input file must be there (checked before any work); ``what`` says which file it takes."""
     if path is not None and not Path(path).is_file():

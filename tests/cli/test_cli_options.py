@@ -62,3 +62,15 @@ def test_fit_options_are_checked(extra, message, bench_set, tmp_path, capsys):
 def test_diagnose_refuses_no_effects(bench_set, tmp_path, capsys):
     _fails(["diagnose", str(bench_set), "--out", str(tmp_path / "d"), "--max-effects", "0"], capsys,
            "--max-effects takes a whole number >= 1, got '0'")
+
+
+@pytest.mark.parametrize("model", ["ankle", "servo_pendulum"])
+def test_a_json_that_would_replace_the_report_is_refused(model, tmp_path, capsys):
+    """``--json OUT/report.md`` replaced the markdown report while the command said ``report: OUT/report.md``;
+    refused before any work (the data folder is not even read), naming the option and a name that works."""
+    out = tmp_path / "o"
+    argv = ["diagnose", str(tmp_path / "data"), "--out", str(out), "--json", str(out / "report.md")]
+    if model != "ankle":
+        argv += ["--model", model]
+    _fails(argv, capsys, f"--json {out / 'report.md'}: inside --out {out}, where the report writes")
+    assert not out.exists()
