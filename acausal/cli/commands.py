@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 from .values import (check_beside_report, check_bench_folder, check_file_input, check_file_output, check_outputs,
-                     number, pairs, whole_number)
+                     clear_completion_mark, number, pairs, whole_number)
 from ..results.files import atomic_write_text
 
 
@@ -41,6 +41,7 @@ def cmd_paper(args) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    clear_completion_mark(out)
     t0 = time.perf_counter()
     conditions = report.paper_conditions(quick=args.quick)
     jobs = args.jobs or os.cpu_count() or 1
@@ -127,6 +128,7 @@ def cmd_fit(args) -> int:
     out = Path(args.out)
     weights = {k: number(v, f"--weight {k}={v}") for k, v in pairs(args.weight, "--weight")}
     signals = [s.strip() for s in args.signals.split(",") if s.strip()]
+    clear_completion_mark(out)
     cal, exps = calibration.fit(args.data, args.params, signals=signals, weights=weights,
                                 split=calibration.Split(holdout_every=args.holdout_every))
     res = fit_outputs(out, cal, exps, f"recordings in `{args.data}`")
@@ -158,6 +160,7 @@ def cmd_diagnose(args) -> int:
             from acausal import DataError
             raise DataError(f"--candidates {args.candidates!r} names no candidate; leave it out to try them all")
     progress = None if args.no_progress else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
+    clear_completion_mark(out)
     if args.model == "servo_pendulum":
         d = _diagnose_servo(args, out, candidates, progress)
     elif args.candidate or args.candidates_file:

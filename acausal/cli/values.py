@@ -85,6 +85,18 @@ def check_beside_report(path, flag: str, out) -> None:
                         f"files (one would replace the other); give another name, e.g. {folder / 'verdict.json'}")
 
 
+#: the file a run writes last into its --out folder: a folder without it holds no complete run
+COMPLETION_MARK = "report.md"
+
+
+def clear_completion_mark(out) -> None:
+    """Remove an earlier run's ``report.md`` from ``out`` before this run writes anything there, so that a run that
+    stops half-way leaves a folder that says it is incomplete (no report), never an old report beside new files."""
+    mark = Path(out) / COMPLETION_MARK
+    if mark.is_file():
+        mark.unlink()
+
+
 def check_file_input(path, flag: str, what: str) -> None:
     """An option's input file must be there (checked before any work); ``what`` says which file it takes."""
     if path is not None and not Path(path).is_file():

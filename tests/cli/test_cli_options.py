@@ -74,3 +74,24 @@ def test_a_json_that_would_replace_the_report_is_refused(model, tmp_path, capsys
         argv += ["--model", model]
     _fails(argv, capsys, f"--json {out / 'report.md'}: inside --out {out}, where the report writes")
     assert not out.exists()
+
+
+@pytest.mark.slow
+def test_a_run_that_stops_half_way_leaves_no_earlier_report_beside_its_files(bench_set, tmp_path, monkeypatch,
+                                                                             capsys):
+    """A fit into a folder that holds an earlier run, stopped after its first new file: the earlier report.md (the
+    folder's completion mark) is gone, so the folder says it is incomplete instead of looking complete."""
+    from acausal.models.bench import fit_report
+
+    out = tmp_path / "fit"
+    assert main(["fit", str(bench_set), "--out", str(out)]) == 0
+    earlier = (out / "report.md").read_text()
+    assert "motor.R" in earlier
+
+    def stops(folder, *args, **kwargs):
+        (folder / "calibration.csv").write_text("parameter,value\nmotor.R,0.899\n")
+        raise KeyboardInterrupt
+    monkeypatch.setattr(fit_report, "fit_outputs", stops)
+    with pytest.raises(KeyboardInterrupt):
+        main(["fit", str(bench_set), "--out", str(out)])
+    assert not (out / "report.md").exists() and (out / "calibration.csv").exists()
