@@ -59,9 +59,19 @@ def _trend(results, key, along: str, duty: dict) -> str:
                         else "falls" if np.all(d < 0) else "mixed")
     if not verdicts:
         return "not determined"
+    return trend_verdict(verdicts)
+
+
+def trend_verdict(verdicts: list) -> str:
+    """The rows' and columns' trends in one phrase: the trend most of them share (``"grows (4 of 6
+    rows/columns)"``), or, where none holds a majority, each with its count, most first and ties by name
+    (``"no majority (grows 3, mixed 3 of 6 rows/columns)"``): never a tie broken by the order of a set."""
     n = len(verdicts)
-    best = max(set(verdicts), key=verdicts.count)
-    return f"{best} ({verdicts.count(best)} of {n} rows/columns)"
+    ranked = sorted(((v, verdicts.count(v)) for v in set(verdicts)), key=lambda vc: (-vc[1], vc[0]))
+    best, k = ranked[0]
+    if 2 * k > n:
+        return f"{best} ({k} of {n} rows/columns)"
+    return f"no majority ({', '.join(f'{v} {c}' for v, c in ranked)} of {n} rows/columns)"
 
 
 def main(out_dir: Path, results=None) -> dict:

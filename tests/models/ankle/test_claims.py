@@ -168,3 +168,14 @@ def test_fig7_claim_reads_its_own_preset(tmp_path):
 def test_missing_files_are_not_checked(tmp_path):
     got = {c["id"]: c["holds"] for c in evaluate(tmp_path)}
     assert set(got.values()) == {"not checked"}
+
+
+def test_a_trend_tie_is_said_as_a_tie_whatever_the_order():
+    """Fig. 11's row said "mixed (3 of 6)" or "grows (3 of 6)" by the hash seed (a tie broken by set order), and
+    "grows (3 of 6)" read as a majority."""
+    from acausal.models.ankle.figures.fig09_12_losses import trend_verdict
+    tie = ["grows", "mixed", "grows", "mixed", "mixed", "grows"]
+    assert trend_verdict(tie) == trend_verdict(tie[::-1]) == "no majority (grows 3, mixed 3 of 6 rows/columns)"
+    assert trend_verdict(["grows"] * 4 + ["falls", "mixed"]) == "grows (4 of 6 rows/columns)"
+    assert trend_verdict(["grows", "grows", "falls", "mixed"]) == "no majority (grows 2, falls 1, mixed 1 of 4 " \
+                                                                  "rows/columns)"
