@@ -95,3 +95,14 @@ def test_a_run_that_stops_half_way_leaves_no_earlier_report_beside_its_files(ben
     with pytest.raises(KeyboardInterrupt):
         main(["fit", str(bench_set), "--out", str(out)])
     assert not (out / "report.md").exists() and (out / "calibration.csv").exists()
+
+
+def test_export_without_a_compiler_names_the_commands_own_options(tmp_path, monkeypatch, capsys):
+    """Without a C compiler the command's remedy is its own options (``--compiler``, ``--no-binary``), not the
+    Python call's ``compiler=`` / ``binary=False``; with ``--no-binary`` the source FMU is written."""
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    err = _fails(["export", "tests.drive_models:MotorGearLoad", "--fmu", str(tmp_path / "m.fmu")], capsys,
+                 "export with --no-binary for a source-only FMU")
+    assert "binary=False" not in err and "compiler=" not in err
+    assert main(["export", "tests.drive_models:MotorGearLoad", "--fmu", str(tmp_path / "m.fmu"), "--no-binary"]) == 0
+    assert (tmp_path / "m.fmu").stat().st_size > 1000
