@@ -85,6 +85,11 @@ class Component:
         for key, value in values.items():
             d = decl.get(key)
             if isinstance(d, Parameter):
+                if value is None:  # not "no value": the class may have a default the user did not mean to drop
+                    has = d.default is not None
+                    raise ModelError(f"{type(self).__name__}: parameter {key!r} = None; give a number [{d.unit}]"
+                                     + (f" or leave it out for its default {d.default!r} {d.unit}" if has else
+                                        " (it has no default)"))
                 if isinstance(value, (str, bytes, bool, np.bool_)) or \
                         (isinstance(value, np.ndarray) and value.dtype.kind in "bSUO"):  # "0.5" parsed, True as 1
                     kind = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else \

@@ -58,3 +58,10 @@ def test_the_energy_of_a_component_is_the_power_into_it_through_all_its_ports(si
     the same name already)."""
     res = sim.simulate(1.0, rtol=1e-10, atol=1e-12)
     assert res.energy("R")[-1] == pytest.approx(res.energy("R.loss_power")[-1], rel=1e-6)
+
+
+def test_none_for_a_parameter_is_refused_naming_its_default():
+    """``Resistor(R=None)`` said "no value and no default" at compile time, though the default is 1 ohm."""
+    with pytest.raises(ModelError, match=r"Resistor: parameter 'R' = None; give a number \[Ohm\] or leave it out for "
+                                         r"its default 1.0 Ohm"):
+        Resistor(R=None)
