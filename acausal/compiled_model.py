@@ -100,14 +100,22 @@ class CompiledModel:
 
     def simulation_path(self, inputs: dict | None = None) -> str:
         """Which path :meth:`simulate` takes by default for a run with ``inputs`` (the model's own when None), and
-        why: ``"compiled (CasADi CVODES)"`` or ``"scipy LSODA: <reason>"``."""
+        why: ``"compiled (native loop: CVODES in C)"``, ``"compiled (CasADi CVODES)"`` or ``"scipy LSODA:
+        <reason>"``. The native loop is asked as a default run asks it (building the model's library for it, once
+        per machine, where it is not built yet)."""
         from .simulation import choose_path
         u = self.input_tuple(inputs)
         if not self.state_names:
             from .simulation.algebraic import SOLVER
             return SOLVER
         method, why = choose_path(self, "auto", u, 1e-6, 1e-9)
-        return f"compiled (CasADi {self.compiled_path.integrator_name(u)})" if not why else f"scipy {method}: {why}"
+        if why:
+            return f"scipy {method}: {why}"
+        from .compile.accounts import account_integrals
+        from .simulation.compiled import native_loop
+        name = self.compiled_path.integrator_name(u)
+        runner, _ = native_loop.runner_for(self, u, account_integrals(self.accounts) if self.accounts else [])
+        return f"compiled (native loop: {name} in C)" if runner is not None else f"compiled (CasADi {name})"
 
     # ------------------------------------------------------------------ names and values
     @property
