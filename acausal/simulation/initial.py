@@ -47,6 +47,8 @@ def initialize(cm, t0, p, d, u, starts: dict | None = None) -> np.ndarray:
             if k not in names:
                 raise cm.unknown_name_error(k, "variable", sorted(names))
             starts[k] = number(v, f"start value of {k!r}")
+            if not np.isfinite(starts[k]):
+                raise ModelError(f"starts={{{k!r}: {starts[k]}}}: the start value of {k!r} must be a finite number")
     x = np.empty(len(cm.state_names))
     fixed_state = np.zeros(len(cm.state_names), dtype=bool)
     for i, n in enumerate(cm.state_names):

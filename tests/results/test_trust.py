@@ -220,6 +220,11 @@ def test_a_nan_start_or_output_time_is_refused_by_name():
         cm.simulate(1.0, t_eval=[0.0, np.nan, 1.0])
     with pytest.raises(ModelError, match=r"the start value of 'C.v' is nan \(its Start\(...\) in the model\)"):
         compile_model(_NanStart()).simulate(1.0)
+    # given in starts=: said so, for a state and for a variable that is not one (the latter named nothing)
+    for name in ("C.v", "R.i"):
+        with pytest.raises(ModelError, match=rf"starts={{'{name}': nan}}: the start value of '{name}' must be a "
+                                             "finite number"):
+            cm.simulate(1.0, starts={name: float("nan")})
 
 
 def test_a_pendulum_beside_an_unconnected_fixed_flange_is_accepted():
