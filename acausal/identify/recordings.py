@@ -22,6 +22,7 @@ incomplete, lists other files or other contents. Every file is written atomicall
 """
 from __future__ import annotations
 
+import csv
 import difflib
 import io
 import json
@@ -393,7 +394,8 @@ def _parse_csv(path: Path, fmt: RecordingFormat):
                 if sep in header_line:
                     raise DataError(f"{path}, line 1: the columns are separated by {label}; the format wants "
                                     "comma-separated values (CSV with ',')")
-        header = [h.strip() for h in header_line.rstrip("\r\n").split(",")]
+        # a spreadsheet quotes the names ("time_s",...): read as CSV, not split at every comma
+        header = [h.strip() for h in next(csv.reader([header_line.rstrip("\r\n")]))]
         _check_header(path, header, fmt)
         body = fh.read()
     try:

@@ -252,3 +252,11 @@ def test_design_map_dask_equals_in_process():
     for key in serial.values:
         np.testing.assert_allclose(serial.values[key], remote.values[key], rtol=1e-12, atol=1e-300)
     assert np.isfinite(serial.values["efficiency"]).all()
+
+
+def test_a_header_with_quoted_names_is_read(one):
+    """Spreadsheets quote the names of a CSV's header ("time_s",...): they said "'time_s' is missing"."""
+    plain = load_recording(one, ANKLE_FORMAT)
+    _rewrite_csv(one, lambda ls: [",".join(f'"{h}"' for h in ls[0].split(","))] + ls[1:])
+    quoted = load_recording(one, ANKLE_FORMAT)
+    assert quoted.t.tobytes() == plain.t.tobytes() and len(quoted) == len(plain)
