@@ -324,19 +324,12 @@ def cmd_export(args) -> int:
             raise ModelError(f"--set {name}: {cm.unknown_name_error(name, 'parameter', cm.param_names)}")
     params.update(sets)
     cm.param_vector(params)  # bounds and bindings checked before any C is written
-    from acausal.export import ExportError
-    try:
-        path = export_fmu(cm, args.fmu, params=params, doc=doc, binary=not args.no_binary, compiler=args.compiler,
-                          identifier=args.identifier)
-    except ExportError as err:
-        if args.no_binary or "C compiler" not in str(err) or "was not found" not in str(err) and \
-                "no C compiler found" not in str(err):
-            raise
-        # the Python call's remedies (compiler=, binary=False) said as this command's options
-        said = str(err).replace("name it with compiler= or CC, or export with binary=False for a source-only FMU",
-                                "give one with --compiler PATH or CC")
-        raise ExportError(f"{said}; or export with --no-binary for a source-only FMU (the importing tool compiles "
-                          "its sources/)") from None
+    if not args.no_binary:  # the remedy in this command's options, not the Python call's
+        from acausal.export.fmu import find_compiler
+        find_compiler(args.compiler, remedy="give one with --compiler PATH or CC, or export with --no-binary for a "
+                                            "source-only FMU (the importing tool compiles its sources/)")
+    path = export_fmu(cm, args.fmu, params=params, doc=doc, binary=not args.no_binary, compiler=args.compiler,
+                      identifier=args.identifier)
     print(f"{path}: FMI 2.0 Model Exchange, {len(cm.state_names)} states, {len(cm.param_names)} parameters, "
           f"{len(cm.names())} outputs, {len(cm.event_zeros)} event indicators"
           + ("" if args.no_binary else ", binary for this platform"))

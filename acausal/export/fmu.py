@@ -38,18 +38,23 @@ def platform_folder() -> tuple:
                       "sources/")
 
 
-def find_compiler(compiler: str | None = None) -> str:
+#: what to do without a compiler, in the words of the Python call (the command line passes its own options')
+REMEDY = "name it with compiler= or CC, or export with binary=False for a source-only FMU"
+
+
+def find_compiler(compiler: str | None = None, remedy: str = REMEDY) -> str:
     """The C compiler to use (:func:`acausal.backends.ccompiler.which_compiler`: ``compiler``, else ``$CC``, else the
-    first of its list on the PATH); an :class:`ExportError` saying what to install when there is none."""
+    first of its list on the PATH); an :class:`ExportError` saying what to install and ``remedy`` when there is
+    none."""
     found, origin = which_compiler(compiler)
     if found:
         return found
     if origin:
-        raise ExportError(f"the C compiler {compiler or os.environ.get('CC')!r} ({origin}) was not found on the PATH")
+        raise ExportError(f"the C compiler {compiler or os.environ.get('CC')!r} ({origin}) was not found on the PATH; "
+                          + remedy)
     raise ExportError("no C compiler found (looked for $CC, " + ", ".join(COMPILERS) + " on the PATH): an FMU's "
                       "binary is compiled from generated C. Install one (Debian/Ubuntu: apt-get install gcc; "
-                      "Fedora: dnf install gcc; macOS: xcode-select --install), name it with compiler= or CC, or "
-                      "export with binary=False for a source-only FMU")
+                      "Fedora: dnf install gcc; macOS: xcode-select --install), " + remedy)
 
 
 def compiler_fault(cc: str, given: str | None, tmp: Path) -> str | None:
