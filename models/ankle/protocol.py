@@ -110,14 +110,9 @@ def compiled(name: str) -> Compiled:
     """The compiled model of registered model ``name`` (compiled once per process; shared by models with the
     same build key), with the measurement points found from its power sensors."""
     s = spec(name)
-    built = []
-
-    def build():
-        built.append(s.build())
-        return built[-1]
-    sim = compile_once(("ankle_registry", s.key), build)
+    sim = compile_once(("ankle_registry", s.key), s.build)
     if "protocol.compiled" not in sim.derived:
-        model = built[-1] if built else s.build()  # its shared points (a build without a compile is cheap)
+        model = s.build()  # its shared points (an instance, not compiled: cheap)
         acc = sim.accounts
         labels = [p for p in POINTS if p not in model.shared_points]
         if len(acc.sensors) != len(labels):
