@@ -1,10 +1,10 @@
-"""One home for a run (issue 38): a checked, frozen :class:`~.run.Run` (model, parameter vector, inputs, modes,
-consistent start, tolerances, output grid), the choice of the backend that integrates it
+"""Stage 5, the simulation: one home for a run, a checked, frozen :class:`~.run.Run` (model, parameter vector,
+inputs, modes, consistent start, tolerances, output grid), the choice of the backend that integrates it
 (:func:`~.choose.choose_path`, shared by ``simulate``, ``simulate_many``, ``sensitivities`` and
-``CompiledModel.simulation_path``), and one driver per backend, each ``integrate(run, ...) -> Result``:
-:mod:`.scipy_driver` (scipy's integrators, stepped with state events), :mod:`.compiled_driver` (CasADi CVODES/IDAS,
-:mod:`acausal.simulation.compiled`) and :mod:`.algebraic` (a model without states).
-:func:`acausal.simulation.simulate.simulate` reads: validate -> Run -> choose -> integrate -> trust check."""
+``CompiledModel.simulation_path``), and one driver per backend: :mod:`.scipy` (scipy's integrators, stepped with
+state events), :mod:`.compiled` (CasADi CVODES/IDAS, or SUNDIALS from C in the native loop) and :mod:`.algebraic`
+(a model without states). :func:`acausal.simulation.simulate.simulate` reads: validate -> Run -> choose ->
+integrate -> trust check."""
 from .choose import COMPILED, FALLBACK, ROBUST, choose_path
 from .initial import initialize
 from .run import Run, check_finite_times, check_run, check_tolerances, prepare

@@ -320,7 +320,7 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           "- [`claims.csv`](claims.csv): the paper's claims, the simulated value and whether each holds."]
     L += ["- [`power_traces.csv`](power_traces.csv): power at the five points over the evaluated stride, per bench "
           "condition of both presets."] if traces else []
-    from ..reporting.explorer import write_index  # issue 40: the page reads the CSVs written above
+    from ..reporting.explorer import write_index  # the page reads the CSVs written above
     L += [write_index(out_dir)]
     for o in outputs:
         for f in [*o.get("figures", []), *o.get("csv", [])]:

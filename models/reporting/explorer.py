@@ -1,4 +1,4 @@
-"""The energy-chain explorer (issue 40): ``acausal paper --out DIR`` writes ``DIR/index.html`` and ``acausal compare
+"""The energy-chain explorer: ``acausal paper --out DIR`` writes ``DIR/index.html`` and ``acausal compare
 ... --html`` ``DIR/index.html``, one self-contained page each (:mod:`acausal.results.html`: plotly.js inline, the data
 embedded, opens from the file system, offline).
 
