@@ -9,6 +9,7 @@ from __future__ import annotations
 import ast
 import importlib
 import re
+import shutil
 import warnings
 from pathlib import Path
 
@@ -155,3 +156,26 @@ def test_an_old_module_path_still_imports_and_names_the_new_one(old):
         assert module.accounts is accounts and module.Balance is Balance
     else:
         assert module is importlib.import_module(MOVED[old])
+
+
+def test_every_package_folder_is_a_package_that_git_keeps():
+    """Each folder the distribution ships (pyproject's ``packages``) holds an ``__init__.py`` that git tracks and no
+    ignore rule hides: a clean clone (and a wheel built from one) sees the same packages as this checkout."""
+    import subprocess
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    folders = project["package-dir"]
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout: which files git keeps cannot be asked")
+    tracked = set(subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True,
+                                 check=True).stdout.split())
+    data_only = {"acausal.export.templates", "acausal.library.data"}
+    missing = []
+    for package in project["packages"]:
+        if package in data_only or ".data." in package:
+            continue
+        init = f"{folders.get(package, package.replace('.', '/'))}/__init__.py"
+        if init not in tracked:
+            missing.append(init)
+    assert not missing, f"not in git (ignored or never added): {missing}"
