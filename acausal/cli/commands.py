@@ -130,7 +130,7 @@ def cmd_fit(args) -> int:
     signals = [s.strip() for s in args.signals.split(",") if s.strip()]
     clear_completion_mark(out)
     cal, exps = calibration.fit(args.data, args.params, signals=signals, weights=weights,
-                                split=calibration.Split(holdout_every=args.holdout_every))
+                                split=calibration.Split(holdout_every=args.holdout_every), strict=args.strict)
     res = fit_outputs(out, cal, exps, f"recordings in `{args.data}`")
     warned = "".join(f"- {w}\n" for w in cal.warnings)
     atomic_write_text(out / "report.md", f"# {res['title']}\n\n"  # written last: the folder's completion mark
@@ -178,7 +178,8 @@ def cmd_diagnose(args) -> int:
         from acausal.models.bench.diagnosis_report import write_json, write_report
 
         d, problem = diagnosis.run(args.data, split=diagnosis.Split(holdout_every=args.holdout_every),
-                                   max_effects=args.max_effects, candidates=candidates, progress=progress)
+                                   max_effects=args.max_effects, candidates=candidates, progress=progress,
+                                   strict=args.strict)
         write_report(out, d, problem, f"recordings in `{args.data}`")
         if args.json:
             write_json(args.json, d)
@@ -210,7 +211,7 @@ def cmd_check(args) -> int:
     """What a set of recordings can show before anything is fitted (servo_pendulum)."""
     from acausal.models.servo import support  # the CLI wires verbs to models (design rule exception)
 
-    print(support.report(support.survey(args.data)))
+    print(support.report(support.survey(args.data, strict=args.strict)))
     return 0
 
 
@@ -229,7 +230,7 @@ def _diagnose_servo(args, out: Path, candidates, progress):
     t0 = time.perf_counter()
     with process_pool(args.jobs or os.cpu_count() or 1) as pool:
         d, problem = servo.run(args.data, split=split, max_effects=args.max_effects, candidates=candidates,
-                               progress=progress, executor=pool, extra=extra)
+                               progress=progress, executor=pool, extra=extra, strict=args.strict)
         bam_rows = bam.replay_all(problem.recordings, pool) if args.bam else None
         elapsed = time.perf_counter() - t0
         write_report(out, d, problem, f"recordings in `{args.data}`", bam_rows, elapsed=elapsed)  # replays too
@@ -410,6 +411,9 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--holdout-every", type=whole_number("--holdout-every"), default=3,
                      help="hold out every n-th stride (default 3)")
     fit.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
+    fit.add_argument("--strict", action="store_true", help="refuse a recording with a sample that cannot be physical (a dropout, a glitch, a "
+                    "repeated time stamp, an empty cell), naming file, line and column; by default such samples "
+                    "are masked, named in the report and left out of the fit")
     fit.set_defaults(run=cmd_fit)
     from acausal.models.drivetrains import compare  # the CLI wires verbs to models (design rule exception)
     cmp = sub.add_parser("compare", help="run alternative drive trains side by side (energy chain, limits, Sankey)")
@@ -435,6 +439,9 @@ def build_parser() -> argparse.ArgumentParser:
     ck.add_argument("data", help="folder of recordings (NAME.csv + NAME.json)")
     ck.add_argument("--model", choices=("servo_pendulum",), default="servo_pendulum",
                     help="which model the recordings are of (servo_pendulum)")
+    ck.add_argument("--strict", action="store_true", help="refuse a recording with a sample that cannot be physical (a dropout, a glitch, a "
+                    "repeated time stamp, an empty cell), naming file, line and column; by default such samples "
+                    "are masked, named in the report and left out of the fit")
     ck.set_defaults(run=cmd_check)
     dg = sub.add_parser("diagnose", help="calibrate a baseline model on recordings (the ankle's Eq. 4 model, or "
                         "--model servo_pendulum), show its residuals, name the missing effect, extend the model and "
@@ -442,6 +449,9 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("data", help="folder of recordings")
     dg.add_argument("--out", required=True, help="output folder (report.md, CSV, figures)")
     dg.add_argument("--json", help="also write the machine-readable verdict to this file")
+    dg.add_argument("--strict", action="store_true", help="refuse a recording with a sample that cannot be physical (a dropout, a glitch, a "
+                    "repeated time stamp, an empty cell), naming file, line and column; by default such samples "
+                    "are masked, named in the report and left out of the fit")
     dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all)")
     dg.add_argument("--max-effects", type=whole_number("--max-effects"), default=None,
                     help="effects to name at most (default: as many as the evidence supports; a significant "

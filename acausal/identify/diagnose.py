@@ -67,6 +67,7 @@ from ..errors import AcausalError, DataError
 from .calibrate import Free, calibrate, jacobian, residual_vector
 from .evidence import _cos, confusable, detection_limits, drift
 from .analysis import residual_analysis  # noqa: F401  (part of this module's interface)
+from .recordings import screening_warnings
 from .residuals import leave_one_group_out
 from .screening import screen as screen_fit
 from .verdict import Candidate, CandidateScore, Diagnosis, Fit, Problem, Step, Thresholds  # noqa: F401  (interface)
@@ -331,7 +332,9 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                 d.suspects.setdefault(cid, []).append(param)
     if len(causes) >= limit and steps and steps[-1].kind == "gain":
         d.left_out = [sc.id for sc in steps[-1].scores if sc.significant and sc.id not in causes]
-    d.warnings = screen(problem, d.final, scales, thresholds) + oversized(problem, d.final, causes, thresholds) + optima
+    d.screening = problem.screening()
+    d.warnings = (screening_warnings(d.screening) + screen(problem, d.final, scales, thresholds)
+                  + oversized(problem, d.final, causes, thresholds) + optima)
     for cid, params in d.suspects.items():
         d.warnings.append(f"{', '.join(params)} drift{'s' if len(params) == 1 else ''} over the session and "
                           f"{cid} explains such a drift, but it could not be named from these recordings: "

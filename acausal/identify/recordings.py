@@ -1,19 +1,23 @@
-"""Measured recordings: a declared file format, a strict loader and a writer.
+"""Measured recordings: a declared file format, a loader that checks and screens, and a writer.
 
 A *recording set* is a folder; each experiment is a pair ``NAME.csv`` (one header row, then rows of floats,
 columns in any order, SI units in the column names) plus ``NAME.json`` (the experiment's settings). What the
 columns and keys are is declared by a :class:`RecordingFormat` (the ankle actuator's is in
-``acausal.models.recording_format``); this module knows no model.
+``acausal.models.bench.recording_format``); this module knows no model.
 
-The loader checks everything and answers bad input with a :class:`~acausal.errors.DataError` naming the file,
-the line and the column or key: missing or misspelled columns (with the closest known name), a column in an
-unknown unit (``time_ms`` where ``time_s`` is declared), values that are not numbers, NaN or inf, time that is
-not strictly increasing (duplicated or going back), JSON that misses a required key, has an unknown key, a value
-of the wrong type or a non-positive value where a positive one is required, and CSV and JSON files that do not
-pair up. Nothing is dropped or guessed: extra CSV columns are kept (``Recording.extra``) and otherwise ignored.
-A file separated by semicolons or tabs is named as such; extensions may be upper-case. A JSON key given twice is
-an error (a parser would silently keep the last value), and so is a gap in time wider than
-``RecordingFormat.max_gap`` median sample intervals (rows dropped: a smoothed replay cannot bridge them).
+The loader answers bad input with a :class:`~acausal.errors.DataError` naming the file, the line and the column or
+key: missing or misspelled columns (with the closest known name), a column in an unknown unit (``time_ms`` where
+``time_s`` is declared), cells that are not numbers, JSON that misses a required key, has an unknown key, a value
+of the wrong type or a non-positive value where a positive one is required, CSV and JSON files that do not pair
+up, and a recording the format's checks find implausible as a whole (a unit slip, a dead sensor). Nothing is
+guessed: extra CSV columns are kept (``Recording.extra``) and otherwise ignored. A file separated by semicolons or
+tabs is named as such; extensions may be upper-case. A JSON key given twice is an error (a parser would silently
+keep the last value), and so is a gap in time wider than ``RecordingFormat.max_gap`` median sample intervals (rows
+dropped: a smoothed replay cannot bridge them).
+
+Samples as real loggers write them (a dropout row, an encoder read error, a repeated time stamp, an empty cell)
+are screened (:mod:`~.masking`): masked and named in ``Recording.masked``, the recording kept; one too damaged to
+use is left out of the set with the reason (``RecordingSet.left_out``); ``strict=True`` refuses them instead.
 
 Torn and mixed sets: a format may declare the span a recording must cover (``RecordingFormat.expected_span``, e.g.
 strides x stride time), and a writer of a whole set writes ``manifest.json`` (:func:`write_manifest`: first as not
@@ -35,6 +39,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..results.files import atomic_write_text, sha256
+from .masking import LeftOut, screen
 
 #: the file a writer of a recording set writes last: the recordings it wrote, with row counts and checksums
 MANIFEST = "manifest.json"
@@ -47,6 +52,14 @@ class Column:
     name: str
     unit: str
     doc: str = ""
+    #: the range one sample can take [unit]: a few samples outside it, among samples inside, are glitches and are
+    #: masked (:mod:`~.masking`); None: any finite value
+    bounds: tuple | None = None
+    #: the fastest change [unit/s] the measured quantity makes: a sample reached and left faster is a glitch
+    max_rate: float | None = None
+    #: the largest acceleration [unit/s^2] the measured quantity undergoes: a sample farther off the line through
+    #: its neighbours than it allows is a glitch
+    max_accel: float | None = None
 
     @property
     def quantity(self) -> str:
@@ -91,6 +104,11 @@ class RecordingFormat:
     #: (a sentence naming the line, column or key) or None; the loader raises it as a DataError on the CSV file
     #: (units by magnitude, values in range, flags in their set, enough rows)
     checks: tuple = ()
+    #: the channels a logging dropout zeroes together (declared or extra columns, those the file has): a row where
+    #: all of them read exactly 0 is masked (:mod:`~.masking`)
+    dropout: tuple = ()
+    #: the share of a recording's rows that may be masked; a recording with more is left out with the reason
+    max_masked: float = 0.02
 
     def column(self, name: str) -> Column:
         return next(c for c in self.columns if c.name == name)
@@ -115,6 +133,10 @@ class Recording:
     extra: dict = field(default_factory=dict)
     path: Path | None = None
     notes: list = field(default_factory=list)  # what the loader ignored or assumed, one sentence each
+    #: column -> which samples were masked (:mod:`~.masking`; their values repaired), for columns with any
+    masks: dict = field(default_factory=dict)
+    #: every sample the screening masked or left out (:class:`~.masking.MaskedSample`)
+    masked: list = field(default_factory=list)
 
     @property
     def t(self) -> np.ndarray:
@@ -135,12 +157,59 @@ class Recording:
     def select(self, mask) -> "Recording":
         """The rows where ``mask`` is true (e.g. some strides), as a new recording."""
         return Recording(self.name, {k: v[mask] for k, v in self.columns.items()}, dict(self.meta),
-                         {k: v[mask] for k, v in self.extra.items()}, self.path, list(self.notes))
+                         {k: v[mask] for k, v in self.extra.items()}, self.path, list(self.notes),
+                         {k: v[mask] for k, v in self.masks.items()}, list(self.masked))
+
+    def masked_rows(self, columns) -> np.ndarray:
+        """Which samples have a masked value in any of ``columns`` (e.g. the fitted signals)."""
+        out = np.zeros(len(self), dtype=bool)
+        for c in columns:
+            if c in self.masks:
+                out |= self.masks[c]
+        return out
+
+
+class RecordingSet(list):
+    """The recordings of a folder (a list), with those left out and why (:class:`~.masking.LeftOut`)."""
+
+    def __init__(self, recordings=(), left_out=()):
+        super().__init__(recordings)
+        self.left_out = list(left_out)
+
+    @property
+    def masked(self) -> list:
+        """Every masked sample of the recordings kept."""
+        return [m for r in self for m in r.masked]
+
+
+def screening_summary(recordings, left_out=None) -> dict:
+    """What the screening of ``recordings`` (a :class:`RecordingSet` or a list) masked and left out, as the
+    verdict's JSON carries it."""
+    left = getattr(recordings, "left_out", []) if left_out is None else left_out
+    return {"masked": [m.to_dict() for r in recordings for m in r.masked], "left_out": [x.to_dict() for x in left]}
+
+
+def screening_warnings(summary: dict, shown: int = 3) -> list:
+    """The screening ``summary`` (:func:`screening_summary`) as warnings: one per recording left out, one per
+    recording with masked samples (the first ``shown`` of them named; the report lists them all)."""
+    out = [f"{x['file']}: left out: {x['why']}" for x in summary.get("left_out", [])]
+    by: dict = {}
+    for m in summary.get("masked", []):
+        by.setdefault(m["recording"], []).append(m)
+    for name, ms in by.items():
+        named = "; ".join(f"line {m['line']}" + (f" ({m['column']})" if m["column"] else "") + f": {m['kind']}"
+                          for m in ms[:shown])
+        more = f"; and {len(ms) - shown} more (listed in the report)" if len(ms) > shown else ""
+        out.append(f"{name}: {len(ms)} sample(s) masked, left out of the residual with the inputs held across them "
+                   f"({named}{more})")
+    return out
 
 
 # ------------------------------------------------------------------------------------------------------ loading
-def load_recordings(folder, fmt: RecordingFormat) -> list:
-    """Every ``NAME.csv`` + ``NAME.json`` pair in ``folder``, sorted by name."""
+def load_recordings(folder, fmt: RecordingFormat, strict: bool = False) -> RecordingSet:
+    """Every ``NAME.csv`` + ``NAME.json`` pair in ``folder``, sorted by name, screened (:mod:`~.masking`): a
+    recording too damaged to use is left out (``RecordingSet.left_out``) unless none is left; ``strict``: a sample
+    that cannot be physical refuses the set, naming file, line and column."""
     folder = Path(folder)
     if folder.is_file():
         raise DataError(f"recording set {folder}: is a file; give the folder that holds the NAME.csv + NAME.json "
@@ -162,7 +231,15 @@ def load_recordings(folder, fmt: RecordingFormat) -> list:
         raise DataError(f"recording set {folder}: no NAME.csv + NAME.json pairs found")
     if (folder / MANIFEST).exists():
         check_manifest(folder, csvs, jsons)
-    return [load_recording(csvs[s], fmt, jsons[s]) for s in sorted(csvs)]
+    kept, left = [], []
+    for s in sorted(csvs):
+        try:
+            kept.append(load_recording(csvs[s], fmt, jsons[s], strict))
+        except LeftOut as exc:
+            left.append(exc)
+    if not kept:
+        raise DataError(f"recording set {folder}: every recording was left out; the first: {left[0]}")
+    return RecordingSet(kept, left)
 
 
 def write_manifest(folder, names, complete: bool = True, about: dict | None = None) -> Path:
@@ -216,9 +293,10 @@ def check_manifest(folder: Path, csvs: dict, jsons: dict):
                                 "changed or its writing was interrupted")
 
 
-def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
-    """Load and validate one experiment (``json_path``, default: the JSON next to the CSV with the same stem, its
-    extension in any case)."""
+def load_recording(csv_path, fmt: RecordingFormat, json_path=None, strict: bool = False) -> Recording:
+    """Load, validate and screen one experiment (``json_path``, default: the JSON next to the CSV with the same
+    stem, its extension in any case): samples that cannot be physical are masked and named (:mod:`~.masking`;
+    ``strict``: refused); a :class:`~.masking.LeftOut` where too many are."""
     csv_path = Path(csv_path)
     if json_path is None:
         same = [p for p in csv_path.parent.glob(f"{csv_path.stem}.*") if p.suffix.lower() == ".json"]
@@ -229,7 +307,7 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
     if not json_path.exists():
         raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
     meta, notes, twice = _load_meta(json_path, fmt)
-    columns, extra = _load_csv(csv_path, fmt)
+    columns, extra, screened = _load_csv(csv_path, fmt, strict)
     if fmt.max_gap is not None:
         _check_gaps(csv_path, columns[fmt.time_column], fmt.max_gap, fmt.time_column)
     if fmt.expected_span is not None:
@@ -240,7 +318,9 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None) -> Recording:
             raise DataError(f"{csv_path} ({json_path.name}): {problem}")
     if twice:  # after the range checks: a unit slip in the key the format reads is the likelier culprit
         raise DataError(f"{json_path}: {twice}")
-    return Recording(csv_path.stem, columns, meta, extra, csv_path, notes)
+    if screened.left_out:  # after the checks: a recording wrong as a whole is refused, naming its column
+        raise LeftOut(csv_path.stem, csv_path, screened.left_out)
+    return Recording(csv_path.stem, columns, meta, extra, csv_path, notes, screened.masks, screened.masked)
 
 
 def _check_gaps(path: Path, t: np.ndarray, max_gap: float, column: str):
@@ -372,9 +452,9 @@ def read_text(path: Path) -> str:
         raise DataError(f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset {exc.start})") from None
 
 
-def _load_csv(path: Path, fmt: RecordingFormat):
+def _load_csv(path: Path, fmt: RecordingFormat, strict: bool):
     try:
-        return _parse_csv(path, fmt)
+        return _parse_csv(path, fmt, strict)
     except UnicodeDecodeError as exc:
         with open(path, "rb") as fh:
             head = fh.read(4)
@@ -384,7 +464,7 @@ def _load_csv(path: Path, fmt: RecordingFormat):
         raise DataError(f"{path}: {what}; a recording is a comma-separated text file") from None
 
 
-def _parse_csv(path: Path, fmt: RecordingFormat):
+def _parse_csv(path: Path, fmt: RecordingFormat, strict: bool):
     with open(path, newline="", encoding="utf-8-sig") as fh:  # a byte-order mark before the header is dropped
         header_line = fh.readline()
         if not header_line.strip():
@@ -400,13 +480,14 @@ def _parse_csv(path: Path, fmt: RecordingFormat):
         body = fh.read()
     try:
         data = np.loadtxt(body.splitlines(), delimiter=",", ndmin=2, dtype=float) if body.strip() else None
-    except ValueError:
-        data = None
-        _find_bad_row(path, body, header)
+    except ValueError:  # an empty cell, or a bad one: read row by row (empty cells as NaN, the rest named)
+        data = _read_rows(path, body, header)
     if data is None or data.shape[0] == 0:
         raise DataError(f"{path}: no data rows after the header")
     if data.shape[1] != len(header):
         _find_bad_row(path, body, header)
+    screened = screen(path, path.stem, header, data, fmt, strict)
+    data = screened.data
     bad = ~np.isfinite(data)
     if bad.any():
         r, c = np.argwhere(bad)[0]
@@ -421,7 +502,8 @@ def _parse_csv(path: Path, fmt: RecordingFormat):
         raise DataError(f"{path}, line {r + 3}, column {fmt.time_column!r}: time {what} ({float(t[r + 1])!r} after "
                         f"{float(t[r])!r}); time must increase strictly")
     declared = {c.name for c in fmt.columns}
-    return ({c.name: cols[c.name] for c in fmt.columns}, {h: v for h, v in cols.items() if h not in declared})
+    return ({c.name: cols[c.name] for c in fmt.columns}, {h: v for h, v in cols.items() if h not in declared},
+            screened)
 
 
 def _check_header(path, header, fmt):
@@ -443,6 +525,29 @@ def _check_header(path, header, fmt):
         close = difflib.get_close_matches(c.name, [h for h in header if h not in {x.name for x in fmt.columns}], n=1)
         hint = f" (is {close[0]!r} a misspelling of it?)" if close else ""
         raise DataError(f"{path}, line 1: required column {c.name!r} [{c.unit}] is missing{hint}")
+
+
+def _read_rows(path, body, header) -> np.ndarray:
+    """The rows of ``body`` as numbers, an empty cell as NaN (the screening masks it); a DataError naming the line
+    and column of a cell that is not a number, or a row of the wrong length."""
+    rows = []
+    for n, line in enumerate(body.splitlines(), start=2):
+        if not line.strip():
+            raise DataError(f"{path}, line {n}: empty row")
+        fields = line.split(",")
+        if len(fields) != len(header):
+            raise DataError(f"{path}, line {n}: {len(fields)} values for {len(header)} columns")
+        row = []
+        for h, f in zip(header, fields):
+            f = f.strip()
+            try:
+                if "_" in f:  # Python's float() takes 1_000; a CSV reader does not
+                    raise ValueError(f)
+                row.append(float(f) if f else math.nan)
+            except ValueError:
+                raise DataError(f"{path}, line {n}, column {h!r}: {f!r} is not a number") from None
+        rows.append(row)
+    return np.array(rows, dtype=float).reshape(len(rows), len(header))
 
 
 def _find_bad_row(path, body, header):
@@ -477,5 +582,8 @@ def write_recording(folder, name: str, columns: dict, meta: dict, fmt: Recording
     np.savetxt(buf, data, delimiter=",", header=",".join(names), comments="", fmt=f"%.{digits}g")
     atomic_write_text(folder / f"{name}.json", json.dumps(meta, indent=2) + "\n")
     atomic_write_text(path, buf.getvalue())
-    load_recording(path, fmt)  # what is written must load
+    try:  # what is written must load (its glitches screened, as they will be: a converted log may have some)
+        load_recording(path, fmt)
+    except LeftOut:
+        pass  # written as it came; the loader leaves it out of a set, saying why
     return path

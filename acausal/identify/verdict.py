@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .calibrate import Calibration, noise_scales
+from .recordings import screening_summary
 
 
 @dataclass(frozen=True)
@@ -116,6 +117,12 @@ class Problem(ABC):
                 return c.unit
         return ""
 
+    def screening(self) -> dict:
+        """What the screening of the problem's recordings masked and left out (:mod:`~.masking`): ``{"masked":
+        [...], "left_out": [...]}``; default: from ``self.recordings`` and ``self.left_out`` where the problem has
+        them."""
+        return screening_summary(getattr(self, "recordings", []), getattr(self, "left_out", []))
+
     def confirm(self, candidate: str, exps) -> str:
         """What data would confirm ``candidate`` as the cause of a drift it explains but could not be named by
         (a sentence for the verdict)."""
@@ -213,6 +220,8 @@ class Diagnosis:
     #: candidate -> the parameters whose drift over the session it explains, for a drift the final model still
     #: has: the verdict's suspects, with what data would confirm them (:meth:`Problem.confirm`)
     suspects: dict = field(default_factory=dict)
+    #: what the screening of the recordings masked and left out (:meth:`Problem.screening`)
+    screening: dict = field(default_factory=dict)
 
     def heldout(self) -> dict:
         """The verdict's held-out score: mean absolute error of the judging signal on the held-out samples, for
@@ -249,6 +258,7 @@ class Diagnosis:
                              "std": {k: _num(v) for k, v in self.final.cal.std.items()},
                              "heldout_rmse": dict(self.final.test_rmse)},
                 "heldout": self.heldout(), "warnings": list(self.warnings), "left_out": list(self.left_out),
+                "screening": {k: [dict(x) for x in v] for k, v in self.screening.items()},
                 "suspects": {k: list(v) for k, v in self.suspects.items()},
                 "confusable": [dict(c) for c in self.confusable],
                 "detection_limits": {k: dict(v) for k, v in self.detection_limits.items()},

@@ -18,6 +18,7 @@ import numpy as np
 
 from acausal import DataError, compile_once
 from acausal.identify import load_recordings
+from acausal.identify.recordings import screening_summary, screening_warnings
 from acausal.identify.calibrate import Calibration, Experiment, Free, calibrate, rmse_table
 from acausal.identify.smoothing import SmoothingSpline, derivative_spacing, edge_margin
 
@@ -151,7 +152,7 @@ def experiment(rec, effects=(), split: Split = Split(), fixed: dict | None = Non
     base = {**model_params(rec.meta), **(fixed or {})}
     stride = np.floor((t - t[0]) / T + 1e-9).astype(int)
     m = edge_margin(h)
-    inner = (t >= t[0] + m) & (t <= t[-1] - m)
+    inner = (t >= t[0] + m) & (t <= t[-1] - m) & ~rec.masked_rows(SIGNALS)  # a masked reading is left out
     held = (stride % split.holdout_every) == split.holdout_every - 1
     if not (inner & held).any() or not (inner & ~held).any():
         raise DataError(f"{rec.path or rec.name}: {stride.max() + 1} stride(s) of {T} s are too few to hold out one "
@@ -195,15 +196,18 @@ def experiments(recordings, effects=(), split: Split = Split(), fixed: dict | No
 
 
 def fit(recordings, params="R,J,b", signals=DEFAULT_SIGNALS, weights=None, effects=(), start=None,
-        split: Split = Split(), fixed: dict | None = None, loss: str = "soft_l1", exact: bool = True) -> tuple:
-    """Calibrate ``params`` on ``recordings`` (list of Recording, or a folder); returns
-    ``(Calibration, experiments)``. ``exact``: the fit's Jacobian from the replay's exact sensitivities (False:
-    finite differences)."""
+        split: Split = Split(), fixed: dict | None = None, loss: str = "soft_l1", exact: bool = True,
+        strict: bool = False) -> tuple:
+    """Calibrate ``params`` on ``recordings`` (list of Recording, or a folder, screened unless ``strict``:
+    :func:`~acausal.identify.recordings.load_recordings`); returns ``(Calibration, experiments)``; what the
+    screening masked or left out leads ``Calibration.warnings``. ``exact``: the fit's Jacobian from the replay's
+    exact sensitivities (False: finite differences)."""
     if not isinstance(recordings, (list, tuple)):
-        recordings = load_recordings(recordings, ANKLE_FORMAT)
+        recordings = load_recordings(recordings, ANKLE_FORMAT, strict)
     exps = experiments(recordings, effects, split, fixed, exact)
     free = [free_parameter(n, start) for n in parameter_names(params)]
     cal = calibrate(exps, free, list(signals), weights=weights, fixed=fixed, loss=loss)
+    cal.warnings = screening_warnings(screening_summary(recordings)) + cal.warnings
     unseen = [n for n in cal.names if not np.isfinite(cal.std[n])]
     if unseen and not cal.warnings:  # (where the screening flags the data, its warnings say why)
         raise DataError(f"calibration on {', '.join(signals)}: {', '.join(unseen)} cannot be identified (the fitted "

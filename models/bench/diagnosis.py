@@ -55,10 +55,11 @@ class AnkleProblem(Problem):
         return super().confirm(candidate, exps)
 
     def __init__(self, recordings, split: Split = Split(), signals=DIAGNOSIS_SIGNALS, baseline=BASELINE_PARAMS,
-                 exact: bool = True):
-        if not isinstance(recordings, (list, tuple)):
-            recordings = load_recordings(recordings, ANKLE_FORMAT)
+                 exact: bool = True, strict: bool = False):
+        if not isinstance(recordings, (list, tuple)):  # a folder: screened unless strict
+            recordings = load_recordings(recordings, ANKLE_FORMAT, strict)
         self.recordings = list(recordings)
+        self.left_out = list(getattr(recordings, "left_out", []))  # too damaged to use, with why
         check_session(self.recordings)
         if is_session(self.recordings):  # a session: in the order it was recorded
             self.recordings.sort(key=lambda r: r.meta["session_time_s"])
@@ -172,9 +173,10 @@ class AnkleProblem(Problem):
 
 
 def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(),
-        max_effects: int | None = None, candidates=None, progress=None) -> tuple:
-    """Diagnose ``recordings`` (list or folder); returns ``(Diagnosis, AnkleProblem)``."""
-    problem = AnkleProblem(recordings, split)
+        max_effects: int | None = None, candidates=None, progress=None, strict: bool = False) -> tuple:
+    """Diagnose ``recordings`` (list or folder; ``strict``: a folder's samples that cannot be physical refuse it
+    instead of being masked); returns ``(Diagnosis, AnkleProblem)``."""
+    problem = AnkleProblem(recordings, split, strict=strict)
     d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)
     return d, problem
 

@@ -15,7 +15,7 @@ from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
 from ..ankle.effects import EFFECTS  # noqa: E402
 from ..reporting.evidence import (confusable_lines, detection_lines, drift_figure, drift_lines,  # noqa: E402
-                                  residual_time_figure)
+                                  residual_time_figure, screening_lines, warning_lines)
 from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
 
 _UNITS = {"motor_current_A": "A", "supply_current_A": "A", "joint_torque_Nm": "N m"}
@@ -33,7 +33,7 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
     md = [f"Data: {data_label}. {len(d.baseline.exps)} recordings; every third stride held out; signals in units "
           "of their noise level (estimated from the data): "
           + ", ".join(f"{s} {v:.3g} {_UNITS.get(s, '')}" for s, v in d.scales.items()) + ".", "",
-          _headline(d, problem), "", *_warning_lines(d),
+          _headline(d, problem), "", *warning_lines(d), *screening_lines(d),
           f"A candidate counts when its held-out RMSE gain and its leave-one-stride-out gain are both at least "
           f"{100 * th.min_gain:.0f} %, the paired t statistic of its per-stride improvements is at least "
           f"{th.min_t:g} and its BIC falls by at least {-th.max_delta_bic:g}. These thresholds were tuned on "
@@ -161,14 +161,6 @@ def _acf_figure(path, before, after, d):
 
 
 __all__ = ["write_report", "write_json"]
-
-
-def _warning_lines(d) -> list:
-    """The diagnosis's data and fit warnings, as a markdown list (nothing when there are none)."""
-    if not d.warnings:
-        return []
-    return ["**Warnings** (data or fit problems the verdict does not cover):", "",
-            *[f"- {w}" for w in d.warnings], ""]
 
 
 def _headline(d, problem) -> str:

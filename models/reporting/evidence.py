@@ -1,5 +1,6 @@
-"""The sections every diagnosis report shares: what the diagnosis could not see (detection limits), the confusable
-pairs with their evidence, the drift of the baseline over the session (table and figure), and the residual over
+"""The sections every diagnosis report shares: its warnings, the samples the recordings' screening masked and the
+recordings it left out, what the diagnosis could not see (detection limits), the confusable pairs with their
+evidence, the drift of the baseline over the session (table and figure), and the residual over
 time per recording (not folded over a cycle, so a drift shows)."""
 from __future__ import annotations
 
@@ -9,6 +10,33 @@ import numpy as np
 
 from .figures import save_figure
 from .tables import md_table
+
+
+def warning_lines(d) -> list:
+    """The diagnosis's data and fit warnings, as a markdown list (nothing when there are none)."""
+    if not d.warnings:
+        return []
+    return ["**Warnings** (data or fit problems the verdict does not cover):", "",
+            *[f"- {w}" for w in d.warnings], ""]
+
+
+def screening_lines(d) -> list:
+    """Every sample the recordings' screening masked and every recording it left out
+    (:mod:`acausal.identify.masking`), as markdown (nothing when the data were clean)."""
+    sc = getattr(d, "screening", {}) or {}
+    masked, left = sc.get("masked", []), sc.get("left_out", [])
+    if not masked and not left:
+        return []
+    out = ["**Screened samples**: what no sensor or motion can produce was masked (left out of the residual, the "
+           "replay's inputs held across it) or, where too much of a recording was, the recording left out; the raw "
+           "files are untouched (`--strict` refuses such a set instead).", ""]
+    if left:
+        out += [md_table(["recording left out", "why"], [[x["recording"], x["why"]] for x in left]), ""]
+    if masked:
+        out += [md_table(["recording", "line", "column", "t [s]", "kind", "why"],
+                         [[m["recording"], str(m["line"]), m["column"] or "(the row)", f"{m['t']:.6g}", m["kind"],
+                           m["why"]] for m in masked]), ""]
+    return out
 
 
 def _size(v, unit: str) -> str:

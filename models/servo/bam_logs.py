@@ -96,12 +96,13 @@ def convert(src, dst, error_gain: float | None = None) -> list:
     return names
 
 
-def load(folder, error_gain: float | None = None) -> list:
+def load(folder, error_gain: float | None = None, strict: bool = False) -> list:
     """The recordings of ``folder``: the servo format as it is, or BAM's raw logs converted (into a temporary
-    folder) when the folder holds those and no CSV."""
+    folder) when the folder holds those and no CSV; screened unless ``strict`` (:func:`~acausal.identify.
+    recordings.load_recordings`)."""
     folder = Path(folder)
     if not any(folder.glob("*.csv")) and any(is_bam_log(p) for p in folder.glob("*.json")):
         tmp = Path(tempfile.mkdtemp(prefix="acausal_bam_"))
         convert(folder, tmp, error_gain)
-        return load_recordings(tmp, SERVO_FORMAT)
-    return load_recordings(folder, SERVO_FORMAT)
+        return load_recordings(tmp, SERVO_FORMAT, strict)
+    return load_recordings(folder, SERVO_FORMAT, strict)

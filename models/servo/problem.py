@@ -300,10 +300,11 @@ def experiment(rec, k: int, batch: ReplayBatch, effects=(), held_out: bool = Fal
         pos, S = batch.get(k, values, tuple(names))
         return {POSITION: pos}, {POSITION: S}
 
-    train = np.full(t.size, not held_out)
+    read = ~rec.masked_rows((POSITION,))  # a masked reading is left out of the residual (the replay runs on)
+    train, test = np.full(t.size, not held_out) & read, np.full(t.size, held_out) & read
     # a closed-loop replay's position error carries over from one segment to the next: a recording is one cluster
     # of the standard errors
-    return Experiment(rec.name, t, {POSITION: np.asarray(rec[POSITION])}, predict, train, ~train, piece,
+    return Experiment(rec.name, t, {POSITION: np.asarray(rec[POSITION])}, predict, train, test, piece,
                       info={"meta": rec.meta, "inputs": inputs(rec), "params": rig_params(rec.meta),
                             "effects": tuple(effects), "start": start(rec), "clusters": "recording"},
                       sensitivity=sensitivity, clusters=np.zeros(t.size, dtype=int),
@@ -344,7 +345,7 @@ class ServoProblem(Problem):
     #: the residual, and scores the rest by their linearised step (a second step looks at them again)
     max_refits = 4
 
-    def __init__(self, recordings, split: Split = Split(), executor=None, extra=()):
+    def __init__(self, recordings, split: Split = Split(), executor=None, extra=(), strict: bool = False):
         self.effects = dict(fx.EFFECTS)
         for e in extra:
             if e.id in self.effects:
@@ -352,8 +353,9 @@ class ServoProblem(Problem):
             self.effects[e.id] = e
         self.candidates = {k: candidate(e) for k, e in self.effects.items()}
         if not isinstance(recordings, (list, tuple)):
-            recordings = bam_logs.load(recordings)  # the servo format, or BAM's raw logs converted
+            recordings = bam_logs.load(recordings, strict=strict)  # the servo format, or BAM's raw logs converted
         self.recordings = list(recordings)
+        self.left_out = list(getattr(recordings, "left_out", []))  # too damaged to use, with why
         self.split = split
         self.executor = executor
         self.signals = list(SIGNALS)
@@ -422,10 +424,12 @@ class ServoProblem(Problem):
 
 
 def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(),
-        max_effects: int | None = None, candidates=None, progress=None, executor=None, extra=()) -> tuple:
+        max_effects: int | None = None, candidates=None, progress=None, executor=None, extra=(),
+        strict: bool = False) -> tuple:
     """Diagnose servo ``recordings`` (list or folder); returns ``(Diagnosis, ServoProblem)``. ``executor``: a
     process pool to run the replays of one parameter set in parallel (default: in this process); ``extra``: the
-    user's own candidates (:func:`~.effects.user_effect` records), tried beside the library's."""
-    problem = ServoProblem(recordings, split, executor, extra)
+    user's own candidates (:func:`~.effects.user_effect` records), tried beside the library's; ``strict``: a
+    folder's samples that cannot be physical refuse it instead of being masked."""
+    problem = ServoProblem(recordings, split, executor, extra, strict)
     d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)
     return d, problem

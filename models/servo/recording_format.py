@@ -21,6 +21,11 @@ MIN_ROWS = 20
 RANGES = {"sample interval": (1e-5, 0.1), "input_voltage_V": (1.0, 60.0), "mass_kg": (0.0, 50.0),
           "arm_mass_kg": (0.0, 50.0), "arm_length_m": (0.0, 2.0), "angle": (-4 * np.pi, 4 * np.pi)}
 
+#: the fastest the arm turns [rad/s] and its largest angular acceleration [rad/s^2]: a free pendulum from the top
+#: reaches sqrt(4 g / l) (28 rad/s at l = 5 cm), a hobby servo's no-load speed is under 10 rad/s, and its stall
+#: torque accelerates the lightest arm at a few hundred rad/s^2; the limits are ten times past those, so a sample
+#: beyond them is a read error (the encoder's exactly -pi), never motion
+MAX_SPEED, MAX_ACCEL = 60.0, 5000.0
 
 #: the longest lead of the position over the goal that is not a swap [s]: the firmware cannot move the arm
 #: before it is sent the goal, so a position that leads by more (and by more than two samples) is the goal
@@ -77,10 +82,11 @@ SERVO_FORMAT = RecordingFormat(
     name="servo on a pendulum (BAM log)",
     columns=(
         Column("time_s", "s", "time since the trajectory started (host clock)"),
-        Column("position_rad", "rad", "measured output angle, 0 = arm hanging down"),
+        Column("position_rad", "rad", "measured output angle, 0 = arm hanging down", bounds=RANGES["angle"],
+               max_rate=MAX_SPEED, max_accel=MAX_ACCEL),
         Column("goal_position_rad", "rad", "commanded position sent to the servo"),
         Column("torque_enable", "1", "torque enable sent to the servo (1 on, 0 off)"),
-        Column("input_voltage_V", "V", "measured supply voltage"),
+        Column("input_voltage_V", "V", "measured supply voltage", bounds=RANGES["input_voltage_V"]),
     ),
     keys=(
         Key("kp", "1", "firmware position gain (register value)"),
@@ -98,6 +104,8 @@ SERVO_FORMAT = RecordingFormat(
     # the JSON's duration_s is last time minus first; the loader's span counts one sample interval more, within 1.5
     expected_span=lambda meta: meta.get("duration_s"),
     checks=(_plausible,),
+    # a lost read of the servo's registers: every reading 0 (BAM's logs mark such rows by a 0 V supply and 0 degC)
+    dropout=("input_voltage_V", "temperature_C"),
 )
 
 #: the fitted output and its column

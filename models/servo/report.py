@@ -13,7 +13,8 @@ import numpy as np  # noqa: E402
 
 from acausal.identify.diagnose import residual_analysis  # noqa: E402
 
-from ..reporting.evidence import confusable_lines, detection_lines, drift_lines  # noqa: E402
+from ..reporting.evidence import (confusable_lines, detection_lines, drift_lines, screening_lines,  # noqa: E402
+                                  warning_lines)
 from ..reporting.tables import md_table, write_csv, write_verdict as write_json  # noqa: E402
 from .bam import MAPPING, published  # noqa: E402
 from .recording_format import POSITION  # noqa: E402
@@ -85,7 +86,8 @@ def write_report(out_dir, d, problem, data_label: str, bam_rows=None, elapsed: f
           f"reading's quantisation noise ({d.scales[POSITION]:.3g} rad: one step of {problem.step:.4g} rad over "
           "sqrt(12), measured from the data)." + (f" Run time {elapsed:.0f} s." if elapsed else ""), "",
           f"**Verdict: `{d.cause}`**" + (f" (in order: {', '.join(f'`{c}`' for c in d.causes)})"
-                                          if len(d.causes) > 1 else ""), "", *_warning_lines(d),
+                                          if len(d.causes) > 1 else ""), "", *warning_lines(d),
+          *screening_lines(d),
           md_table(["model", "held-out MAE [rad]", "vs baseline"],
                    [["baseline: Coulomb + viscous (BAM M1's law), calibrated here", f"{ho['baseline']:.4f}", ""],
                     [f"extended: {ext_label}, calibrated here", f"{ho['extended']:.4f}", f"{-100 * gain:+.1f} %"]]),
@@ -292,11 +294,3 @@ def _trajectory_figure(path, d):
 
 
 __all__ = ["write_report", "write_json", "per_recording", "phases"]
-
-
-def _warning_lines(d) -> list:
-    """The diagnosis's data and fit warnings, as a markdown list (nothing when there are none)."""
-    if not d.warnings:
-        return []
-    return ["**Warnings** (data or fit problems the verdict does not cover):", "",
-            *[f"- {w}" for w in d.warnings], ""]

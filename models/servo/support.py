@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from acausal.identify.recordings import screening_summary, screening_warnings
+
 from . import bam_logs
 from .recording_format import POSITION
 
@@ -20,10 +22,11 @@ HOLD_SPEED = 0.05
 SATURATED = 0.98
 
 
-def survey(recordings) -> dict:
-    """Facts of a set of recordings (list or folder) that decide which effects it can show."""
+def survey(recordings, strict: bool = False) -> dict:
+    """Facts of a set of recordings (list or folder, screened unless ``strict``) that decide which effects it can
+    show; what the screening masked and left out among them."""
     if not isinstance(recordings, (list, tuple)):
-        recordings = bam_logs.load(recordings)
+        recordings = bam_logs.load(recordings, strict=strict)
     n = sum(r.t.size for r in recordings)
     dts = np.concatenate([np.diff(r.t) for r in recordings])
     steps = np.concatenate([np.abs(np.diff(r[POSITION])) for r in recordings])
@@ -58,6 +61,7 @@ def survey(recordings) -> dict:
         "duty_p99": float(np.percentile(np.abs(duty[on]), 99)) if on.any() else 0.0,
         "holding_fraction": float(np.mean(holding)), "gravity_sign_changes": bias_sign_changes,
         "supply_V": (float(volts.min()), float(np.median(volts)), float(volts.max())),
+        "screening": screening_summary(recordings),
     }
 
 
@@ -104,4 +108,8 @@ def report(s: dict) -> str:
              f"gains {', '.join(f'{g:g}' for g in s['gains'])}; trajectories "
              f"{', '.join(t or '(unnamed)' for t in s['trajectories'])}", "", "what the set can show:"]
     lines += [f"  {what:32s} {ok:5s} {why}" for what, ok, why in verdicts(s)]
+    screened = s.get("screening", {})
+    if screened.get("masked") or screened.get("left_out"):
+        lines += ["", "screened (the raw files are untouched; --strict refuses instead):"]
+        lines += [f"  {w}" for w in screening_warnings(screened, shown=10)]
     return "\n".join(lines)

@@ -33,7 +33,6 @@ def _set(name, k, value):
 
 
 @pytest.mark.parametrize("edit, meta, message", [
-    (_set("motor_current_A", 9, 1e300), None, r"line 11, column 'motor_current_A': 1e\+300 A, outside -200 to 200"),
     (lambda c: c.update(time_s=1000 * c["time_s"]), None, r"column 'time_s': the samples are 1 s apart .*\(ms"),
     (lambda c: c.update(ankle_angle_rad=np.degrees(c["ankle_angle_rad"])), None, r"degrees in a column of radians"),
     (lambda c: c.update(supply_voltage_V=1000 * c["supply_voltage_V"]), None, r"'supply_voltage_V': 48000 V"),
@@ -44,6 +43,14 @@ def _set(name, k, value):
 def test_an_implausible_bench_recording_is_refused_naming_the_culprit(tmp_path, edit, meta, message):
     with pytest.raises(DataError, match=message):
         load_recordings(_write(tmp_path, edit, meta), ANKLE_FORMAT)
+
+
+def test_one_impossible_current_reading_is_masked_and_strict_refuses_it(tmp_path):
+    folder = _write(tmp_path, _set("motor_current_A", 9, 1e300))
+    [rec] = load_recordings(folder, ANKLE_FORMAT)
+    assert [(m.line, m.column, m.kind) for m in rec.masked] == [(11, "motor_current_A", "out of range")]
+    with pytest.raises(DataError, match=r"line 11, column 'motor_current_A': 1e\+300 A, outside -200 to 200"):
+        load_recordings(folder, ANKLE_FORMAT, strict=True)
 
 
 def test_a_plausible_recording_loads(tmp_path):

@@ -42,9 +42,9 @@ def _edit_json(path, fn):
     path.with_suffix(".json").write_text(json.dumps(meta))
 
 
-def _error(path):
+def _error(path, strict=False):
     with pytest.raises(DataError) as e:
-        load_recording(path, ANKLE_FORMAT)
+        load_recording(path, ANKLE_FORMAT, strict=strict)
     return str(e.value)
 
 
@@ -82,8 +82,12 @@ def test_non_finite_value(one, bad):
         ls[10] = ",".join(f)
         return ls
     _rewrite_csv(one, put)
-    msg = _error(one)
+    msg = _error(one, strict=True)
     assert "rec.csv" in msg and "line 11" in msg and "'joint_torque_Nm'" in msg
+    rec = load_recording(one, ANKLE_FORMAT)  # screened: the cell masked and named, its value repaired
+    [m] = rec.masked
+    assert (m.line, m.column, m.kind) == (11, "joint_torque_Nm", "not a number")
+    assert rec.masks["joint_torque_Nm"].sum() == 1 and np.isfinite(rec["joint_torque_Nm"]).all()
 
 
 def test_not_a_number(one):
@@ -106,8 +110,12 @@ def test_time_not_increasing(one, kind, word):
         ls[20] = ",".join(f)
         return ls
     _rewrite_csv(one, put)
-    msg = _error(one)
+    msg = _error(one, strict=True)
     assert "rec.csv" in msg and "line 21" in msg and "'time_s'" in msg and word in msg
+    rec = load_recording(one, ANKLE_FORMAT)  # screened: the row left out and named
+    [m] = rec.masked
+    assert (m.line, m.column, m.kind) == (21, "time_s", "time") and len(rec) == 11999
+    assert ("repeats" if kind == "dup" else "goes back") in m.why and np.all(np.diff(rec.t) > 0)
 
 
 def test_json_missing_key(one):
