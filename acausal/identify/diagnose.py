@@ -72,6 +72,10 @@ from .residuals import leave_one_group_out
 from .screening import screen as screen_fit
 from .verdict import Candidate, CandidateScore, Diagnosis, Fit, Problem, Step, Thresholds  # noqa: F401  (interface)
 
+#: the largest fingerprint entry (noise levels per unit of the candidate's parameter) whose products cannot
+#: overflow a float: squared and summed over a million samples it stays below 1e300
+HUGE = 1e144
+
 #: a hard limit whose probe changes no training sample by more than this many noise levels is not reached there
 UNREACHED = 1e-6
 #: two fits of one model whose training costs differ by less than this fraction are taken for the same optimum
@@ -195,7 +199,8 @@ def score(before: Fit, after: Fit, candidate: Candidate, thresholds: Thresholds)
 
 
 # ---------------------------------------------------------------------------------------------- fingerprints
-def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | None = None) -> dict:
+def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | None = None,
+                 numeric: dict | None = None) -> dict:
     """Projected, noise-scaled fingerprint (training samples stacked) of each candidate at the calibrated
     ``base``; returns ``id -> vector``, and the base residual under key ``None``.
 
@@ -204,7 +209,9 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | 
     sensitivity, or the secant to its ``probe``; where the sensitivity at zero cannot be integrated, the secant
     to its typical magnitude ``scale``). A hard limit that its probe does not reach on ``base`` (a current cap
     above every current the base model draws) is probed twice as far from zero, and again, up to its bound; the
-    size its secant was taken to is put into ``probes`` (id -> value), where its refit starts."""
+    size its secant was taken to is put into ``probes`` (id -> value), where its refit starts. A fingerprint that
+    is not finite, or so large (beyond :data:`HUGE` per unit) that its products overflow, is numerically out of
+    range: the candidate gets no fingerprint (zeros: never ranked by it) and ``numeric`` (id -> sentence) says why."""
     signals = problem.signals
     ones = {s: 1.0 for s in signals}
     out = {None: residual_vector(base.exps, base.values, signals, ones, scales, "train")}
@@ -232,6 +239,15 @@ def fingerprints(problem: Problem, base: Fit, ids, scales: dict, probes: dict | 
             f = (r1 - r0) / (to - c.zero)
             if probes is not None and c.probe is not None:
                 probes[cid] = to
+        top = float(np.max(np.abs(f))) if f.size and np.all(np.isfinite(f)) else np.inf
+        if not top <= HUGE:
+            if numeric is not None:
+                numeric[cid] = (f"`{cid}` is numerically out of range at {c.parameter} = {c.zero:g}: its fingerprint "
+                                + ("is not finite" if not np.isfinite(top) else f"reaches {top:.3g} noise levels per "
+                                   f"{c.unit or 'unit'}") + " (its sensitivity overflows there); it was not ranked by "
+                                "its fingerprint: check its bounds, its scale and its zero")
+            out[cid] = np.zeros_like(out[None])
+            continue
         coef, *_ = np.linalg.lstsq(B, f, rcond=None)
         out[cid] = f - B @ coef
     return out
@@ -283,14 +299,15 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     baseline = base
     say("fingerprints")
     probes = {}  # where each hard limit's refit starts (a size its probe reaches on the current model)
-    fp = fingerprints(problem, base, ids, scales, probes)
+    numeric: dict = {}  # candidates whose fingerprints are numerically out of range, with why
+    fp = fingerprints(problem, base, ids, scales, probes, numeric)
     match = {cid: _cos(fp[None], fp[cid]) for cid in ids}
     limit = len(ids) if max_effects is None else max_effects
     steps, causes = [], []
     optima: list = []  # sentences: a named model whose fit has another optimum (settled)
     while len(causes) < limit:
         rest = _open(problem, ids, causes)
-        fp_step = fp if not causes else fingerprints(problem, base, rest, scales, probes)
+        fp_step = fp if not causes else fingerprints(problem, base, rest, scales, probes, numeric)
         scores = _scores(problem, base, causes, {k: fp_step[k] for k in [None, *rest]}, scales, thresholds, say,
                          probes)
         best = next((s for s in scores if s.significant), None)
@@ -319,7 +336,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
                    "note": "not judged: fewer than 3 recordings"}
     rest = _open(problem, ids, causes)
     if causes and rest and steps[-1].before is not base:  # fingerprints on top of the final model
-        fp_step = fingerprints(problem, base, rest, scales)
+        fp_step = fingerprints(problem, base, rest, scales, numeric=numeric)
     d = Diagnosis(causes, steps, baseline, base, confusable(ids, fp, steps, thresholds), thresholds, scales, match,
                   problem.heldout())
     # what the final model could still have seen: the limits of the candidates not named, on top of the named ones
@@ -334,7 +351,7 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
         d.left_out = [sc.id for sc in steps[-1].scores if sc.significant and sc.id not in causes]
     d.screening = problem.screening()
     d.warnings = (screening_warnings(d.screening) + screen(problem, d.final, scales, thresholds)
-                  + oversized(problem, d.final, causes, thresholds) + optima)
+                  + oversized(problem, d.final, causes, thresholds) + optima + list(numeric.values()))
     for cid, params in d.suspects.items():
         d.warnings.append(f"{', '.join(params)} drift{'s' if len(params) == 1 else ''} over the session and "
                           f"{cid} explains such a drift, but it could not be named from these recordings: "

@@ -143,3 +143,30 @@ def test_a_named_fit_is_settled_from_a_second_start_and_two_optima_are_said():
     # started where it ends anyway: one optimum, nothing said
     again = []
     assert abs(settled(p, kept, "c", scales, again).values["c"] - 6.0) < 0.01 and again == []
+
+
+class Overflowing(Decay):
+    """``Decay`` with a second candidate ``d`` whose sensitivity is 1e160 per unit: its fingerprint's products
+    overflow a float."""
+
+    def __init__(self):
+        super().__init__(0.5)
+        self.candidates = {**self.candidates,
+                           "d": Candidate("d", "d", 0.0, (0.0, 1.0), 1e-170, "y", "1", typical=1e-170)}
+
+    def experiments(self, effects):
+        out = super().experiments(tuple(e for e in effects if e != "d"))
+        if "d" in effects:
+            for e in out:
+                e.predict = (lambda v, f=e.predict, t=e.t: {"y": f(v)["y"] + v.get("d", 0.0) * 1e160 * t})
+        return out
+
+
+def test_a_fingerprint_that_overflows_is_a_finding_not_a_numpy_warning():
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning (overflow in matmul) would fail here
+        d = diagnose(Overflowing())
+    assert d.causes == ["c"]
+    [said] = [w for w in d.warnings if w.startswith("`d` is numerically out of range")]
+    assert "at d = 0" in said and "noise levels per 1" in said and "check its bounds" in said
