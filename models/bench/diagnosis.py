@@ -91,21 +91,27 @@ class AnkleProblem(Problem):
         return [free_parameter(n, start) for n in self.baseline]
 
     def effect_free(self, effects: tuple, start: dict, drift: bool = False) -> list:
-        """When the winding candidate is tried on a drift over the session: the motor's conductance to ambient
-        ``winding_G`` (from the datasheet's 1/7.61 W/K, within a thermal resistance of 1-40 K/W), and on
-        recordings that do not form a session each recording's start temperature above ambient [K] (0-100 K,
-        from 0): the recordings may be one unrecorded session. In the per-sample step the conductance stays at
-        the datasheet's (a warming a single recording shows is set by the heating, the slow cooling hardly
-        moves it; fitting both there costs half the diagnosis's time again) and the recordings start at
-        ambient (a free start per recording would let the candidate absorb any change from one to the next)."""
-        if "winding_temperature" not in effects or not drift:
+        """With the winding candidate: the temperatures above ambient [K] (0-100 K, from 0) that nobody recorded,
+        fitted with the rest. A lone recording that is no session (no ``session_time_s``) starts at an unknown
+        temperature (strides to settle the controller, a warm-up before): its start is fitted in every step. When
+        the candidate is tried on a drift over several recordings that do not form a session, every recording's
+        start (they may be one unrecorded session) and the motor's conductance to ambient ``winding_G`` (from the
+        datasheet's 1/7.61 W/K, within a thermal resistance of 1-40 K/W). A session starts cold (its first
+        recording at ambient; :mod:`.session`). In the per-sample step the conductance stays at the datasheet's (a
+        warming a single recording shows is set by the heating, the slow cooling hardly moves it; fitting both
+        there costs half the diagnosis's time again) and several recordings that are no session start at ambient
+        (a free start per recording would let the candidate absorb any change from one to the next)."""
+        if "winding_temperature" not in effects:
             return []
-        g = float(np.clip(start.get("winding_G", WINDING_G), 1 / 40, 1.0))
-        out = [Free("winding_G", g, 1 / 40, 1.0, 0.1)]
-        if not is_session(self.recordings):
-            names = [own_start(r.name) for r in self.recordings]
-            out += [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
-        return out
+        session = is_session(self.recordings)
+        out = []
+        if drift:
+            g = float(np.clip(start.get("winding_G", WINDING_G), 1 / 40, 1.0))
+            out.append(Free("winding_G", g, 1 / 40, 1.0, 0.1))
+        names = [] if session else [own_start(r.name) for r in self.recordings]
+        if not drift and len(self.recordings) > 1:
+            names = []
+        return out + [Free(n, float(np.clip(start.get(n, 0.0), 0.0, 100.0)), 0.0, 100.0, 10.0) for n in names]
 
     def period(self, exp) -> float:
         return float(exp.info["meta"]["stride_time_s"])

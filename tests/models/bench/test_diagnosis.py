@@ -42,23 +42,50 @@ def _record(tmp_path_factory, name, conditions, effects, seed, sensors=Sensors()
     return out
 
 
-@pytest.mark.parametrize("eid", sorted(EFFECTS))
-def test_each_hidden_effect_is_named_and_measured(eid, tmp_path_factory):
-    """Each effect hidden alone (at its typical size; winding heating time-compressed, see ENDURANCE): named, its
-    signal's held-out RMSE down by 30 % or more, its parameter within 20 %, and R, J back at the truth once the
-    model is extended."""
+#: seeds the hidden-effect tests run on (none of them tuned on)
+SEEDS = (11, 12, 13)
+#: effects whose fitted size the replay biases beyond its standard errors, with the bias measured on SEEDS (the
+#: same sign and size on every seed: the replay's own systematic error, which the cluster-robust errors, built from
+#: the scatter between strides, cannot see; docs/benchmarks.md, section Standard errors): bounds on the bias
+REPLAY_BIASED = {"gear_coulomb_friction": 0.02, "gear_backlash": 0.08}
+
+
+def _named(eid, seed, tmp_path_factory):
     conditions, sensors, size = SETS[eid]
-    data = _record(tmp_path_factory, eid, conditions, {eid: size}, seed=11, sensors=sensors)
+    data = _record(tmp_path_factory, f"{eid}{seed}", conditions, {eid: size}, seed=seed, sensors=sensors)
     d, _ = diagnosis.run(data, max_effects=1)
+    return d, size
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("eid", sorted(EFFECTS))
+def test_each_hidden_effect_is_named_and_measured(eid, seed, tmp_path_factory):
+    """Each effect hidden alone (at its typical size; winding heating time-compressed, see ENDURANCE): named, its
+    signal's held-out RMSE down by 30 % or more, its parameter within 3 reported standard errors of the truth
+    (the replay-biased ones within their measured bias), and R, J back at the truth once the model is extended."""
+    d, size = _named(eid, seed, tmp_path_factory)
     assert d.cause == eid, [(s.id, s.heldout_rmse_gain, s.significant) for s in d.candidates]
     e = EFFECTS[eid]
     before, after = d.baseline.test_rmse[e.signal], d.final.test_rmse[e.signal]
     assert after <= 0.7 * before, (e.signal, before, after)
-    fitted = d.final.values[e.parameter]
+    fitted, sd = d.final.values[e.parameter], d.final.cal.std[e.parameter]
     assert fitted == pytest.approx(size, rel=0.2), (e.parameter, fitted, size)
+    if eid in REPLAY_BIASED:
+        assert fitted == pytest.approx(size, rel=REPLAY_BIASED[eid]), (e.parameter, fitted, sd, size)
+    else:
+        assert abs(fitted - size) <= 3 * sd, (e.parameter, fitted, sd, size)
     # once extended, the baseline parameters are back at the truth (R, J, b of the bench)
     assert d.final.values["motor.R"] == pytest.approx(0.7, rel=0.05)
     assert d.final.values["motor.J"] == pytest.approx(4.07e-6, rel=0.05)
+
+
+@pytest.mark.xfail(strict=True, reason="the replay biases these effects' sizes by 1 % (Coulomb friction) and 6 % "
+                   "(backlash) on every seed, 3-5 standard errors; the errors cover noise, not the replay's own error")
+@pytest.mark.parametrize("eid", sorted(REPLAY_BIASED))
+def test_the_standard_errors_of_the_replay_biased_effects_cover_the_truth(eid, tmp_path_factory):
+    d, size = _named(eid, SEEDS[0], tmp_path_factory)
+    p = EFFECTS[eid].parameter
+    assert abs(d.final.values[p] - size) <= 3 * d.final.cal.std[p]
 
 
 @pytest.mark.parametrize("seed", [3, 4, 5, 6, 7])
