@@ -25,9 +25,9 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     :func:`acausal.simulation.simulate.simulate`'s (``trust``: every member is checked as its own run would be).
     ``threads``: threads for the compiled path (default: the number of cores)."""
     from .compiled import available
-    from ..results.result import Result
+    from ..results.result import DenseOutput, Result
     from .simulate import simulate
-    from . import COMPILED, check_run, choose_path, initialize
+    from . import COMPILED, Segment, check_run, choose_path, initialize
     from ..results.trust import check, check_mode
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
@@ -69,20 +69,20 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
         return _threaded(lambda s: simulate(cm, t_end, params=s, method=method, **kwargs), sets, n_threads)
     d = cm.discrete_start()
     x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
+    # one segment per set: its parameters, the first set's inputs (one integrator for all)
+    segs = [Segment(cm, p, d, us[0], rtol, atol, max_step, first_step) for p in ps]
     try:
-        runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, ps, d, us[0], rtol, atol, max_step, first_step,
-                                               names, threads=n_threads)
+        runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, segs, integrals=names, threads=n_threads)
     except SimulationError:  # one member failed: each on its own, so the failing one is reported as simulate does
         return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
     out = []
     for (X, Q), p, u, x0 in zip(runs, ps, us, x0s):
         if not np.all(np.isfinite(X)):
             raise SimulationError("compiled path: non-finite states in a batch member")
-        nodes = cm.compiled_path.gauss_states(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
-            if dense_output and t_out.size > 1 else None
-        later = cm.compiled_path.quadratures_later(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
-            if nodes is not None else None
-        out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q, more_integrals=later,
+        seg = Segment(cm, p, d, u, rtol, atol, max_step, first_step)
+        nodes = cm.compiled_path.gauss_states(t_start, x0, t_out, seg) if dense_output and t_out.size > 1 else None
+        later = cm.compiled_path.quadratures_later(t_start, x0, t_out, seg) if nodes is not None else None
+        out.append(Result(cm, t_out, X, p, u, d, events=[], dense=DenseOutput(nodes=nodes, integrals=Q, more=later),
                           solver=f"{cm.compiled_path.integrator_name(us[0])} (compiled path, CasADi; batch of "
                                  f"{len(sets)} on {n_threads} threads)"))
         check(out[-1], rtol, atol, trust, dense_output)

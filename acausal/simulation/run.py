@@ -46,6 +46,32 @@ class Run:
             return float(v) if v.ndim == 0 else v
         return dataclasses.replace(self, rtol=div(self.rtol), atol=div(self.atol))
 
+    def segment(self, d=None, u=None) -> "Segment":
+        """The :class:`Segment` of this run in the modes ``d`` (default: the discrete start), with the inputs ``u``
+        (default: the run's)."""
+        return Segment(self.cm, self.p, self.d if d is None else d, self.u if u is None else u, self.rtol,
+                       self.atol, self.max_step, self.first_step)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Segment:
+    """What stays fixed while a run is integrated between two of its events, as every segment integrator takes it:
+    the model ``cm``, the parameter vector ``p``, the modes ``d``, the inputs ``u``, the tolerances and the step
+    bounds [s] (:meth:`Run.segment` builds it from a :class:`Run`)."""
+
+    cm: object
+    p: np.ndarray
+    d: np.ndarray
+    u: tuple
+    rtol: object
+    atol: object
+    max_step: float = np.inf
+    first_step: float | None = None
+
+    def tighter(self, k: float) -> "Segment":
+        """The same segment with both tolerances multiplied by ``k``."""
+        return dataclasses.replace(self, rtol=self.rtol * k, atol=self.atol * k)
+
 
 def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,
             first_step, max_events, dense_output, max_steps) -> Run:

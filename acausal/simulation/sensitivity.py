@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from ..errors import ModelError, SimulationError
 from .events import algebraic_modes
-from . import check_finite_times, check_tolerances, initialize
+from . import Segment, check_finite_times, check_tolerances, initialize
 from .initial import whole
 from ..model.symbols import der_name, var_symbol
 
@@ -90,7 +90,8 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
             if method == COMPILED:
                 x0 = initialize(cm, t_start, p, d, u, starts)
                 try:
-                    X, S = cm.compiled_path.sensitivities(t_start, x0, t, p, d, u, wrt, bindings, rtol, atol)
+                    X, S = cm.compiled_path.sensitivities(t_start, x0, t, Segment(cm, p, d, u, rtol, atol), wrt,
+                                                          bindings)
                 except SimulationError:  # the scipy path says where and why
                     method = ROBUST
         if X is None:

@@ -63,7 +63,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
         # the scipy path's energies, integrated on the steps' interpolants, miss what every account holds: the
         # run again with them as states, under the integrator's error control (acausal.simulation.scipy.quadratures)
         res = scipy_driver.integrate(run, *on_scipy, quadratures=True)
-    with_quadratures = on_scipy is not None and bool(res._integrals)
+    with_quadratures = on_scipy is not None and bool(res.dense.integrals)
 
     def retry(k):  # the same run, both tolerances divided by k, unchecked (the balance's cause, acausal.results.trust)
         tight = run.tighter(k)
