@@ -58,6 +58,14 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     run = prepare(cm, t_end, t_start=t_start, params=params, inputs=inputs, starts=starts, method=method, rtol=rtol,
                   atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step, first_step=first_step,
                   max_events=max_events, dense_output=dense_output, max_steps=max_steps)
+    return simulate_run(run, trust)
+
+
+def simulate_run(run, trust: str = "raise"):
+    """The Result of the prepared ``run`` (:class:`~.run.Run` of :func:`prepare`): integrated (:func:`integrate`)
+    and checked as ``trust`` says (:mod:`acausal.results.trust`, see :func:`simulate`); what :func:`simulate` and
+    :func:`acausal.simulation.batch.simulate_many` do with each of their runs."""
+    rtol, atol, dense_output = run.rtol, run.atol, run.dense_output
     res, on_scipy = integrate(run)
     if trust != "off" and dense_output and integration_fault(res, rtol):
         # the scipy path's energies, integrated on the steps' interpolants, miss what every account holds: the
