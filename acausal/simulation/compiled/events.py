@@ -8,9 +8,9 @@ the *total variation* of every event zero function (the integral of ``|dz/dt|``)
 change of ``z`` between two output times; one that enters and leaves between them (a diode conducting for a
 moment) cannot hide: the interval's variation is then at least ``|z(a)| + |z(b)|``, and such an interval is
 integrated again on a finer grid, recursively, until the crossing is seen or shown not to exist. A crossing is
-located by Brent's method on ``z`` along one integrator solution of its interval (see :func:`_locate`), then the
-event's assignments, the cascade of mode changes and the restart follow the scipy path's own functions
-(:mod:`acausal.simulation.events`), so both paths switch the same way.
+located by Brent's method on ``z`` along one integrator solution of its interval (see :meth:`Windows._locate`),
+then the event itself (its assignments, the cascade of mode changes, the restart) is the one event loop's
+(:mod:`acausal.simulation.loop`, whose segment integrator :class:`Windows` is), so every path switches the same way.
 
 Each run covers a window of output times that restarts at one output after an event and doubles while nothing
 happens, up to :data:`WINDOW` outputs, or a :data:`WINDOWS_PER_RUN`-th of them where the outputs are dense (a

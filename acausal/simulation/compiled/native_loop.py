@@ -9,9 +9,11 @@ last output time, not at each (a stop per output truncated the steps of a dense 
 at the end of each step, and at :data:`SUBSTEPS` interior points of it (the solver's interpolating polynomial, the
 algebraic variables made consistent there) where one crossed or where its total variation over the step says it may
 have bounced; it writes the outputs it passes, read off that polynomial, and stops at the first crossing, located on
-it. The event itself (its assignments, the cascade of mode changes, the thresholds watched from there) is the scipy
-path's own (:mod:`acausal.simulation.events`), so all paths switch the same way; a crossing that changes no mode is
-passed and the next segment starts from it.
+it. The event itself (its assignments, the cascade of mode changes, the thresholds watched from there) is the one
+event loop's (:mod:`acausal.simulation.loop`; :class:`NativeSegments` is its segment integrator), so all paths switch
+the same way; a crossing that changes no mode is passed and the next call starts from it. The C loop runs the steps
+of a segment and the search for its crossing, the work a run spends its time in; the event between two calls is
+Python's, once per event.
 
 For a model without events, this skips what CasADi's integrator adds around the same SUNDIALS steps (its virtual
 machine evaluating the model, its buffers): the 1-s drive of the benchmarks integrates in about 0.75 of the time of

@@ -1,8 +1,9 @@
 """The scipy backend: scipy's integrators (``BDF``, ``Radau``, ``LSODA``, ``RK45``...) driven step by step, so that a
 failure is reported with the time, the step size and the variable, and state events stop the step exactly at the
-zero crossing (located by Brent's method on the step's dense output, :mod:`acausal.simulation.events`). With
-``quadratures`` the energy integrals of the accounts are carried as extra states outside the error control
-(:mod:`acausal.simulation.scipy.quadratures`)."""
+zero crossing (located by Brent's method on the step's dense output, :mod:`acausal.simulation.events`); the event
+there and the restart are the one event loop's (:mod:`acausal.simulation.loop`: :class:`Stepper` is its segment
+integrator). With ``quadratures`` the energy integrals of the accounts are carried as extra states outside the error
+control (:mod:`acausal.simulation.scipy.quadratures`)."""
 from __future__ import annotations
 
 import math
