@@ -31,7 +31,7 @@ from .initial import initialize
 SAME_TIME_ULPS = 4  # an output this few units in the last place after a restart is taken at the restart
 
 
-def integrate(run, integrator):
+def integrate_segments(run, integrator):
     """The :class:`~acausal.results.result.Result` of ``run`` (:class:`~.run.Run`), its segments integrated by
     ``integrator`` (a segment integrator, see the module) and its events handled between them."""
     loop = Loop(run, integrator.names)

@@ -38,9 +38,8 @@ import dataclasses
 import numpy as np
 
 from ...errors import SimulationError
-from .. import loop
 from ..events import crossings
-from ..loop import event_modes
+from ..loop import event_modes, integrate_segments
 
 REFINE = 16  # sub-intervals of a suspect interval
 MAX_DEPTH = 4  # refinements of refinements
@@ -59,7 +58,7 @@ def simulate_with_events(run, integrals=None):
     the Result. ``integrals``: the names integrated as quadratures with the states (default: the energy accounts,
     with ``dense_output``); the Result runs the same integration again for a name it is asked the energy of that is
     not among them."""
-    return loop.integrate(run, Windows(run, integrals))
+    return integrate_segments(run, Windows(run, integrals))
 
 
 class Windows:

@@ -50,8 +50,7 @@ import numpy as np
 from ...backends.ccompiler import try_shared_library, which_compiler
 from ...errors import SimulationError
 from ..events import SUBSTEPS, zeros
-from .. import loop
-from ..loop import event_modes
+from ..loop import event_modes, integrate_segments
 from ...backends.casadi import Signals, Unsupported
 
 MAX_NUM_STEPS = 1_000_000  # solver steps per segment at most
@@ -310,7 +309,7 @@ def simulate_native(run, runner, sig, nodes=None):
     signals ``sig`` of :func:`runner_for` (see the module; a model without state events is one segment); returns
     the Result (``nodes``: its :class:`~acausal.results.result.DenseOutput`'s). Raises :class:`SimulationError`
     where the solver fails (the caller then runs it on the CasADi path)."""
-    return loop.integrate(run, NativeSegments(run, runner, sig, nodes))
+    return integrate_segments(run, NativeSegments(run, runner, sig, nodes))
 
 
 class NativeSegments:

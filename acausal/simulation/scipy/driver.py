@@ -14,8 +14,7 @@ from scipy import integrate as scipy_integrate
 from ...errors import SimulationError
 from .failures import non_finite_error, step_failure
 from ..events import crossings_in_step, together, zeros
-from .. import loop
-from ..loop import event_modes
+from ..loop import event_modes, integrate_segments
 from .quadratures import Quadratures
 from ...results.interpolants import StatesOnly
 
@@ -34,7 +33,7 @@ def integrate(run, method: str, why: str, quadratures: bool = False):
     """Integrate ``run`` (:class:`~.run.Run`) with the scipy integrator ``method``; ``why`` it was chosen goes to
     ``res.solver``. ``quadratures``: the energy integrals as states (see the module docstring). The Result
     remembers ``scipy_method``."""
-    return loop.integrate(run, Stepper(run, method, why, quadratures))
+    return integrate_segments(run, Stepper(run, method, why, quadratures))
 
 
 class Stepper:
