@@ -191,7 +191,7 @@ def residual_vector(experiments, values, signals, weights, scales, mask="train")
     return np.concatenate(parts)
 
 
-def calibrate(experiments, free, signals, weights: dict | None = None, scales: dict | None = None,
+def calibrate(experiments, free, signals, *, weights: dict | None = None, scales: dict | None = None,
               fixed: dict | None = None, max_nfev: int = 100, loss: str = "soft_l1",
               f_scale: float = 3.0, tol: float = 1e-10, together: bool = False) -> Calibration:
     """Fit ``free`` (list of :class:`Free`) on the training samples of all ``experiments``.

@@ -46,7 +46,7 @@ def nodes_at(res, cuts, samples=None) -> tuple:
     :func:`node_samples` of the same cuts, if already found."""
     bps, tn, half, wg, Xn, Dn = samples or node_samples(res, cuts)
     sub = type(res)(res.model, tn.ravel(), Xn, res.params, res.inputs, Dn, events=[],
-                    exact_time_function=res._given_nodes is None and res._exact_time_function)
+                    dense=type(res.dense)(exact_time=res.dense.nodes is None and res.dense.exact_time))
     return (bps, tn.shape, half, wg, sub)
 
 
@@ -56,12 +56,12 @@ def node_samples(res, cuts) -> tuple:
     t = res.t
     cm = res.model
     nx = len(cm.state_names)
-    if res._given_nodes is not None:
-        bps, Xn = res._given_nodes()
+    if res.dense.nodes is not None:
+        bps, Xn = res.dense.nodes()
         tn, half, wg = gauss_nodes(bps)
         return (bps, tn, half, wg, Xn.reshape(nx, tn.size),
                 np.asarray(res.modes if np.ndim(res.modes) == 1 else res.modes[:, 0], dtype=float))
-    segs = res._segments
+    segs = res.dense.steps
     if segs:
         starts = np.array([s[0] for s in segs])
         bps = np.append(starts, segs[-1][1]) if cuts is None else np.union1d(np.append(starts, segs[-1][1]), cuts)

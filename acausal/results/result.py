@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 
 import numpy as np
 import sympy as sp
@@ -13,6 +14,25 @@ from ..model.signals import SignalCall
 from ..model.symbols import der_name, split_der
 
 
+@dataclasses.dataclass
+class DenseOutput:
+    """What a run hands its :class:`Result` beyond the states at the output times, for integrals to the
+    integrator's accuracy (:meth:`Result.energy`): one backend fills what it has.
+
+    ``steps``: the scipy path's accepted steps, ``(t0, t1, interpolant, modes)`` each (energies on their Gauss
+    nodes); ``nodes``: the compiled path's ``() -> (output times, states at the Gauss nodes of every output
+    interval)``, integrated when called; ``integrals``: ``name -> integral from the start at the output times``,
+    integrated with the states; ``more``: ``names -> such integrals`` by running the same integration again (the
+    compiled path); ``exact_time``: no states, every variable an explicit function of time (evaluated, not
+    integrated)."""
+
+    steps: list = dataclasses.field(default_factory=list)
+    nodes: object = None
+    integrals: dict = dataclasses.field(default_factory=dict)
+    more: object = None
+    exact_time: bool = False
+
+
 class Result:
     """Output of a simulation.
 
@@ -22,17 +42,13 @@ class Result:
     :meth:`energy`; export: :meth:`to_csv`, :meth:`plot`.
     """
 
-    def __init__(self, cm, t, X, p, u, D, events, segments=None, exact_time_function=False, nodes=None,
-                 integrals=None, solver: str = "", more_integrals=None, newton_starts=None):
+    def __init__(self, cm, t, X, p, u, D, events, dense: "DenseOutput | None" = None, *, solver: str = "",
+                 newton_starts=None):
         self.model = cm
         self.solver = solver  # which integrator ran, and on which path (see CompiledModel.simulate)
         self.trust: list = []  # what the trust checks found (acausal.results.trust): empty when the result passed
-        self._segments = segments or []
-        self._given_nodes = nodes  # compiled path: () -> (breakpoints, states at their Gauss nodes)
-        self._integrals = integrals or {}  # name -> integral from the start at t, integrated with the states
-        self._more_integrals = more_integrals  # compiled path: names -> such integrals, by running again
+        self.dense = DenseOutput() if dense is None else dense  # what the energies integrate on besides the outputs
         self._asked: set = set()  # names already run again for
-        self._exact_time_function = exact_time_function
         self.t = np.asarray(t)
         self.states = X
         self.params = p
@@ -160,7 +176,7 @@ class Result:
                 return np.broadcast_to(np.asarray(
                     cm.eval_expr(d_expr, self._unknowns, self.params, self._mode_rows(), self.t), dtype=float),
                     self.t.shape)
-        if self._exact_time_function and order == 1 and name in self._unknowns:
+        if self.dense.exact_time and order == 1 and name in self._unknowns:
             # no states: the variable is an explicit function of time; differentiate it off the grid
             h = 1e-6 * max(1.0, float(np.max(np.abs(self.t))))
             i = self.model.unknown_names.index(name)
@@ -169,7 +185,7 @@ class Result:
             hi = np.asarray(f(self.t + h, x, self.params, self.modes, self.inputs)[i], dtype=float)
             lo = np.asarray(f(self.t - h, x, self.params, self.modes, self.inputs)[i], dtype=float)
             return np.broadcast_to((hi - lo) / (2 * h), self.t.shape)
-        if order == 1 and not self._exact_time_function:
+        if order == 1 and not self.dense.exact_time:
             d_expr = cm.rate_expr(name)  # through the assignment that computes it (gear.phi_b = motor.phi / ratio)
             if d_expr is not None and not d_expr.has(SignalCall):
                 return np.broadcast_to(np.asarray(
@@ -363,7 +379,7 @@ class Result:
         """Gauss-Legendre nodes of every solver step (cut at the output times) and a Result evaluated there;
         built once per Result and shared by all energy integrals. ``steps_only``: the steps uncut (the run's
         totals, :meth:`_run_energy`: a fifth to a sixth of the nodes with many outputs per step)."""
-        steps_only = steps_only and bool(self._segments) and self._given_nodes is None
+        steps_only = steps_only and bool(self.dense.steps) and self.dense.nodes is None
         key = ("nodes", steps_only)
         if key not in self._cache:
             self._cache[key] = nodes_at(self, None, self._node_samples()) if steps_only else nodes_at(self, self.t)
@@ -379,7 +395,7 @@ class Result:
     def _totals_on_steps(self) -> bool:
         """Whether the run's totals come from the scipy path's steps' own Gauss nodes (:meth:`_run_energy`): not
         where the compiled path integrated the energies with the states, nor without dense output."""
-        return bool(self._segments) and self._given_nodes is None and not self._integrals
+        return bool(self.dense.steps) and self.dense.nodes is None and not self.dense.integrals
 
     def _run_samples(self) -> "Result":
         """The samples the run's totals come from: the steps' Gauss nodes (a Result there, :meth:`_totals_on_steps`),
@@ -425,11 +441,11 @@ class Result:
         """On the compiled path: the integrals of ``names`` not yet integrated with the states, by one more run
         of the same integration with them as quadratures (an output interval may hold a transient that its Gauss
         nodes do not resolve; the integrator's steps do)."""
-        names = [n for n in dict.fromkeys(names) if n not in self._integrals and n not in self._asked]
-        if self._more_integrals is None or not names:
+        names = [n for n in dict.fromkeys(names) if n not in self.dense.integrals and n not in self._asked]
+        if self.dense.more is None or not names:
             return
         self._asked.update(names)
-        self._integrals.update(self._more_integrals(names))
+        self.dense.integrals.update(self.dense.more(names))
 
     def _cumulative(self, what):
         """The cumulative integral of ``what`` at the output times (found once per result: the trust check's
@@ -442,10 +458,10 @@ class Result:
     def _integrate(self, what):
         t = self.t
         self._integrate_with_states([what])
-        if what in self._integrals:
-            q = self._integrals[what]
+        if what in self.dense.integrals:
+            q = self.dense.integrals[what]
             return q - q[0]
-        if not self._segments and not self._exact_time_function and self._given_nodes is None:
+        if not self.dense.steps and not self.dense.exact_time and self.dense.nodes is None:
             return integrate_cumulative(self._integrand(what), t)
         nodes = self._quadrature_nodes()
         return gauss_cumulative(nodes, what)[np.searchsorted(nodes[0], t)]

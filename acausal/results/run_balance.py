@@ -100,9 +100,9 @@ def _from_plan(res, acc):
         energy = {n: np.concatenate([[0.0], np.cumsum(pieces[i])]) if n in whole else (0.0, totals[i])
                   for i, n in enumerate(names)}
         samples = at_nodes[k:]
-    elif res._integrals and all(n in res._integrals for n in names):
+    elif res.dense.integrals and all(n in res.dense.integrals for n in names):
         energy = {n: q - q[0] if n in whole else (0.0, float(q[-1] - q[0]))
-                  for n in names for q in [res._integrals[n]]}
+                  for n in names for q in [res.dense.integrals[n]]}
         samples = None
     else:
         return None

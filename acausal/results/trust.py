@@ -306,7 +306,7 @@ def integration_fault(res, rtol) -> bool:
     (:func:`wrong_accounts`), the energies integrated on the steps' interpolants.
     :func:`~acausal.simulation.simulate.simulate` then runs again with the energies as states
     (:mod:`acausal.simulation.scipy.quadratures`)."""
-    if getattr(res, "scipy_method", None) is None or res._integrals:
+    if getattr(res, "scipy_method", None) is None or res.dense.integrals:
         return False
     if _once(res, ("nonfinite",), lambda: nonfinite(res)) or _once(res, ("poles",), lambda: poles(res)):
         return False
@@ -363,7 +363,7 @@ def _energy_balance(res, rtol, retry) -> list:
 
 def _integration_cause(res, rtol, limit, retry) -> str:
     """Too loose a tolerance, or a model stiff for the integrator: told apart by a tighter run when ``retry``."""
-    if "compiled path" in (res.solver or "") or res._integrals:  # energies integrated under the error control
+    if "compiled path" in (res.solver or "") or res.dense.integrals:  # energies integrated under the error control
         stiff = "the integrator accepted steps it should not have (a stiff model)"
     else:
         stiff = ("the scipy path integrates energies on its steps' interpolants, which a stiff model (a switch "

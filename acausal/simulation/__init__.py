@@ -7,7 +7,7 @@ state events), :mod:`.compiled` (CasADi CVODES/IDAS, or SUNDIALS from C in the n
 integrate -> trust check."""
 from .choose import COMPILED, FALLBACK, ROBUST, choose_path
 from .initial import initialize
-from .run import Run, check_finite_times, check_run, check_tolerances, prepare
+from .run import Run, Segment, check_finite_times, check_run, check_tolerances, prepare
 
-__all__ = ["COMPILED", "FALLBACK", "ROBUST", "Run", "check_finite_times", "check_run", "check_tolerances",
+__all__ = ["COMPILED", "FALLBACK", "ROBUST", "Run", "Segment", "check_finite_times", "check_run", "check_tolerances",
            "choose_path", "initialize", "prepare"]

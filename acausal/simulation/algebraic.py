@@ -11,9 +11,9 @@ SOLVER = "algebraic (no states: evaluated at the output times)"  # what res.solv
 
 def integrate(run):
     """The :class:`~acausal.results.result.Result` of ``run`` (:class:`~.run.Run`) whose model has no states."""
-    from ..results.result import Result
+    from ..results.result import DenseOutput, Result
 
     cm, t_out, p, d, u = run.cm, run.t_out, run.p, run.d, run.u
     modes = algebraic_modes(cm, t_out, p, d, u) if cm.event_zeros else d
-    return Result(cm, t_out, np.zeros((0, t_out.size)), p, u, modes, events=[], exact_time_function=True,
+    return Result(cm, t_out, np.zeros((0, t_out.size)), p, u, modes, events=[], dense=DenseOutput(exact_time=True),
                   solver=SOLVER)

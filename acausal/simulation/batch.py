@@ -15,6 +15,8 @@ import numpy as np
 
 from ..errors import ModelError, SimulationError
 
+MAX_EVENTS = 10_000  # events per member at most (simulate's default)
+
 
 def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_start: float = 0.0,
                   inputs: dict | None = None, starts: dict | None = None, method: str = "auto", rtol: float = 1e-6,
@@ -25,9 +27,9 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     :func:`acausal.simulation.simulate.simulate`'s (``trust``: every member is checked as its own run would be).
     ``threads``: threads for the compiled path (default: the number of cores)."""
     from .compiled import available
-    from ..results.result import Result
-    from .simulate import simulate
-    from . import COMPILED, check_run, choose_path, initialize
+    from ..results.result import DenseOutput, Result
+    from .simulate import simulate_run
+    from . import COMPILED, choose_path, prepare
     from ..results.trust import check, check_mode
 
     if isinstance(params, dict) or not hasattr(params, "__iter__"):
@@ -40,66 +42,63 @@ def simulate_many(cm, t_end: float, params, *, threads: int | None = None, t_sta
     if not sets:
         return []
     check_mode(trust)
-    kwargs = dict(t_start=t_start, inputs=inputs, starts=starts, rtol=rtol, atol=atol, t_eval=t_eval,
-                  n_points=n_points, max_step=max_step, first_step=first_step, dense_output=dense_output, trust=trust)
-    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, 0, t_eval, n_points,
-                                      states=cm.state_names, dense_output=dense_output)
-    ps = [cm.param_vector(s) for s in sets]
-    us = [cm.input_tuple(inputs, p) for p in ps]
+    runs = [prepare(cm, t_end, t_start=t_start, params=s, inputs=inputs, starts=starts, method=method, rtol=rtol,
+                    atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step, first_step=first_step,
+                    max_events=MAX_EVENTS, dense_output=dense_output, max_steps=None) for s in sets]
     batched = False
     if method in ("auto", COMPILED) and cm.state_names and not cm.event_zeros and available():
         from ..backends.casadi import Signals, Unsupported
         try:
-            same_inputs = len({Signals.layout(cm, u) for u in us}) == 1
+            same_inputs = len({Signals.layout(cm, run.u) for run in runs}) == 1
         except Unsupported:
             same_inputs = True  # choose_path below names the input
         if not same_inputs and method == COMPILED:
             raise ModelError("simulate_many(method='CVODES'): the parameter sets give inputs of different shapes "
                              "(parametric signals); run them one by one")
-        batched = same_inputs and choose_path(cm, method, us[0], rtol, atol)[0] == COMPILED
+        batched = same_inputs and choose_path(cm, method, runs[0].u, rtol, atol)[0] == COMPILED
     if not batched:  # one run per set (a model with events restarts each run at its own crossings)
-        return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
+        return [simulate_run(run, trust) for run in runs]
+    t_out = runs[0].t_out
     names = []
     if dense_output and t_out.size > 1 and cm.accounts is not None:
         from ..compile.accounts import account_integrals
         names = account_integrals(cm.accounts)
     n_threads = max(1, min(len(sets), threads or os.cpu_count() or 1))
     from .compiled import native_loop  # here: it needs CasADi, which batched runs have
-    if native_loop.runner_for(cm, us[0], names)[0] is not None:  # built here, once, if it was not
-        return _threaded(lambda s: simulate(cm, t_end, params=s, method=method, **kwargs), sets, n_threads)
-    d = cm.discrete_start()
-    x0s = [initialize(cm, t_start, p, d, u, starts) for p, u in zip(ps, us)]
+    if native_loop.runner_for(cm, runs[0].u, names)[0] is not None:  # built here, once, if it was not
+        return _threaded(lambda run: simulate_run(run, trust), runs, n_threads)
+    path, u = cm.compiled_path, runs[0].u  # the first set's inputs: one integrator for all
     try:
-        runs = cm.compiled_path.integrate_many(t_start, x0s, t_out, ps, d, us[0], rtol, atol, max_step, first_step,
-                                               names, threads=n_threads)
+        out = path.integrate_many(runs[0].t_start, [run.x0 for run in runs], t_out, [run.segment(u=u) for run in runs],
+                                  integrals=names, threads=n_threads)
     except SimulationError:  # one member failed: each on its own, so the failing one is reported as simulate does
-        return [simulate(cm, t_end, params=s, method=method, **kwargs) for s in sets]
-    out = []
-    for (X, Q), p, u, x0 in zip(runs, ps, us, x0s):
+        return [simulate_run(run, trust) for run in runs]
+    results = []
+    for (X, Q), run in zip(out, runs):
         if not np.all(np.isfinite(X)):
             raise SimulationError("compiled path: non-finite states in a batch member")
-        nodes = cm.compiled_path.gauss_states(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
-            if dense_output and t_out.size > 1 else None
-        later = cm.compiled_path.quadratures_later(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step) \
-            if nodes is not None else None
-        out.append(Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=Q, more_integrals=later,
-                          solver=f"{cm.compiled_path.integrator_name(us[0])} (compiled path, CasADi; batch of "
-                                 f"{len(sets)} on {n_threads} threads)"))
-        check(out[-1], rtol, atol, trust, dense_output)
-    return out
+        seg = run.segment()
+        nodes = path.gauss_states(run.t_start, run.x0, t_out, seg) if dense_output and t_out.size > 1 else None
+        later = path.quadratures_later(run.t_start, run.x0, t_out, seg) if nodes is not None else None
+        results.append(Result(cm, t_out, X, run.p, run.u, run.d, events=[],
+                              dense=DenseOutput(nodes=nodes, integrals=Q, more=later),
+                              solver=f"{path.integrator_name(u)} (compiled path, CasADi; batch of {len(sets)} on "
+                                     f"{n_threads} threads)"))
+        check(results[-1], rtol, atol, trust, dense_output)
+    return results
 
 
-def _threaded(run, sets, n_threads: int) -> list:
-    """``run(s)`` for every parameter set: the first alone (what a run builds and keeps for the next is built
-    once), the others on ``n_threads`` threads (the native loop lets go of the interpreter while it integrates).
-    Each result is its own :func:`~acausal.simulation.simulate.simulate`'s; its ``solver`` says it ran in a batch."""
+def _threaded(simulate, runs, n_threads: int) -> list:
+    """``simulate(run)`` for every run: the first alone (what a run builds and keeps for the next is built once),
+    the others on ``n_threads`` threads (the native loop lets go of the interpreter while it integrates). Each
+    result is its own :func:`~acausal.simulation.simulate.simulate`'s; its ``solver`` says it ran in a batch."""
     from concurrent.futures import ThreadPoolExecutor
 
-    out = [run(sets[0])]
-    if len(sets) > 1:
+    out = [simulate(runs[0])]
+    if len(runs) > 1:
         with ThreadPoolExecutor(max_workers=n_threads) as pool:
-            out += list(pool.map(run, sets[1:]))
+            out += list(pool.map(simulate, runs[1:]))
     for res in out:
         res.solver = (res.solver[:-1] if res.solver.endswith(")") else res.solver + " (") + \
-            f"; batch of {len(sets)} on {n_threads} threads)"
+            f"; batch of {len(runs)} on {n_threads} threads)"
     return out

@@ -1,7 +1,7 @@
-"""Discrete modes and state events, shared by both simulation paths: the zero functions' values, the crossings
+"""Discrete modes and state events, shared by every simulation path: the zero functions' values, the crossings
 between two points of a solution (Brent's method on it), the assignments an event makes, settling the modes at a
-start and the cascade of mode changes after an event. The scipy path (:mod:`acausal.simulation.simulate`) and the
-compiled path (:mod:`acausal.simulation.compiled.events`) call the same functions, so both switch the same way.
+start and the cascade of mode changes after an event. The one event loop (:mod:`acausal.simulation.loop`) and its
+segment integrators call the same functions, so every path switches the same way.
 """
 from __future__ import annotations
 
@@ -48,10 +48,12 @@ def check_zeros(cm, t, z, d) -> None:
                           "this mode, or a function used outside its domain)")
 
 
-def crossings(cm, sol, t0, t1, z0, z1, p, d, u, off=None):
-    """The earliest zero crossing(s) in (t0, t1] as a list of (time, event index, rising?), all at (nearly) the
-    same time: zero functions that cross together (e.g. the speeds of two gear stages) are handled together.
-    ``off``: the thresholds (:func:`knee_offsets`) that ``z0``, ``z1`` are already relative to."""
+def crossings(seg, sol, t0, t1, z0, z1, off=None):
+    """The earliest zero crossing(s) in (t0, t1] of the segment ``seg`` (:class:`~.run.Segment`) whose solution is
+    ``sol``, as a list of (time, event index, rising?), all at (nearly) the same time: zero functions that cross
+    together (e.g. the speeds of two gear stages) are handled together. ``off``: the thresholds
+    (:func:`knee_offsets`) that ``z0``, ``z1`` are already relative to."""
+    cm, p, d, u = seg.cm, seg.p, seg.d, seg.u
     off = np.zeros(len(z0)) if off is None else off
     found = []
     for i in range(len(z0)):
@@ -87,8 +89,9 @@ def together(found) -> list:
 SUBSTEPS = 8
 
 
-def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS, off=None):
-    """:func:`crossings` in a solver step ``(t0, t1]`` whose dense output is ``sol``, looked for at the step's
+def crossings_in_step(seg, sol, t0, t1, z0, z1, substeps: int = SUBSTEPS, off=None):
+    """:func:`crossings` in a solver step ``(t0, t1]`` of the segment ``seg`` whose dense output is ``sol``, looked
+    for at the step's
     ends and at ``substeps`` interior points: a zero function that crosses zero and back within one long step
     (nearly constant states, a diode bridge run on past its last switch) shows at an interior point even when
     its sign at both ends agrees, and of several crossings in one step the first is found (Brent's method on the
@@ -100,6 +103,7 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
     through zero): the step is then searched up to the last time its values are finite (bisection), and only
     when no crossing comes before it is the bad value an error (:func:`check_zeros`, at the first bad time).
     ``off``: the thresholds (:func:`knee_offsets`) that ``z0``, ``z1`` are already relative to."""
+    cm, p, d, u = seg.cm, seg.p, seg.d, seg.u
     off = np.zeros(len(z0)) if off is None else off
     ts = t0 + (t1 - t0) * np.arange(1, max(substeps, 0) + 1) / (max(substeps, 0) + 1)
     if ts.size and len(z0):
@@ -122,7 +126,7 @@ def crossings_in_step(cm, sol, t0, t1, z0, z1, p, d, u, substeps: int = SUBSTEPS
     za, ta = np.asarray(z0, dtype=float), t0
     for k in range(times.size):
         zb = Z[:, k]
-        found = crossings(cm, sol, ta, times[k], za, zb, p, d, u, off)
+        found = crossings(seg, sol, ta, times[k], za, zb, off)
         if found:
             return found
         za, ta = zb, times[k]
@@ -152,16 +156,6 @@ def _finite(cm, i, t, value, d):
         z[i] = value
         check_zeros(cm, t, z, d)
     return value
-
-
-def after_end(t_out, t_e, X, D, x_e, d) -> None:
-    """An event at the last output time (``t_end``): the outputs there take the values after it, the final value a
-    Modelica tool reports (a sample at ``t_end`` that resets a Mean block shows the new mean). An output at an
-    earlier event keeps the value before it."""
-    if t_out.size and t_e >= t_out[-1]:
-        at = t_out >= t_e
-        X[:, at] = np.asarray(x_e, dtype=float)[:, None]
-        D[:, at] = np.asarray(d, dtype=float)[:, None]
 
 
 def record_events(cm, events: list, hits, t_e: float, max_events: int) -> None:
@@ -249,7 +243,7 @@ KNEE = 1e-6
 ROUNDOFF = 1e-12
 
 
-def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=(), kept=None):
+def cascade(cm, t, x, p, d_old, d_new, u, *, max_iter: int = CASCADE_ITER, hits=(), kept=None):
     """After an event: a mode change may flip the sign of other zero functions (which depend on modes); apply
     those events' assignments, and repeat, until nothing flips (Modelica's event iteration).
 
@@ -297,17 +291,6 @@ def cascade(cm, t, x, p, d_old, d_new, u, max_iter: int = CASCADE_ITER, hits=(),
     raise SimulationError(f"discrete modes do not settle after an event at t = {t:.9g} s: the events of "
                           f"{', '.join(culprits)} switch back and forth (no mode is consistent there: the model "
                           "chatters); modes " + ", ".join(f"{n} = {v:g}" for n, v in zip(cm.discrete_names, d)))
-
-
-def handle_event(cm, events: list, hits, t, x, p, d, d_new, u, max_events: int) -> tuple:
-    """One event at ``t`` as both simulation paths handle it: the crossings ``hits`` logged (:func:`record_events`),
-    the states reinitialised (:func:`apply_reinits`), the modes after the hits (``d_new``) iterated
-    (:func:`cascade`) and the thresholds to watch from there (:func:`knee_offsets`). Returns ``(x, d, off)``."""
-    record_events(cm, events, hits, t, max_events)
-    x = apply_reinits(cm, hits, t, x, p, d, u)
-    kept: list = []
-    d = cascade(cm, t, x, p, d, d_new, u, hits=hits, kept=kept)
-    return x, d, knee_offsets(cm, t, x, p, d, u, kept)
 
 
 def knee_offsets(cm, t, x, p, d, u, kept) -> np.ndarray:

@@ -46,13 +46,40 @@ class Run:
             return float(v) if v.ndim == 0 else v
         return dataclasses.replace(self, rtol=div(self.rtol), atol=div(self.atol))
 
+    def segment(self, d=None, u=None) -> "Segment":
+        """The :class:`Segment` of this run in the modes ``d`` (default: the discrete start), with the inputs ``u``
+        (default: the run's)."""
+        return Segment(self.cm, self.p, self.d if d is None else d, self.u if u is None else u, self.rtol,
+                       self.atol, self.max_step, self.first_step)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Segment:
+    """What stays fixed while a run is integrated between two of its events, as every segment integrator takes it:
+    the model ``cm``, the parameter vector ``p``, the modes ``d``, the inputs ``u``, the tolerances and the step
+    bounds [s] (:meth:`Run.segment` builds it from a :class:`Run`)."""
+
+    cm: object
+    p: np.ndarray
+    d: np.ndarray
+    u: tuple
+    rtol: object
+    atol: object
+    max_step: float = np.inf
+    first_step: float | None = None
+
+    def tighter(self, k: float) -> "Segment":
+        """The same segment with both tolerances multiplied by ``k``."""
+        return dataclasses.replace(self, rtol=self.rtol * k, atol=self.atol * k)
+
 
 def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,
             first_step, max_events, dense_output, max_steps) -> Run:
     """Check the settings of :func:`acausal.simulation.simulate.simulate` (each error names its setting) and build the
     :class:`Run`: the parameter vector, the inputs, the discrete start and the consistent initial states."""
-    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval,
-                                      n_points, max_steps, cm.state_names, dense_output)
+    t_start, t_end, t_out = check_run(t_start, t_end, method, rtol, atol, max_step=max_step, first_step=first_step,
+                                      max_events=max_events, t_eval=t_eval, n_points=n_points, max_steps=max_steps,
+                                      states=cm.state_names, dense_output=dense_output)
     p = cm.param_vector(params)
     if p.dtype == object:  # an array of values: a batch of runs
         batch = [name for name, value in (params or {}).items() if np.ndim(value) > 0]
@@ -60,14 +87,25 @@ def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t
                          f"{'is an array' if len(batch) == 1 else 'are arrays'} of values: give numbers, or run the "
                          f"sets with sim.simulate_many(t_end, [{{...}}, ...]) or acausal.simulation.sweep.sweep")
     u = cm.input_tuple(inputs, p)
+    return from_start(cm, t_start, t_end, t_out, p, u, starts=starts, method=method, rtol=rtol, atol=atol,
+                      max_step=max_step, first_step=first_step, max_events=max_events, dense_output=dense_output,
+                      max_steps=max_steps)
+
+
+def from_start(cm, t_start, t_end, t_out, p, u, *, starts, method, rtol, atol, max_step=np.inf, first_step=None,
+               max_events=10_000, dense_output=False, max_steps=None) -> Run:
+    """The :class:`Run` of ``cm`` over ``t_start``..``t_end`` (outputs ``t_out``) with the parameter vector ``p``
+    and the inputs ``u``, from the discrete start and the consistent initial states (:func:`~.initial.initialize`,
+    with ``starts``); the settings as given (checked by the caller): what :func:`prepare` and
+    :func:`acausal.simulation.sensitivity.sensitivities` build their runs with."""
     d = cm.discrete_start()
     x0 = initialize(cm, t_start, p, d, u, starts)  # without states too: fixed starts must still hold
     return Run(cm, t_start, t_end, t_out, p, d, u, x0, method, rtol, atol, max_step, first_step, max_events,
                dense_output, max_steps, starts)
 
 
-def check_run(t_start, t_end, method, rtol, atol, max_step, first_step, max_events, t_eval, n_points,
-               max_steps=None, states=None, dense_output=True):
+def check_run(t_start, t_end, method, rtol, atol, *, max_step, first_step, max_events, t_eval, n_points,
+              max_steps=None, states=None, dense_output=True):
     """The checked run settings of :func:`simulate`: ``(t_start, t_end, output times)``; a ModelError naming the
     setting at fault otherwise."""
     if method not in METHODS and method not in ("auto", COMPILED):

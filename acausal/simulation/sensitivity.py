@@ -25,12 +25,13 @@ from scipy.integrate import solve_ivp
 
 from ..errors import ModelError, SimulationError
 from .events import algebraic_modes
-from . import check_finite_times, check_tolerances, initialize
+from . import check_finite_times, check_tolerances
+from .run import from_start
 from .initial import whole
 from ..model.symbols import der_name, var_symbol
 
 
-def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10,
+def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float = 1e-8, atol: float = 1e-10, *,
                   t_start: float = 0.0, starts: dict | None = None, method: str = "auto", substeps: int = 4):
     """Values and parameter sensitivities of variables of the compiled model ``cm`` at times ``t``.
 
@@ -81,21 +82,33 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
             raise ModelError("sensitivities of models with events and states are not supported")
         if N and (t[0] < t_start or np.any(np.diff(t) < 0)):
             raise ModelError(f"sensitivities: t must be increasing and not before t_start = {t_start}")
-        X, S = None, None
+        asked = method
+
+        def start():  # the states' Run from their consistent start, built where an integration first needs it
+            return from_start(cm, t_start, float(t[-1]) if N else t_start, t, p, u, starts=starts, method=asked,
+                              rtol=rtol, atol=atol)
+
+        X, S, run = None, None, None
         if method == "RK4":
-            X, S = _fixed_step(cm, t, t_start, p, d, u, starts, wrt, bindings, substeps)
+            stepper = _fixed_step(cm, wrt, bindings, substeps)
+            run = start()
+            X, S = stepper.run(run.t_start, run.x0, run.t_out, run.p, run.d, run.u)
         elif method in ("auto", "CVODES"):
             from . import COMPILED, ROBUST, choose_path
             method, _ = choose_path(cm, method, u, rtol, atol)
             if method == COMPILED:
-                x0 = initialize(cm, t_start, p, d, u, starts)
+                run = start()
                 try:
-                    X, S = cm.compiled_path.sensitivities(t_start, x0, t, p, d, u, wrt, bindings, rtol, atol)
+                    X, S = cm.compiled_path.sensitivities(run.t_start, run.x0, run.t_out, run.segment(), wrt,
+                                                          bindings)
                 except SimulationError:  # the scipy path says where and why
                     method = ROBUST
         if X is None:
             rhs_fn = gen.sensitivity_function(wrt, bindings, [var_symbol(der_name(s)) for s in cm.state_names])
-            X, S = _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method)
+            if method not in ("BDF", "LSODA", "Radau"):
+                raise ModelError(f"sensitivities: method must be 'auto', 'CVODES', 'BDF', 'LSODA' or 'Radau', got "
+                                 f"{method!r}")
+            X, S = _integrate(run if run is not None else start(), rhs_fn, q, method)
         vals, dx, dp = out_fn(t, X, p, d, u)
         dy = np.einsum("mk...,kj...->mj...", dx, S) + dp  # y_x S + y_p
     values, sens = {}, {}
@@ -105,18 +118,18 @@ def sensitivities(cm, t, wrt, names=None, params=None, inputs=None, rtol: float 
     return values, sens
 
 
-def _fixed_step(cm, t, t_start, p, d, u, starts, wrt, bindings, substeps):
-    """States and sensitivities by :mod:`acausal.simulation.compiled.fixed_step` (RK4 on the grid ``t``)."""
+def _fixed_step(cm, wrt, bindings, substeps):
+    """The stepper of :mod:`acausal.simulation.compiled.fixed_step` (RK4, ``substeps`` per output interval) with the
+    sensitivities to ``wrt``; a ModelError where the model has no such form or CasADi is missing."""
     try:
         from .compiled.fixed_step import fixed_step
         from ..backends.casadi import Unsupported
     except ImportError as exc:  # no CasADi
         raise ModelError(f"sensitivities: method 'RK4' needs CasADi (the 'fast' extra): {exc}") from None
     try:
-        stepper = fixed_step(cm, int(substeps), wrt, bindings)
+        return fixed_step(cm, int(substeps), wrt, bindings)
     except Unsupported as exc:
         raise ModelError(f"sensitivities: method 'RK4' cannot run this model: {exc}") from None
-    return stepper.run(t_start, initialize(cm, t_start, p, d, u, starts), t, p, d, u)
 
 
 def _output_expr(cm, name):
@@ -128,11 +141,13 @@ def _output_expr(cm, name):
     raise cm.unknown_name_error(name, "variable", cm.names())
 
 
-def _integrate(cm, rhs_fn, t, t_start, p, d, u, n, q, rtol, atol, starts, method):
-    """States ``X`` (n, N) and sensitivities ``S`` (n, q, N) at ``t``, integrated together from ``t_start``."""
-    if method not in ("BDF", "LSODA", "Radau"):
-        raise ModelError(f"sensitivities: method must be 'auto', 'CVODES', 'BDF', 'LSODA' or 'Radau', got {method!r}")
-    x0 = initialize(cm, t_start, p, d, u, starts)
+def _integrate(run, rhs_fn, q, method):
+    """States ``X`` (n, N) and sensitivities ``S`` (n, q, N) to ``q`` parameters at ``run``'s output times,
+    integrated together from its start by the scipy integrator ``method`` (:class:`~.run.Run`: its parameters,
+    modes, inputs, tolerances and consistent start)."""
+    cm, t, t_start, p, d, u = run.cm, run.t_out, run.t_start, run.p, run.d, run.u
+    rtol, atol, x0 = run.rtol, run.atol, run.x0
+    n = len(cm.state_names)
     y0 = np.concatenate([x0, np.zeros(n * q)])
     pl, dl = p.tolist(), d.tolist()
     eye_q = np.eye(q)

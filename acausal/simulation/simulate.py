@@ -58,12 +58,20 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, params: dict | None = No
     run = prepare(cm, t_end, t_start=t_start, params=params, inputs=inputs, starts=starts, method=method, rtol=rtol,
                   atol=atol, t_eval=t_eval, n_points=n_points, max_step=max_step, first_step=first_step,
                   max_events=max_events, dense_output=dense_output, max_steps=max_steps)
+    return simulate_run(run, trust)
+
+
+def simulate_run(run, trust: str = "raise"):
+    """The Result of the prepared ``run`` (:class:`~.run.Run` of :func:`prepare`): integrated (:func:`integrate`)
+    and checked as ``trust`` says (:mod:`acausal.results.trust`, see :func:`simulate`); what :func:`simulate` and
+    :func:`acausal.simulation.batch.simulate_many` do with each of their runs."""
+    rtol, atol, dense_output = run.rtol, run.atol, run.dense_output
     res, on_scipy = integrate(run)
     if trust != "off" and dense_output and integration_fault(res, rtol):
         # the scipy path's energies, integrated on the steps' interpolants, miss what every account holds: the
         # run again with them as states, under the integrator's error control (acausal.simulation.scipy.quadratures)
         res = scipy_driver.integrate(run, *on_scipy, quadratures=True)
-    with_quadratures = on_scipy is not None and bool(res._integrals)
+    with_quadratures = on_scipy is not None and bool(res.dense.integrals)
 
     def retry(k):  # the same run, both tolerances divided by k, unchecked (the balance's cause, acausal.results.trust)
         tight = run.tighter(k)

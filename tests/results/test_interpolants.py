@@ -13,7 +13,7 @@ from ..drive_models import MotorGearLoad
 def test_states_at_gauss_nodes_equal_each_steps_own_interpolant(method):
     cm = compile_model(MotorGearLoad())
     res = cm.simulate(1.0, method=method, trust="off")
-    segs = res._segments
+    segs = res.dense.steps
     tn = np.stack([np.linspace(s[0], s[1], 5) for s in segs])
     which = np.arange(len(segs))
     stacked = states_at(segs, which, tn, len(cm.state_names))

@@ -14,6 +14,7 @@ from acausal.library.electrical import (Capacitor, ConstantVoltage, Ground, Idea
 from acausal.model.signals import Constant, ExpressionSignal, FourierSeries, PeriodicSpline, SampledSignal, Signal
 
 from ..drive_models import MotorGearLoad, MotorLossyGearLoad
+from acausal.simulation.run import Segment
 
 #: these tests touch which backend integrates a run: .ci/run runs them again without the accelerators
 pytestmark = pytest.mark.backend
@@ -229,8 +230,8 @@ def test_a_failing_compiled_run_is_reported_by_the_scipy_path():
     with pytest.raises(SimulationError, match=r"t = 0\.99|t = 1\b|non-finite"):
         cm.simulate(2.0, n_points=3)
     with pytest.raises(SimulationError, match="compiled path \\(CVODES\\)"):  # the compiled path's own report
-        cm.compiled_path.integrate(0.0, np.array([1.0]), np.array([2.0]), cm.param_vector(), cm.discrete_start(),
-                                   cm.input_tuple(), 1e-6, 1e-9)
+        cm.compiled_path.integrate(0.0, np.array([1.0]), np.array([2.0]),
+                                   Segment(cm, cm.param_vector(), cm.discrete_start(), cm.input_tuple(), 1e-6, 1e-9))
 
 
 # ---------------------------------------------------------------------------------------------- sensitivities
@@ -359,7 +360,7 @@ def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monke
     simulate = cm.simulate
 
     def spy_integrator(self, *args, **kw):
-        made.append(kw.get("xdot0", args[9] if len(args) > 9 else None))
+        made.append(kw.get("xdot0", args[5] if len(args) > 5 else None))
         return integrator(self, *args, **kw)
 
     def spy_integrate(self, *args, **kw):

@@ -441,16 +441,16 @@ def test_a_crossing_at_the_end_of_a_part_writes_no_output_there(monkeypatch):
     import acausal.simulation.compiled.events as events
     sim = compile_model(_ClockModel())
     _spy_runs(monkeypatch, fail=lambda a, b: a == 0.0 and b > 0.06)
-    first_crossing, snapped = events._first_crossing, []
+    first_crossing, snapped = events.Windows._first_crossing, []
 
-    def at_the_part_end(cm, path, t, x, grid, Xs, *args):
-        hit = first_crossing(cm, path, t, x, grid, Xs, *args)
+    def at_the_part_end(self, t, x, grid, Xs, Qs):
+        hit = first_crossing(self, t, x, grid, Xs, Qs)
         if hit is not None and grid.size == 1 and abs(hit[0] - grid[0]) < 1e-6 and grid[0] == 0.05:
             snapped.append(grid[0])
             return (float(grid[0]), Xs[:, -1].copy()) + tuple(hit[2:])
         return hit
 
-    monkeypatch.setattr(events, "_first_crossing", at_the_part_end)
+    monkeypatch.setattr(events.Windows, "_first_crossing", at_the_part_end)
     res = sim.simulate(1.0, n_points=11, params={"k.c": 0.05 - 1e-9})
     assert snapped == [0.05] and res.solver.startswith("CVODES (compiled path"), res.solver
     assert res.events[0][0] == pytest.approx(0.05, abs=1e-8)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...compile.accounts import account_integrals
 from ...errors import SimulationError
-from ...results.result import Result
+from ...results.result import DenseOutput, Result
 
 
 def integrate(run):
@@ -22,10 +22,9 @@ def integrate(run):
 
     cm, t_start, t_out, p, u = run.cm, run.t_start, run.t_out, run.p, run.u
     path = cm.compiled_path
-    args = (run.rtol, run.atol, run.max_step, run.first_step)
     dense = run.dense_output and t_out.size > 1
     # the states at the Gauss nodes of the output intervals, integrated when first asked for (events: the steps')
-    nodes = path.gauss_states(t_start, run.x0, t_out, p, run.d, u, *args) if dense and not cm.event_zeros else None
+    nodes = path.gauss_states(t_start, run.x0, t_out, run.segment()) if dense and not cm.event_zeros else None
     names = account_integrals(cm.accounts) if dense and cm.accounts is not None else []
     runner, sig = native_loop.runner_for(cm, u, names)
     if runner is not None:
@@ -36,13 +35,11 @@ def integrate(run):
     if cm.event_zeros:
         from .events import simulate_with_events
         return simulate_with_events(run)
-    x0, d, integrals = run.x0, run.d.copy(), {}
-    if dense:
-        X, integrals = path.integrate(t_start, x0, t_out, p, d, u, *args, integrals=names)
-    else:
-        X, _ = path.integrate(t_start, x0, t_out, p, d, u, *args)
+    x0, d = run.x0, run.d.copy()
+    seg = run.segment(d)
+    X, integrals = path.integrate(t_start, x0, t_out, seg, integrals=names if dense else ())
     if not np.isfinite(X).all():
         raise SimulationError("compiled path: non-finite states")
-    later = path.quadratures_later(t_start, x0, t_out, p, d, u, *args) if dense else None
-    return Result(cm, t_out, X, p, u, d, events=[], nodes=nodes, integrals=integrals, more_integrals=later,
+    later = path.quadratures_later(t_start, x0, t_out, seg) if dense else None
+    return Result(cm, t_out, X, p, u, d, events=[], dense=DenseOutput(nodes=nodes, integrals=integrals, more=later),
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi)")

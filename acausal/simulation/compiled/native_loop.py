@@ -9,9 +9,11 @@ last output time, not at each (a stop per output truncated the steps of a dense 
 at the end of each step, and at :data:`SUBSTEPS` interior points of it (the solver's interpolating polynomial, the
 algebraic variables made consistent there) where one crossed or where its total variation over the step says it may
 have bounced; it writes the outputs it passes, read off that polynomial, and stops at the first crossing, located on
-it. The event itself (its assignments, the cascade of mode changes, the thresholds watched from there) is the scipy
-path's own (:mod:`acausal.simulation.events`), so all paths switch the same way; a crossing that changes no mode is
-passed and the next segment starts from it.
+it. The event itself (its assignments, the cascade of mode changes, the thresholds watched from there) is the one
+event loop's (:mod:`acausal.simulation.loop`; :class:`NativeSegments` is its segment integrator), so all paths switch
+the same way; a crossing that changes no mode is passed and the next call starts from it. The C loop runs the steps
+of a segment and the search for its crossing, the work a run spends its time in; the event between two calls is
+Python's, once per event.
 
 For a model without events, this skips what CasADi's integrator adds around the same SUNDIALS steps (its virtual
 machine evaluating the model, its buffers): the 1-s drive of the benchmarks integrates in about 0.75 of the time of
@@ -47,8 +49,8 @@ import numpy as np
 
 from ...backends.ccompiler import try_shared_library, which_compiler
 from ...errors import SimulationError
-from ..events import SUBSTEPS, after_end, apply_hits, handle_event, restarts, zeros
-from .events import outputs_at_restart, start
+from ..events import SUBSTEPS, zeros
+from ..loop import event_modes, integrate_segments
 from ...backends.casadi import Signals, Unsupported
 
 MAX_NUM_STEPS = 1_000_000  # solver steps per segment at most
@@ -129,8 +131,13 @@ class SegmentRunner:
         self.nq, self.nv = nq, ng  # integrated: the distinct integrands, then each zero function's variation
         self.entry = entry  # z_index and the caches the algebraic start needs
 
-    def run(self, sig, t0, y0, pd, g0, mute, off, t_out, rtol, atol, max_step, first_step):
-        """One segment: ``(status, outputs written, X, Q, t_event, y_event, q_event, directions, message)``."""
+    def run(self, sig, seg, t0, y0, g0, mute, off, t_out):
+        """One segment (``seg``: :class:`~..run.Segment`, its parameters, modes, tolerances and step bounds) from
+        ``t0`` with the states and algebraic variables ``y0``, the zero functions ``g0`` there, the crossings
+        ``mute`` passed at the start and the thresholds ``off``, writing the outputs at ``t_out`` it passes:
+        ``(status, outputs written, X, Q, t_event, y_event, q_event, directions, message)``."""
+        pd = np.concatenate([seg.p, seg.d])
+        rtol, atol, max_step, first_step = seg.rtol, seg.atol, seg.max_step, seg.first_step
         fields, slots, numbers = sig.tables_of_run() if sig.slots else _NO_TABLES
         n, ny, nq, ng, N = self.n, self.n + self.nz, self.nq, self.ng, t_out.size
         wq, wg = max(nq, 1), max(ng, 1)
@@ -300,81 +307,94 @@ FAILURES = {-1: "the solver failed", -2: "a model function failed", -4: f"more t
 def simulate_native(run, runner, sig, nodes=None):
     """The run (:class:`~acausal.simulation.run.Run`) of a model on the native loop, with the ``runner`` and
     signals ``sig`` of :func:`runner_for` (see the module; a model without state events is one segment); returns
-    the Result (``nodes``: its :class:`~acausal.results.result.Result` argument). Raises :class:`SimulationError`
+    the Result (``nodes``: its :class:`~acausal.results.result.DenseOutput`'s). Raises :class:`SimulationError`
     where the solver fails (the caller then runs it on the CasADi path)."""
-    from ...results.result import Result
-    cm, t_start, t_out, p, u, starts = run.cm, run.t_start, run.t_out, run.p, run.u, run.starts
-    rtol, atol, max_step, first_step, max_events = run.rtol, run.atol, run.max_step, run.first_step, run.max_events
-    dense_output, x0, d = run.dense_output, run.x0.copy(), run.d.copy()
+    return integrate_segments(run, NativeSegments(run, runner, sig, nodes))
 
-    path = cm.compiled_path
-    names = runner.names
-    d, x0 = start(cm, t_start, x0, p, d, u, starts)
-    n, N = len(x0), t_out.size
-    X, D = np.empty((n, N)), np.empty((len(d), N))
-    Z = np.full((runner.nz, N), np.nan) if runner.nz else None  # the algebraic variables at the outputs (IDAS's)
-    Q = {name: np.zeros(N) for name in names}
-    done = {name: 0.0 for name in names}  # integral from t_start to t
-    events: list = []
-    t, x, k_out, passes, z_end = t_start, np.asarray(x0, dtype=float), 0, 0, None
-    off = np.zeros(len(cm.event_zeros))
-    mute = np.zeros(len(cm.event_zeros), dtype=np.int32)  # passed crossings at the start: no crossing leaving 0
-    while True:
-        k_out = outputs_at_restart(t_out, k_out, t, x, d, X, D, Q, done)
-        if k_out == N:
-            break
-        # the algebraic variables from where the segment before ended (an event moves them a little)
-        z0 = path.algebraic_start(runner.entry, t, x, p, d, u, z_end) if runner.nz else np.zeros(0)
-        # the start's signs as the other paths see them (an exact 0 in Python may be a round-off off it in C: leaving
-        # it is then a crossing at the start, as there)
-        g0 = zeros(cm, t, x, p, d, u, off=off) if cm.event_zeros else ()
-        status, k, Xs, Qs, t_e, y_e, q_e, dirs, said = runner.run(
-            sig, t, np.concatenate([x, z0]), np.concatenate([p, d]), g0, mute, off, t_out[k_out:], rtol, atol,
-            max_step, first_step)
-        if status < 0:
-            if status == -3:  # a zero function without a sign: the scipy path's message, naming its event
-                zeros(cm, t_e, y_e[:n], p, d, u, off=off)
-            raise SimulationError(f"native event loop: the segment from t = {t:g} s failed: "
-                                  f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
-        X[:, k_out:k_out + k], D[:, k_out:k_out + k] = Xs[:n], d[:, None]
-        if runner.nz:
-            Z[:, k_out:k_out + k] = Xs[n:]
-        for j, name in enumerate(names):
-            Q[name][k_out:k_out + k] = done[name] + Qs[j]
-        k_out += k
-        if status == 0:
-            break
-        hits = [(t_e, int(i), bool(dirs[i] > 0)) for i in np.flatnonzero(dirs)]
-        x_e, z_end = y_e[:n].copy(), y_e[n:].copy()
-        done = {name: done[name] + q_e[j] for j, name in enumerate(names)}
-        d_new = apply_hits(cm, hits, t_e, x_e, p, d, u)
-        if np.array_equal(d_new, d) and not restarts(cm, hits):
-            passes += 1
-            if passes > MAX_PASSES:
-                raise SimulationError(f"native event loop: more than {MAX_PASSES} crossings that change no mode by "
-                                      f"t = {t_e:.9g} s")
-            mute = (dirs != 0).astype(np.int32)  # a zero function left at exactly 0 there leaves it unseen
-            t, x = t_e, x_e
-            continue
-        x_e, d, off = handle_event(cm, events, hits, t_e, x_e, p, d, d_new, u, max_events)
-        mute[:] = 0
-        after_end(t_out, t_e, X, D, x_e, d)
-        t, x = t_e, x_e
 
-    def later(more):  # the same run again, those integrated with the states
-        more = path.integrable(list(more), u)
-        if not more:
-            return {}
-        again, why = segment_runner(cm, u, more)
-        if again is None:
-            return {}
-        return simulate_native(dataclasses.replace(run, dense_output=False), again, why)._integrals
+class NativeSegments:
+    """The native loop as a segment integrator (:mod:`acausal.simulation.loop`): each segment one call into
+    ``native_dae.c``, which steps SUNDIALS in C, writes the outputs it passes and stops at the first crossing; a
+    crossing that makes no event is passed by a new call from it (:data:`MAX_PASSES` per run at most)."""
 
-    located = ", events located in its steps" if cm.event_zeros else ""
-    return Result(cm, t_out, X, p, u, D if events else d, events=events, nodes=nodes, integrals=Q,
-                  more_integrals=later if dense_output else None,
-                  solver=f"{'IDAS' if runner.nz else 'CVODES'} (compiled path, native: the model compiled to C"
-                         f"{located})", newton_starts=newton_starts(cm, runner, Z))
+    def __init__(self, run, runner, sig, nodes=None):
+        cm = run.cm
+        self.run, self.cm, self.runner, self.sig, self.nodes = run, cm, runner, sig, nodes
+        self.names = runner.names
+        # the algebraic variables at the outputs (IDAS's)
+        self.Z = np.full((runner.nz, run.t_out.size), np.nan) if runner.nz else None
+        self.done = {name: 0.0 for name in self.names}  # integral from t_start to where the loop is
+        self.passes, self.z_end = 0, None
+        self.mute = np.zeros(len(cm.event_zeros), dtype=np.int32)  # passed crossings at the start: none leaving 0
+
+    def advance(self, loop):
+        """The segment from ``(loop.t, loop.x)``: calls into the loop until a crossing makes an event (returned:
+        ``(t_e, x_e, hits, new modes)``) or the run ends (None)."""
+        cm, runner, run = self.cm, self.runner, self.run
+        path, names, t_out, n = cm.compiled_path, self.names, run.t_out, len(loop.x)
+        seg = loop.segment()
+        p, d, u, off = seg.p, seg.d, seg.u, loop.off
+        t, x = loop.t, loop.x
+        while True:
+            loop.outputs_at(t, x, self.done)
+            if loop.finished:
+                return None
+            k_out = loop.k
+            # the algebraic variables from where the segment before ended (an event moves them a little)
+            z0 = path.algebraic_start(runner.entry, t, x, p, d, u, self.z_end) if runner.nz else np.zeros(0)
+            # the start's signs as the other paths see them (an exact 0 in Python may be a round-off off it in C:
+            # leaving it is then a crossing at the start, as there)
+            g0 = zeros(cm, t, x, p, d, u, off=off) if cm.event_zeros else ()
+            status, k, Xs, Qs, t_e, y_e, q_e, dirs, said = runner.run(
+                self.sig, seg, t, np.concatenate([x, z0]), g0, self.mute, off, t_out[k_out:])
+            if status < 0:
+                if status == -3:  # a zero function without a sign: the scipy path's message, naming its event
+                    zeros(cm, t_e, y_e[:n], p, d, u, off=off)
+                raise SimulationError(f"native event loop: the segment from t = {t:g} s failed: "
+                                      f"{FAILURES.get(status, status)}" + (f" ({said})" if said else ""))
+            if runner.nz:
+                self.Z[:, k_out:k_out + k] = Xs[n:]
+            done = self.done
+            loop.write(k_out + k, Xs[:n], {name: done[name] + Qs[j] for j, name in enumerate(names)})
+            if status == 0:
+                return None
+            hits = [(t_e, int(i), bool(dirs[i] > 0)) for i in np.flatnonzero(dirs)]
+            x_e, self.z_end = y_e[:n].copy(), y_e[n:].copy()
+            self.done = {name: done[name] + q_e[j] for j, name in enumerate(names)}
+            d_new = event_modes(seg, hits, t_e, x_e)
+            if d_new is None:
+                self.passes += 1
+                if self.passes > MAX_PASSES:
+                    raise SimulationError(f"native event loop: more than {MAX_PASSES} crossings that change no mode "
+                                          f"by t = {t_e:.9g} s")
+                self.mute = (dirs != 0).astype(np.int32)  # a zero function left at exactly 0 there leaves it unseen
+                t, x = t_e, x_e
+                continue
+            self.mute[:] = 0
+            return t_e, x_e, hits, d_new
+
+    def result(self, loop):
+        """The Result: the outputs, the quadratures (and more by running again, with dense output), the Newton
+        blocks' start values from IDAS's algebraic variables."""
+        from ...results.result import DenseOutput, Result
+        run, cm, runner = self.run, self.cm, self.runner
+        path, u = cm.compiled_path, run.u
+
+        def later(more):  # the same run again, those integrated with the states
+            more = path.integrable(list(more), u)
+            if not more:
+                return {}
+            again, why = segment_runner(cm, u, more)
+            if again is None:
+                return {}
+            return simulate_native(dataclasses.replace(run, dense_output=False), again, why).dense.integrals
+
+        located = ", events located in its steps" if cm.event_zeros else ""
+        return Result(cm, run.t_out, loop.X, run.p, u, loop.D if loop.events else loop.d, events=loop.events,
+                      dense=DenseOutput(nodes=self.nodes, integrals=loop.Q,
+                                        more=later if run.dense_output else None),
+                      solver=f"{'IDAS' if runner.nz else 'CVODES'} (compiled path, native: the model compiled to C"
+                             f"{located})", newton_starts=newton_starts(cm, runner, self.Z))
 
 
 def newton_starts(cm, runner, Z) -> dict | None:

@@ -15,6 +15,7 @@ and says why. State events are handled in :mod:`acausal.simulation.compiled.even
 from __future__ import annotations
 
 import functools
+import typing
 
 import numpy as np
 
@@ -158,23 +159,27 @@ class CompiledPath:
         return entry["cache"][key]
 
     # ------------------------------------------------------------------ integration
-    def integrate(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None, integrals=(),
-                  variation=False, max_num_steps=MAX_NUM_STEPS):
+    def integrate(self, t_start, x0, t_out, seg, *, integrals=(), variation=False, max_num_steps=MAX_NUM_STEPS):
         """``(X, Q)``: states at the output times ``t_out`` (non-decreasing; shape ``(n_states, len(t_out))``),
-        integrated from ``t_start`` with the states ``x0``, and ``Q[name]``, the time integral from ``t_start`` of
+        integrated from ``t_start`` with the states ``x0`` in the segment ``seg`` (:class:`~..run.Segment`: its
+        parameters, modes, inputs, tolerances and step bounds), and ``Q[name]``, the time integral from ``t_start`` of
         each of ``integrals`` (names as :meth:`Result.energy <acausal.results.result.Result.energy>` takes them) that
         has a compiled form, integrated by CVODES under the same error control as the states (relative to each
         integral's own size: a port through which energy flows back and forth, netting little, is integrated to
         the tolerance of that net). With ``variation``, ``Q[("variation", i)]`` is the total variation of event
         zero function ``i`` (what a crossing hidden between two output times needs). Raises
         :class:`SimulationError` when CVODES fails."""
-        return self.integrate_many(t_start, [x0], t_out, [p], d, u, rtol, atol, max_step, first_step, integrals,
-                                   variation=variation, max_num_steps=max_num_steps)[0]
+        return self.integrate_many(t_start, [x0], t_out, [seg], integrals=integrals, variation=variation,
+                                   max_num_steps=max_num_steps)[0]
 
-    def integrate_many(self, t_start, x0s, t_out, ps, d, u, rtol, atol, max_step=np.inf, first_step=None,
-                       integrals=(), threads: int = 1, variation=False, max_num_steps=MAX_NUM_STEPS) -> list:
-        """:meth:`integrate` for several start states ``x0s`` and parameter vectors ``ps`` (same inputs, modes
-        and output times) in one call: CasADi maps the integrator over them, on ``threads`` threads."""
+    def integrate_many(self, t_start, x0s, t_out, segs, *, integrals=(), threads: int = 1, variation=False,
+                       max_num_steps=MAX_NUM_STEPS) -> list:
+        """:meth:`integrate` for several start states ``x0s`` and segments ``segs`` (one each: their parameter
+        vectors differ; the inputs, modes, tolerances and step bounds are the first's) in one call: CasADi maps the
+        integrator over them, on ``threads`` threads."""
+        seg = segs[0]
+        d, u, rtol, atol, max_step, first_step = seg.d, seg.u, seg.rtol, seg.atol, seg.max_step, seg.first_step
+        ps = [s.p for s in segs]
         entry = self._rhs_entry(u)
         t_out = np.asarray(t_out, dtype=float)
         t_end = float(t_out[-1]) if t_out.size else t_start
@@ -196,8 +201,9 @@ class CompiledPath:
                 tau = _scaled_grid(grid, t_start, span)
                 if tau is None:  # distinct times equal on the scaled time (a round-off apart): CVODES says so
                     tau = (grid - t_start) / span
-            integ = self._integrator(entry, names, qexpr, tau, float(rtol), float(atol), max_step / span,
-                                     None if first_step is None else first_step / span, int(max_num_steps))
+            limits = _Limits(float(rtol), float(atol), max_step / span,
+                             None if first_step is None else first_step / span, int(max_num_steps))
+            integ = self._integrator(entry, names, qexpr, tau, limits)
             if B == 1:
                 P = np.concatenate(([t_start, span], ps[0], d))[:, None]
             else:
@@ -221,10 +227,8 @@ class CompiledPath:
                 # Newton block). The start is consistent already (the Python Newton solve of the algebraic
                 # variables); with the state derivatives there, IDAS starts without initialising.
                 xdot0 = span * self._state_rates(entry, t_start, call["x0"][:, 0], call["z0"][:, 0], P[2:, 0])
-                out, failed, said = run_integrator(self._integrator(entry, names, qexpr, tau, float(rtol), float(atol),
-                                                          max_step / span,
-                                                          None if first_step is None else first_step / span,
-                                                          int(max_num_steps), xdot0), call, True)
+                out, failed, said = run_integrator(self._integrator(entry, names, qexpr, tau, limits, xdot0), call,
+                                                   True)
             if failed is not None:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"
@@ -261,32 +265,35 @@ class CompiledPath:
         quadrature beside the states)."""
         return list(self.quadratures(self._rhs_entry(u), tuple(names))[0])
 
-    def quadratures_later(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
-        """A function ``names -> {name: integral from t_start at t_out}`` that runs the integration again with
-        those names as quadratures (what :meth:`Result.energy <acausal.results.result.Result.energy>` asks of a name
-        that is not one of the accounts integrated with the run: its integral to the integrator's accuracy, not to
-        the output grid's)."""
+    def quadratures_later(self, t_start, x0, t_out, seg):
+        """A function ``names -> {name: integral from t_start at t_out}`` that runs the integration of the segment
+        ``seg`` again with those names as quadratures (what :meth:`Result.energy
+        <acausal.results.result.Result.energy>` asks of a name that is not one of the accounts integrated with the
+        run: its integral to the integrator's accuracy, not to the output grid's)."""
         def integrals(names):
-            names = self.integrable(names, u)
+            names = self.integrable(names, seg.u)
             if not names:
                 return {}
-            return self.integrate(t_start, x0, t_out, p, d, u, rtol, atol, max_step, first_step, integrals=names)[1]
+            return self.integrate(t_start, x0, t_out, seg, integrals=names)[1]
         return integrals
 
-    def gauss_states(self, t_start, x0, t_out, p, d, u, rtol, atol, max_step=np.inf, first_step=None):
-        """A function returning ``(t_out, states at the 5 Gauss-Legendre nodes of every output interval)``,
-        integrated when called (what :meth:`Result.energy <acausal.results.result.Result.energy>` needs for an integral
-        that is not one of the quadratures)."""
+    def gauss_states(self, t_start, x0, t_out, seg):
+        """A function returning ``(t_out, states at the 5 Gauss-Legendre nodes of every output interval)`` of the
+        segment ``seg``, integrated when called (what :meth:`Result.energy <acausal.results.result.Result.energy>`
+        needs for an integral that is not one of the quadratures)."""
         def states():
             from ...results.gauss import gauss_nodes
             tn, _, _ = gauss_nodes(t_out)
-            Xn, _ = self.integrate(t_start, x0, tn.ravel(), p, d, u, rtol, atol, max_step, first_step)
+            Xn, _ = self.integrate(t_start, x0, tn.ravel(), seg)
             return t_out, Xn.reshape((len(x0),) + tn.shape)
         return states
 
-    def _integrator(self, entry, names, qexpr, tau, rtol, atol, max_step, first_step, max_num_steps=MAX_NUM_STEPS,
-                    xdot0=None):
+    def _integrator(self, entry, names, qexpr, tau, limits, xdot0=None):
+        """The CasADi integrator of ``entry``'s right-hand side with the quadratures ``names`` (``qexpr``) and the
+        scaled output times ``tau``, under ``limits`` (:class:`_Limits`, on the scaled time); one made for a
+        consistent start ``xdot0`` (the state derivatives there) is not kept."""
         import casadi as ca
+        rtol, atol, max_step, first_step, max_num_steps = limits
         key = (id(entry), names, tau.tobytes(), rtol, atol, max_step, first_step, max_num_steps)
         integ = self._integrators.get(key) if xdot0 is None else None  # one made for its start is not kept
         if integ is None:
@@ -332,11 +339,13 @@ class CompiledPath:
         return entry["cache"][key]
 
     # ------------------------------------------------------------------ sensitivities
-    def sensitivities(self, t_start, x0, t, p, d, u, wrt, bindings, rtol, atol):
+    def sensitivities(self, t_start, x0, t, seg, wrt, bindings):
         """``(X, S)``: states ``(n, N)`` and their sensitivities ``S = dx / d wrt`` ``(n, q, N)`` at the times
-        ``t``, integrated together by CVODES from ``t_start`` (``S = 0`` there): ``dS/dt = f_x S + f_p B`` with
-        CasADi's exact derivatives, ``B`` the derivatives of the parameters with respect to ``wrt`` through
-        their ``bindings`` (:func:`acausal.compile.parameters.binding_totals`)."""
+        ``t``, integrated together by CVODES from ``t_start`` (``S = 0`` there) in the segment ``seg`` (its
+        parameters, modes, inputs and tolerances): ``dS/dt = f_x S + f_p B`` with CasADi's exact derivatives, ``B``
+        the derivatives of the parameters with respect to ``wrt`` through their ``bindings``
+        (:func:`acausal.compile.parameters.binding_totals`)."""
+        p, d, u, rtol, atol = seg.p, seg.d, seg.u, seg.rtol, seg.atol
         entry = self._rhs_entry(u)
         if entry["z_index"]:
             raise SimulationError("compiled path: sensitivities of a model with a Newton block run on the scipy path")
@@ -377,6 +386,17 @@ class CompiledPath:
         return ca.integrator("acausal_sens", "cvodes", dae, 0.0, tau.tolist(),
                              {"abstol": atol, "reltol": rtol, "max_num_steps": MAX_NUM_STEPS,
                               "disable_internal_warnings": True, "show_eval_warnings": False})
+
+
+class _Limits(typing.NamedTuple):
+    """An integrator's tolerances and step bounds on the scaled time (``max_step``, ``first_step``: over the span),
+    and its steps per call at most."""
+
+    rtol: float
+    atol: float
+    max_step: float
+    first_step: float | None
+    max_num_steps: int
 
 
 def _scaled_time(entry):
