@@ -121,9 +121,10 @@ def screen(path, name: str, header: list, data: np.ndarray, fmt, strict: bool = 
         for r in np.flatnonzero(~keep):
             found.append(MaskedSample(name, int(lines[r]), fmt.time_column, float("nan"), "time",
                                       f"time {_cell(t[r])} is not a number"))
+        on = np.flatnonzero(order)
         for r in np.flatnonzero(keep & ~order):
-            prev = t[:r][order[:r]]
-            before = float(prev[-1]) if prev.size else float("nan")
+            j = int(np.searchsorted(on, r)) - 1  # the row before it that stays
+            before = float(t[on[j]]) if j >= 0 else float("nan")
             what = ("repeats" if t[r] == before else "goes back" if t[r] < before else
                     "jumps ahead of the rows after it")
             found.append(MaskedSample(name, int(lines[r]), fmt.time_column, float(t[r]), "time",

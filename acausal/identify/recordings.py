@@ -485,7 +485,7 @@ def _parse_csv(path: Path, fmt: RecordingFormat, strict: bool):
     if data is None or data.shape[0] == 0:
         raise DataError(f"{path}: no data rows after the header")
     if data.shape[1] != len(header):
-        _find_bad_row(path, body, header)
+        _read_rows(path, body, header)  # names the first row of the wrong length
     screened = screen(path, path.stem, header, data, fmt, strict)
     data = screened.data
     bad = ~np.isfinite(data)
@@ -548,23 +548,6 @@ def _read_rows(path, body, header) -> np.ndarray:
                 raise DataError(f"{path}, line {n}, column {h!r}: {f!r} is not a number") from None
         rows.append(row)
     return np.array(rows, dtype=float).reshape(len(rows), len(header))
-
-
-def _find_bad_row(path, body, header):
-    for n, line in enumerate(body.splitlines(), start=2):
-        if not line.strip():
-            raise DataError(f"{path}, line {n}: empty row")
-        fields = line.split(",")
-        if len(fields) != len(header):
-            raise DataError(f"{path}, line {n}: {len(fields)} values for {len(header)} columns")
-        for h, f in zip(header, fields):
-            try:
-                if "_" in f:  # Python's float() takes 1_000; a CSV reader does not
-                    raise ValueError(f)
-                float(f)
-            except ValueError:
-                raise DataError(f"{path}, line {n}, column {h!r}: {f.strip()!r} is not a number") from None
-    raise DataError(f"{path}: could not read the rows as numbers")
 
 
 # ------------------------------------------------------------------------------------------------------ writing
