@@ -30,7 +30,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 from scipy.optimize import minimize
 
-from acausal import Signal, compile_model
+from acausal import Signal, compile_once
 from acausal.library.maccepa import max_torque
 from acausal.simulation.sweep import chunks, sweep
 
@@ -41,7 +41,6 @@ from ..ankle.protocol import D_MAX, POINTS
 
 N_STRIDE = 400  # samples per stride
 COPPER = "motor.loss_power"  # the winding's R i^2 [W]: the map's copper loss per stride, E_copper_J
-_CHAIN: list = []  # per-process cache of the compiled chain
 K_GRID = np.linspace(40e3, 280e3, 25)  # N/m (10 N/mm steps)
 P_GRID = np.linspace(0.001, 0.018, 18)  # m
 
@@ -71,10 +70,8 @@ def chain_model():
     """The paper's actuator (frictional linkage, lossy gears, the EPOS2 driver) replayed along given joint and
     moment-arm angles (inputs ``ankle.phi_ref``, ``arm_target.signal``) on a stiff supply: compiled once per
     process."""
-    if not _CHAIN:
-        _CHAIN.append(compile_model(AnkleActuator(mode="replay", motion="recorded", supply="ideal",
-                                                  linkage="frictional")))
-    return _CHAIN[0]
+    return compile_once(("ankle_design_chain",), lambda: AnkleActuator(mode="replay", motion="recorded",
+                                                                        supply="ideal", linkage="frictional"))
 
 
 def design_params(preset_name: str = "paper_fit", overrides: dict | None = None) -> tuple[dict, dict]:
