@@ -21,7 +21,7 @@ import numpy as np
 from ..reporting.tables import md_table, pct, write_csv
 from .claims import evaluate as evaluate_claims
 from .fit_record import fitted_claims, markdown as inference_markdown
-from .presets import paper_fit_record
+from .presets import MOTOR_DATASHEET, paper_fit_record
 from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
 
@@ -57,8 +57,9 @@ ASSUMPTIONS = {
                 "the gait torque is inferred from Table 1",
     "supply": "the supply is assumed 48 V (the motor's nominal; not stated in the paper); where the motor stops "
               "following (required duty > 0.9) is set by it and by the planner's inferred torque tolerance",
-    "motor": "the motor's resistance, inertia and friction are datasheet values at 25 degC (R = 0.386 ohm, "
-             "J = 3.33e-6 kg m2, b = 5.66e-6 N m s/rad), with no winding heating and no cable resistance",
+    "motor": "the motor's resistance, inertia and friction are datasheet values at 25 degC (R = {R} ohm, "
+             "J = {J} kg m2, b = {b} N m s/rad), with no winding heating and no cable resistance"
+             .format(**{k[6:]: f"{v:g}".replace("e-0", "e-") for k, v in MOTOR_DATASHEET.items()}),
     "direct_drive": "the paper's direct drive, the bench's output motor, is modelled as a drive that imposes the gait "
                     "angle while the actuator pushes the joint; its drive train is not published and is guessed as "
                     "the actuator's own motor, driver and 860:1 gears (4.1: it delivered about 10 % less than the "

@@ -17,7 +17,13 @@ linkage, so that only Eq. (4)'s parameters act.
 import json
 from pathlib import Path
 
+from acausal.library.drives import DCMotor
+
 N_TOTAL = 860.0
+#: the motor's datasheet values as :class:`~acausal.library.drives.DCMotor` declares them (Table 2's "motor
+#: parameter" column with its inertia/friction swap corrected; the friction as the datasheet's no-load torque over
+#: no-load speed, 5.66e-6 N m s/rad, where Table 2 prints 5.68e-6)
+MOTOR_DATASHEET = {f"motor.{k}": getattr(DCMotor, k).default for k in ("J", "b", "R", "L", "k")}
 #: the record of the inference of the unpublished parameters (:mod:`acausal.models.ankle.inference`, written by
 #: ``acausal infer --install``): the ``paper_fit`` preset with ranges, sources, uncertainties and targets met
 PAPER_FIT_RECORD = Path(__file__).with_name("paper_fit.json")
@@ -45,7 +51,7 @@ PRESETS = {
     # component model: motor datasheet (Table 2's swap corrected), gear catalogue efficiency, paper's driver draw
     "library": dict(LIBRARY),
     # Eq. (4) with the motor's own datasheet values (Table 2 "motor parameter", inertia/friction swap corrected)
-    "paper_datasheet": {**_IDEAL_REST, "motor.J": 3.33e-6, "motor.b": 5.68e-6, "motor.R": 0.386, "motor.L": 6.53e-5},
+    "paper_datasheet": {**_IDEAL_REST, **MOTOR_DATASHEET},
     # Eq. (4) with Table 2 "estimated total" (motor + estimate of cables, connectors, actuator inertia, friction)
     "paper_estimated_total": {**_IDEAL_REST, "motor.J": 1.6e-5, "motor.b": 1.3e-4, "motor.R": 0.7,
                               "motor.L": 6.53e-5},
