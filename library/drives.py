@@ -202,19 +202,20 @@ class DCMotor(PartialElementaryRotationalToElectrical, _OptionalHeatPort):
     Table 2), k = 0.0274 N m/A (derived from the 24 V/36 V windings, docs/parameters.md), J = 3.33e-6
     kg m2 rotor inertia (datasheet; Table 2 lists it swapped with friction), b = 5.66e-6 N m s/rad (no-load
     friction 9.9 mN m / no-load speed 1749 rad/s), tau_c = 0 (all no-load friction is put in b by default),
-    alpha_R = 0.00393 1/K (copper), T_ref = 298.15 K (datasheet values at 25 C).
+    alpha_R = 0.00393 1/K (copper), T_ref = 298.15 K (datasheet values at 25 C). Fit ranges (``fit_range``,
+    ``nominal``: what a calibration searches) span small DC motors, from a few watts to a few hundred.
     """
 
     R = Parameter(0.386, unit="Ohm", min=0.0, doc="terminal resistance at T_ref (paper Table 2)",
-                  device="maxon EC-4pole 30, 48 V winding")
+                  device="maxon EC-4pole 30, 48 V winding", fit_range=(0.01, 20.0), nominal=0.5)
     L = Parameter(6.53e-5, unit="H", min=0.0, doc="terminal inductance (paper Table 2)",
-                  device="maxon EC-4pole 30, 48 V winding")
+                  device="maxon EC-4pole 30, 48 V winding", fit_range=(1e-7, 1e-2), nominal=1e-4)
     k = Parameter(0.0274, unit="N.m/A", min=0.0, doc="torque = back-EMF constant (derived, parameters.md)",
-                  device="maxon EC-4pole 30, 48 V winding")
+                  device="maxon EC-4pole 30, 48 V winding", fit_range=(0.005, 0.2), nominal=0.03)
     J = Parameter(3.33e-6, unit="kg.m2", min=0.0, doc="rotor inertia (datasheet)",
-                  device="maxon EC-4pole 30, 48 V winding")
+                  device="maxon EC-4pole 30, 48 V winding", fit_range=(1e-8, 1e-1), nominal=1e-5)
     b = Parameter(5.66e-6, unit="N.m.s/rad", min=0.0, doc="viscous friction (no-load torque / no-load speed)",
-                  device="maxon EC-4pole 30, 48 V winding")
+                  device="maxon EC-4pole 30, 48 V winding", fit_range=(0.0, 1e-1), nominal=1e-5)
     tau_c = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction torque")
     w_c = Parameter(1.0, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
     alpha_R = Parameter(0.00393, unit="1/K", doc="resistance temperature coefficient (copper)")

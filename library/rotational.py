@@ -59,7 +59,8 @@ class Pendulum(Component):
     m = Parameter(None, unit="kg", min=0.0, doc="point mass at the arm's end")
     l = Parameter(None, unit="m", min=0.0, doc="distance of the point mass from the shaft")
     m_arm = Parameter(0.0, unit="kg", min=0.0, doc="mass of the uniform arm (0: massless arm)")
-    phi0 = Parameter(0.0, unit="rad", doc="mounting offset of the arm")
+    phi0 = Parameter(0.0, unit="rad", doc="mounting offset of the arm (a fit searches up to 17 deg either way)",
+                     fit_range=(-0.3, 0.3), nominal=0.02)
     g = Parameter(9.80665, unit="m/s2", min=0.0, doc="standard gravity")
     flange = Flange(doc="shaft")
     phi = Variable(unit="rad", doc="arm angle from hanging down (plus the offset phi0)")

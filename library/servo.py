@@ -65,21 +65,25 @@ class PositionServo(Model):
     (module docstring). The sub-components are readable: ``ctrl.y`` (duty), ``winding.i`` (motor
     current), ``sensor.phi`` (the encoder's reading), ``friction.tau_f``/``friction.loss_power``,
     ``winding.loss_power``, ``rotor.energy``.
+
+    Fit ranges (``fit_range``, ``nominal``: what a calibration searches) are wide physical ranges for a small
+    hobby or robot servo, not tuned to the XL330 whose values (BAM's xl330 m1 set) are the defaults.
     """
 
     kt = Parameter(0.3867, unit="N.m/A", min=1e-9, doc="torque constant at the output (BAM xl330 m1)",
-                   device="Dynamixel XL330-M288")
-    R = Parameter(4.017, unit="Ohm", min=1e-9, doc="winding resistance (BAM xl330 m1)", device="Dynamixel XL330-M288")
+                   device="Dynamixel XL330-M288", fit_range=(0.01, 10.0), nominal=0.3)
+    R = Parameter(4.017, unit="Ohm", min=1e-9, doc="winding resistance (BAM xl330 m1)", device="Dynamixel XL330-M288",
+                  fit_range=(0.1, 100.0), nominal=3.0)
     armature = Parameter(0.001814, unit="kg.m2", min=0.0, doc="rotor inertia reflected to the output (BAM xl330 m1)",
-                         device="Dynamixel XL330-M288")
+                         device="Dynamixel XL330-M288", fit_range=(1e-6, 0.1), nominal=1e-3)
     ratio = Parameter(288.35, unit="1", min=1e-9, doc="gear ratio (XL330-M288 nominal)", device="Dynamixel XL330-M288")
     kp = Parameter(None, unit="1", min=0.0, doc="firmware position gain (register value)")
     error_gain = Parameter(None, unit="1/rad", min=0.0, doc="duty per rad of error per unit of kp")
     d_max = Parameter(1.0, unit="1", min=0.0, max=1.0, doc="largest duty magnitude")
     tau_c = Parameter(0.01283, unit="N.m", min=0.0, doc="Coulomb friction at the output (BAM xl330 m1 Kc)",
-                      device="Dynamixel XL330-M288")
+                      device="Dynamixel XL330-M288", fit_range=(0.0, 2.0), nominal=0.01)
     d = Parameter(0.003662, unit="N.m.s/rad", min=0.0, doc="viscous friction at the output (BAM xl330 m1 Kv)",
-                  device="Dynamixel XL330-M288")
+                  device="Dynamixel XL330-M288", fit_range=(0.0, 1.0), nominal=0.003)
 
     flange = Flange(doc="output shaft")
     bus_p = Pin(doc="supply +")

@@ -44,6 +44,8 @@ class ParInfo:
     max: float | None = None
     device: str = ""  # the device whose datasheet default this is, when the value was left at that default
     nonzero: bool = False  # 0 is refused (a divisor, a ratio that would lock a drive)
+    nominal: float | None = None  # typical magnitude (a fit's scale)
+    fit_range: tuple | None = None  # (lower, upper) a fit searches
 
 
 @dataclass
@@ -228,7 +230,8 @@ def _collect_declarations(c: Component, flat: FlatModel):
                     raise ModelError(f"{c._describe()}: parameter {name!r} = {value!r} is not a number "
                                      "or an expression of parameters") from None
             device = d.device if name not in c._values else ""
-            flat.parameters[path] = ParInfo(path, origin, value, d.unit, d.doc, d.min, d.max, device, d.nonzero)
+            flat.parameters[path] = ParInfo(path, origin, value, d.unit, d.doc, d.min, d.max, device, d.nonzero,
+                                            d.nominal, d.fit_range)
         elif isinstance(d, Variable):
             st = c._starts.get(name)
             kind = "flow" if isinstance(d, Flow) else "potential" if isinstance(d, Potential) else "variable"

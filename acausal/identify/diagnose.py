@@ -64,7 +64,7 @@ import numpy as np
 from scipy.stats import binom
 
 from ..errors import AcausalError, DataError
-from .calibrate import Free, calibrate, jacobian, residual_vector
+from .calibrate import calibrate, jacobian, residual_vector
 from .evidence import _cos, confusable, detection_limits, drift
 from .analysis import residual_analysis  # noqa: F401  (part of this module's interface)
 from .recordings import screening_warnings
@@ -89,11 +89,7 @@ def fit_model(problem: Problem, effects: tuple, start: dict, scales: dict, drift
     effect explains a drift over the session (with the parameters :meth:`Problem.effect_free` adds for it)."""
     exps = problem.experiments(tuple(effects))
     free = list(problem.base_free(start))
-    for eid in effects:
-        c = problem.candidates[eid]
-        first = c.zero if c.probe is None else c.probe
-        free.append(Free(c.parameter, float(np.clip(start.get(c.parameter, first), *c.bounds)), c.bounds[0],
-                         c.bounds[1], c.scale))
+    free += [problem.candidates[eid].free(start) for eid in effects]
     free += problem.effect_free(tuple(effects), start, drift)
     cal = calibrate(exps, free, problem.signals, scales=scales, loss=problem.loss, **problem.fit_options)
     return _assess(problem, tuple(effects), cal, exps, scales)

@@ -8,18 +8,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .calibrate import Calibration, noise_scales
+from .calibrate import Calibration, Free, noise_scales
 from .recordings import screening_summary
 
 
 @dataclass(frozen=True)
 class Candidate:
+    """An effect the diagnosis may add to a model: the one record of a candidate, from the model's table of effects
+    (which extends it with how the effect is built) to the fit, the report and the verdict's JSON."""
+
     id: str
     parameter: str  # the parameter that sets the effect's size
     zero: float  # its value where the effect vanishes
     bounds: tuple
     scale: float  # typical magnitude (optimiser scaling)
-    signal: str = ""  # the signal it shows in first
+    signal: str = ""  # the signal it shows in first (empty: the problem has one)
     unit: str = ""
     #: a size at which the effect shows for certain, for an effect with no first-order change at ``zero`` (a hard
     #: limit not reached there): its fingerprint is the secant from zero to the probe, and its refit starts there
@@ -29,6 +32,14 @@ class Candidate:
     #: candidates this one cannot be combined with in one model (two plays in series with no inertia between them
     #: are one play, and the shaft between them has no defined position while both are open)
     excludes: tuple = ()
+    doc: str = ""  # what the effect is, and where its typical size comes from
+
+    def free(self, start: dict) -> Free:
+        """The candidate's parameter to fit, started at its value in ``start`` (else at the probe, else at zero),
+        clipped into its bounds."""
+        first = self.zero if self.probe is None else self.probe
+        value = float(np.clip(start.get(self.parameter, first), *self.bounds))
+        return Free(self.parameter, value, self.bounds[0], self.bounds[1], self.scale)
 
     def combines(self, other: "Candidate") -> bool:
         """Whether this candidate and ``other`` can be in one model (neither excludes the other)."""

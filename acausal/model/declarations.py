@@ -31,21 +31,42 @@ class Parameter(_Declaration):
     one device rather than a neutral value or a physical constant (``"maxon EC-4pole 30"``): a model that leaves
     such a parameter at its default says so in :meth:`CompiledModel.report
     <acausal.compiled_model.CompiledModel.report>` and :meth:`~acausal.compiled_model.CompiledModel.device_defaults`.
+
+    For calibration (:class:`~acausal.identify.calibrate.Free.declared`): ``nominal`` is the parameter's typical
+    magnitude (Modelica's ``nominal``: the optimiser's scale) and ``fit_range`` ``(lower, upper)`` the range a fit
+    searches, a physical range for the class of device (wider than one datasheet's tolerance, inside ``min``/``max``).
     """
 
     listed_as = "parameter"  # the section of describe() that lists it (acausal.model.describe)
 
     def __init__(self, default=None, unit: str = "1", doc: str = "", min: float | None = None,
-                 max: float | None = None, device: str = "", nonzero: bool = False, derived: str = ""):
+                 max: float | None = None, device: str = "", nonzero: bool = False, derived: str = "",
+                 nominal: float | None = None, fit_range: tuple | None = None):
         if min is not None and max is not None and min > max:
             raise ModelError(f"Parameter({default!r}, {unit!r}): min {min} > max {max}; no value could meet both")
+        if nominal is not None and not (isinstance(nominal, (int, float)) and not isinstance(nominal, bool)
+                                        and 0 < nominal < float("inf")):
+            raise ModelError(f"Parameter({default!r}, {unit!r}): nominal {nominal!r} must be a positive number "
+                             "(the parameter's typical magnitude)")
+        if fit_range is not None:
+            try:
+                lo, hi = (float(v) for v in fit_range)
+            except (TypeError, ValueError):
+                raise ModelError(f"Parameter({default!r}, {unit!r}): fit_range {fit_range!r} must be "
+                                 "(lower, upper)") from None
+            if not lo < hi or (min is not None and lo < min) or (max is not None and hi > max):
+                raise ModelError(f"Parameter({default!r}, {unit!r}): fit_range {fit_range!r} must be increasing "
+                                 f"and inside min/max ({min}, {max})")
+            fit_range = (lo, hi)
+        self.nominal, self.fit_range = nominal, fit_range
         self.default, self.unit, self.doc, self.min, self.max = default, unit, doc, min, max
         self.device, self.nonzero = device, nonzero
         self.derived = derived  # without a default: the rule the constructor sets it by when not given ("ki/kp")
 
     def __repr__(self):  # what help(Component) and a notebook show: default, unit, bounds, doc
         parts = [repr(self.default), f"unit={self.unit!r}"]
-        parts += [f"{k}={v!r}" for k, v in (("min", self.min), ("max", self.max)) if v is not None]
+        parts += [f"{k}={v!r}" for k, v in (("min", self.min), ("max", self.max), ("nominal", self.nominal),
+                                             ("fit_range", self.fit_range)) if v is not None]
         if self.nonzero:
             parts.append("nonzero=True")
         if self.doc:

@@ -23,19 +23,15 @@ from acausal.identify.calibrate import Calibration, Experiment, Free, calibrate,
 from acausal.identify.smoothing import SmoothingSpline, derivative_spacing, edge_margin
 
 from ..ankle.actuator import AnkleActuator
-from ..ankle.presets import PRESETS
+from ..ankle.presets import MOTOR_DATASHEET, PRESETS
 from ..ankle.effects import EFFECTS
 from .recording_format import ANKLE_FORMAT, SIGNALS, model_params
 
 #: short names accepted by ``--params`` and the API
 SHORT = {"R": "motor.R", "J": "motor.J", "b": "motor.b", "L": "motor.L", "k": "motor.k"}
 
-#: bounds and typical magnitudes of the motor parameters (effect parameters come from the effects table)
-BOUNDS = {"motor.R": (0.01, 20.0, 0.5), "motor.J": (1e-8, 1e-1, 1e-5), "motor.b": (0.0, 1e-1, 1e-5),
-          "motor.L": (1e-7, 1e-2, 1e-4), "motor.k": (0.005, 0.2, 0.03)}
-
 #: where a calibration starts: the motor's datasheet (Table 2 "motor parameter", inertia/friction swap corrected)
-START = {k: PRESETS["paper_datasheet"][k] for k in ("motor.R", "motor.J", "motor.b", "motor.L")} | {"motor.k": 0.0274}
+START = dict(MOTOR_DATASHEET)
 
 DEFAULT_SIGNALS = ("motor_current_A", "supply_current_A")
 
@@ -60,7 +56,7 @@ def parameter_names(spec) -> list:
         if not s:
             continue
         name = SHORT.get(s, s)
-        if name not in BOUNDS and name not in {e.parameter for e in EFFECTS.values()}:
+        if name not in START and name not in {e.parameter for e in EFFECTS.values()}:
             raise DataError(f"unknown parameter {s!r} to fit; known: {', '.join(SHORT)} (motor), or an effect "
                             f"parameter: {', '.join(e.parameter for e in EFFECTS.values())}")
         out.append(name)
@@ -70,12 +66,13 @@ def parameter_names(spec) -> list:
 
 
 def free_parameter(name: str, start: dict | None = None) -> Free:
+    """Motor parameter or effect parameter ``name`` to fit: a motor parameter with the range and scale the motor
+    declares (:class:`~acausal.library.drives.DCMotor`), started at ``start`` or the datasheet (:data:`START`); an
+    effect's as its candidate record says."""
     start = start or {}
-    if name in BOUNDS:
-        lo, hi, scale = BOUNDS[name]
-        return Free(name, start.get(name, START[name]), lo, hi, scale)
-    e = next(e for e in EFFECTS.values() if e.parameter == name)
-    return Free(name, start.get(name, e.zero), e.bounds[0], e.bounds[1], e.scale)
+    if name in START:
+        return Free.declared(replay_model(), name, {name: start.get(name, START[name])})
+    return next(e for e in EFFECTS.values() if e.parameter == name).free(start)
 
 
 #: the start of the knot-spacing rule: stride_time / 80 (the gait's content scales with the stride time)

@@ -21,7 +21,7 @@ import numpy as np
 
 from acausal.identify import load_recordings
 from acausal.identify.calibrate import Free
-from acausal.identify.diagnose import Candidate, Diagnosis, Problem, Thresholds, diagnose, residual_analysis
+from acausal.identify.diagnose import Diagnosis, Problem, Thresholds, diagnose, residual_analysis
 
 from .calibration import Split, exact_sensitivity, experiment, free_parameter, replay_inputs, replay_model
 from ..ankle.actuator import WINDING_G
@@ -33,8 +33,7 @@ from .session import carry_winding, check_session, free_winding_starts, is_sessi
 DIAGNOSIS_SIGNALS = ("motor_current_A", "supply_current_A", "joint_torque_Nm")
 BASELINE_PARAMS = ("motor.R", "motor.J", "motor.b")
 
-CANDIDATES = {e.id: Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, e.signal, e.unit, typical=e.typical)
-              for e in EFFECTS.values()}
+CANDIDATES = EFFECTS  # an effect record is the diagnosis's candidate
 
 #: speed [rad/s] and power [W] scales of the smooth sign regressors (tanh(x / scale))
 _SIGN_SPEED, _SIGN_POWER = 5.0, 1.0

@@ -32,23 +32,21 @@ from acausal import Component, DataError, ModelError
 from acausal.library.friction import TERMS
 from acausal.library.servo import SLOTS
 from acausal.cli.references import load_class
+from acausal.identify.verdict import Candidate
 
 
-@dataclass(frozen=True)
-class Effect:
-    id: str
-    slot: str  # a PositionServo slot, "friction" (a friction term) or "parameter" (a baseline parameter)
-    component: str  # MODULE:CLASS of the inserted element; the term's name for "friction"; "" for "parameter"
-    parameter: str  # the model's parameter that sets its size
-    unit: str
-    zero: float  # the value at which the effect vanishes
-    typical: float  # a realistic size
-    bounds: tuple  # fitting range
-    scale: float  # typical magnitude (optimiser scaling)
-    doc: str = ""
-    probe: float | None = None  # fingerprint and refit start for a hard limit (None: at zero)
-    fixed: tuple = field(default_factory=tuple)  # (name, value) pairs of the component's other parameters
-    excludes: tuple = ()  # ids of effects it cannot share a model with
+@dataclass(frozen=True, kw_only=True)
+class Effect(Candidate):
+    """A candidate of the servo model (:class:`~acausal.identify.verdict.Candidate`: ``parameter`` sets its size,
+    ``zero`` is the baseline, ``bounds`` and ``scale`` its fit, ``probe`` the fingerprint's and refit's size of a
+    hard limit, ``typical`` a realistic size), and how it is built: ``slot`` (a PositionServo slot, ``"friction"``
+    for a friction term or ``"parameter"`` for a baseline parameter freed), ``component`` (``MODULE:CLASS`` of the
+    inserted element; the term's name for a friction term; ``""`` for a parameter) and ``fixed`` (``(name, value)``
+    pairs of the element's other parameters)."""
+
+    slot: str
+    component: str
+    fixed: tuple = field(default_factory=tuple)
 
     def factory(self):
         """A callable building the inserted element (with its size at ``zero``; the replay sets the size)."""
@@ -80,58 +78,73 @@ _STEP = 2 * 3.141592653589793 / 4096
 FLANKS = (("c", 500.0), ("d", 2.0), ("phi_d", 1e-3))
 
 EFFECTS = {e.id: e for e in [
-    Effect("stribeck", "friction", "stribeck", "servo.friction.tau_s", "N.m", 0.0, 0.01, (0.0, 2.0), 0.01,
-           "breakaway friction at low speed (BAM M2; w_s, alpha at the library's defaults)"),
-    Effect("load", "friction", "load", "servo.friction.k_l", "1", 0.0, 0.2, (0.0, 2.0), 0.1,
-           "friction proportional to the transmitted torque (BAM M3 with the servo's own load measure)"),
-    Effect("backdrive", "friction", "backdrive", "servo.friction.k_b", "1", 0.0, 0.2, (0.0, 2.0), 0.1,
-           "more load friction while the load drives the gear (BAM M4's direction dependence)"),
-    Effect("goal_rate_limit", "goal", F + "GoalRateLimit", "servo.goal_rate_limit.t_v", "s/rad", 0.0, 0.19,
-           (0.0, 2.0), 0.1, "the firmware moves its internal goal no faster than 1/t_v (Feetech STS3215: "
-           "3400 steps/s = 5.2 rad/s, t_v 0.19 s/rad, Rhoban/bam feetech/actuator.py; Dynamixel Profile "
-           "Velocity)", probe=0.25),
-    Effect("error_deadband", "error", F + "DeadZone", "servo.error_deadband.uMax", "rad", 0.0, 3 * _STEP,
-           (0.0, 0.1), 0.003, "no drive within a band of position error (Dynamixel compliance margin, Feetech "
-           "insensitive zone; typical 3 encoder steps)"),
-    Effect("error_dependent_gain", "error", F + "ErrorGain", "servo.error_dependent_gain.c", "1/rad", 0.0, 2.0,
-           (0.0, 100.0), 1.0, "the duty falls short of the linear law at large errors, duty = k e / (1 + c |e|) "
-           "(torque-limit protection, an inner current loop; typical: half the gain at 0.5 rad)"),
-    Effect("gain_error", "error", F + "GainScale", "servo.gain_error.s", "1", 0.0, 0.2, (-0.9, 5.0), 0.1,
-           "the firmware's gain differs from the declared error gain by the fraction s (BAM's error_gain_ratio "
-           "of the STS3215, fitted in 0.1-10)"),
-    Effect("duty_limit", "parameter", "", "servo.d_max", "1", 1.0, 0.9, (0.2, 1.0), 0.1,
-           "the largest duty is below 1 (MX-64/106: 0.9625, STS3215: 0.97, Rhoban/bam; a PWM Limit register "
-           "below its maximum)", probe=0.9),
-    Effect("punch", "duty", F + "Punch", "servo.punch.p", "1", 0.0, 0.03, (0.0, 0.3), 0.01,
-           "a minimum duty added once the firmware drives (Dynamixel AX punch, Feetech minimum startup force; "
-           "typical 3 %)", fixed=(("u_c", 0.002),)),
-    Effect("loop_delay", "position", F + "LoopDelay", "servo.loop_delay.T", "s", 0.0, 0.003, (0.0, 0.05), 0.001,
-           "the firmware regulates a reading T old (sampling and PWM update; typical 3 ms)"),
-    Effect("supply_sag", "bus", "acausal.library.electrical:Resistor", "servo.supply_sag.R", "Ohm", 0.0, 1.0,
-           (0.0, 50.0), 0.5, "resistance between the logged supply voltage and the bridge: the bus sags with "
-           "the drawn current (connector, traces, a thin supply cable; typical 1 ohm)"),
-    Effect("duty_quantisation", "duty", F + "DeadZone", "servo.duty_quantisation.uMax", "1", 0.0, 0.01,
-           (0.0, 0.2), 0.005, "the duty truncated to a register step q, in the mean: duty - clamp(duty, -q/2, "
-           "q/2) (uMax = q/2; XL330: q = 1/885, a coarse 7-bit PWM: q = 0.008)"),
-    Effect("encoder_offset", "position", "acausal.library.blocks:Bias", "servo.encoder_offset.bias", "rad", 0.0,
-           0.02, (-0.3, 0.3), 0.01, "the reading the firmware regulates is off the logged one by a constant (a "
-           "homing offset applied on one side only); the arm's own mounting offset is the baseline's phi0"),
-    Effect("backlash", "output", "acausal.library.rotational:ElastoBacklash", "servo.backlash.b", "rad", 0.0, 0.02,
-           (0.0, 0.3), 0.005, "play between the shaft the encoder reads and the output (gear backlash; plastic "
-           "servo gears 0.5-2 deg); flanks stiff and damped (FLANKS). A hard nonlinearity: the play's first "
-           "order effect at zero flips with the sign of the flanks' deflection, so it is fingerprinted by the secant "
-           "to 0.01 rad (0.6 deg, the low end of that range)",
-           fixed=FLANKS, probe=0.01, excludes=("gear_backlash",)),
-    Effect("gear_backlash", "drive", "acausal.library.rotational:ElastoBacklash", "servo.gear_backlash.b", "rad",
-           0.0, 0.02, (0.0, 0.3), 0.005, "play in the gear train between the rotor and an encoder that reads the "
-           "output shaft (the XL330's magnetic encoder does): the firmware regulates the output, so the rotor "
-           "crosses the gap unseen when the torque reverses; flanks and fingerprint as for backlash. Not with "
-           "backlash: two plays in series with no inertia between them are one play",
-           fixed=FLANKS, probe=0.01, excludes=("backlash",)),
-    Effect("current_limit", "winding", "acausal.library.electrical:CurrentLimitedResistor",
-           "servo.winding.inv_i_max", "1/A", 0.0, 1 / 1.75, (0.0, 20.0), 0.5, "the driver caps the winding's "
-           "current at 1/inv_i_max (Dynamixel Current Limit register; XL330-M288: 1750 mA, ROBOTIS e-manual). A "
-           "hard limit: fingerprinted by the secant to a 1 A cap", probe=1.0),
+    Effect(id="stribeck", slot="friction", component="stribeck", parameter="servo.friction.tau_s",
+           unit="N.m", zero=0.0, typical=0.01, bounds=(0.0, 2.0), scale=0.01,
+           doc="breakaway friction at low speed (BAM M2; w_s, alpha at the library's defaults)"),
+    Effect(id="load", slot="friction", component="load", parameter="servo.friction.k_l",
+           unit="1", zero=0.0, typical=0.2, bounds=(0.0, 2.0), scale=0.1,
+           doc="friction proportional to the transmitted torque (BAM M3 with the servo's own load measure)"),
+    Effect(id="backdrive", slot="friction", component="backdrive", parameter="servo.friction.k_b",
+           unit="1", zero=0.0, typical=0.2, bounds=(0.0, 2.0), scale=0.1,
+           doc="more load friction while the load drives the gear (BAM M4's direction dependence)"),
+    Effect(id="goal_rate_limit", slot="goal", component=F + "GoalRateLimit", parameter="servo.goal_rate_limit.t_v",
+           unit="s/rad", zero=0.0, typical=0.19, bounds=(0.0, 2.0), scale=0.1,
+           doc="the firmware moves its internal goal no faster than 1/t_v (Feetech STS3215: 3400 steps/s = 5.2 rad/s, "
+               "t_v 0.19 s/rad, Rhoban/bam feetech/actuator.py; Dynamixel Profile Velocity)", probe=0.25),
+    Effect(id="error_deadband", slot="error", component=F + "DeadZone", parameter="servo.error_deadband.uMax",
+           unit="rad", zero=0.0, typical=3 * _STEP, bounds=(0.0, 0.1), scale=0.003,
+           doc="no drive within a band of position error (Dynamixel compliance margin, Feetech insensitive zone; "
+               "typical 3 encoder steps)"),
+    Effect(id="error_dependent_gain", slot="error", component=F + "ErrorGain", parameter="servo.error_dependent_gain.c",
+           unit="1/rad", zero=0.0, typical=2.0, bounds=(0.0, 100.0), scale=1.0,
+           doc="the duty falls short of the linear law at large errors, duty = k e / (1 + c |e|) (torque-limit "
+               "protection, an inner current loop; typical: half the gain at 0.5 rad)"),
+    Effect(id="gain_error", slot="error", component=F + "GainScale", parameter="servo.gain_error.s",
+           unit="1", zero=0.0, typical=0.2, bounds=(-0.9, 5.0), scale=0.1,
+           doc="the firmware's gain differs from the declared error gain by the fraction s (BAM's error_gain_ratio of "
+               "the STS3215, fitted in 0.1-10)"),
+    Effect(id="duty_limit", slot="parameter", component="", parameter="servo.d_max",
+           unit="1", zero=1.0, typical=0.9, bounds=(0.2, 1.0), scale=0.1,
+           doc="the largest duty is below 1 (MX-64/106: 0.9625, STS3215: 0.97, Rhoban/bam; a PWM Limit register below "
+               "its maximum)", probe=0.9),
+    Effect(id="punch", slot="duty", component=F + "Punch", parameter="servo.punch.p",
+           unit="1", zero=0.0, typical=0.03, bounds=(0.0, 0.3), scale=0.01,
+           doc="a minimum duty added once the firmware drives (Dynamixel AX punch, Feetech minimum startup force; "
+               "typical 3 %)", fixed=(("u_c", 0.002),)),
+    Effect(id="loop_delay", slot="position", component=F + "LoopDelay", parameter="servo.loop_delay.T",
+           unit="s", zero=0.0, typical=0.003, bounds=(0.0, 0.05), scale=0.001,
+           doc="the firmware regulates a reading T old (sampling and PWM update; typical 3 ms)"),
+    Effect(id="supply_sag", slot="bus", component="acausal.library.electrical:Resistor",
+           parameter="servo.supply_sag.R", unit="Ohm", zero=0.0, typical=1.0, bounds=(0.0, 50.0), scale=0.5,
+           doc="resistance between the logged supply voltage and the bridge: the bus sags with the drawn current "
+               "(connector, traces, a thin supply cable; typical 1 ohm)"),
+    Effect(id="duty_quantisation", slot="duty", component=F + "DeadZone", parameter="servo.duty_quantisation.uMax",
+           unit="1", zero=0.0, typical=0.01, bounds=(0.0, 0.2), scale=0.005,
+           doc="the duty truncated to a register step q, in the mean: duty - clamp(duty, -q/2, q/2) (uMax = q/2; "
+               "XL330: q = 1/885, a coarse 7-bit PWM: q = 0.008)"),
+    Effect(id="encoder_offset", slot="position", component="acausal.library.blocks:Bias",
+           parameter="servo.encoder_offset.bias", unit="rad", zero=0.0, typical=0.02, bounds=(-0.3, 0.3), scale=0.01,
+           doc="the reading the firmware regulates is off the logged one by a constant (a homing offset applied on "
+               "one side only); the arm's own mounting offset is the baseline's phi0"),
+    Effect(id="backlash", slot="output",
+           component="acausal.library.rotational:ElastoBacklash", parameter="servo.backlash.b",
+           unit="rad", zero=0.0, typical=0.02, bounds=(0.0, 0.3), scale=0.005,
+           doc="play between the shaft the encoder reads and the output (gear backlash; plastic servo gears 0.5-2 "
+               "deg); flanks stiff and damped (FLANKS). A hard nonlinearity: the play's first order effect at zero "
+               "flips with the sign of the flanks' deflection, so it is fingerprinted by the secant to 0.01 rad (0.6 "
+               "deg, the low end of that range)", fixed=FLANKS, probe=0.01, excludes=("gear_backlash",)),
+    Effect(id="gear_backlash", slot="drive",
+           component="acausal.library.rotational:ElastoBacklash", parameter="servo.gear_backlash.b",
+           unit="rad", zero=0.0, typical=0.02, bounds=(0.0, 0.3), scale=0.005,
+           doc="play in the gear train between the rotor and an encoder that reads the output shaft (the XL330's "
+               "magnetic encoder does): the firmware regulates the output, so the rotor crosses the gap unseen when "
+               "the torque reverses; flanks and fingerprint as for backlash. Not with backlash: two plays in series "
+               "with no inertia between them are one play", fixed=FLANKS, probe=0.01, excludes=("backlash",)),
+    Effect(id="current_limit", slot="winding",
+           component="acausal.library.electrical:CurrentLimitedResistor", parameter="servo.winding.inv_i_max",
+           unit="1/A", zero=0.0, typical=1 / 1.75, bounds=(0.0, 20.0), scale=0.5,
+           doc="the driver caps the winding's current at 1/inv_i_max (Dynamixel Current Limit register; XL330-M288: "
+               "1750 mA, ROBOTIS e-manual). A hard limit: fingerprinted by the secant to a 1 A cap", probe=1.0),
 ]}
 
 
@@ -196,8 +209,9 @@ def user_effect(spec: dict, where: str = "candidate") -> Effect:
     if not lo <= zero <= hi or lo >= hi:
         raise DataError(f"{where}: bounds [{lo}, {hi}] must be increasing and hold zero = {zero}")
     where_param = "winding" if slot == "winding" else cid  # a replaced winding keeps its name
-    e = Effect(cid, slot, str(spec["component"]), f"servo.{where_param}.{param}", str(spec.get("unit", "")), zero,
-               typical, (lo, hi), scale, str(spec.get("doc", "a user's candidate")), probe, fixed)
+    e = Effect(id=cid, slot=slot, component=str(spec["component"]), parameter=f"servo.{where_param}.{param}",
+               unit=str(spec.get("unit", "")), zero=zero, typical=typical, bounds=(lo, hi), scale=scale,
+               doc=str(spec.get("doc", "a user's candidate")), probe=probe, fixed=fixed)
     cls = load_class(e.component, Component, f"{where}: component")
     if param not in cls.declarations():
         raise DataError(f"{where}: {e.component} has no parameter {param!r}")

@@ -23,7 +23,8 @@ import numpy as np
 
 from acausal import DataError
 from acausal.identify.calibrate import Experiment, Free
-from acausal.identify.diagnose import Candidate, Problem, Thresholds, diagnose
+from acausal.identify.diagnose import Problem, Thresholds, diagnose
+from acausal.simulation.compiled.substep_control import SubstepControl, fixed_step_runs
 
 from . import bam_logs, effects as fx
 from .model import BASELINE, READING, compiled
@@ -31,32 +32,16 @@ from .recording_format import POSITION, inputs, inputs_from, replay_columns, rig
 
 SIGNALS = (POSITION,)
 
-#: bounds and typical magnitudes of the baseline parameters: wide physical ranges for a small servo (not tuned
-#: to the XL330: the start values are BAM's xl330 m1 set, the library defaults)
-BOUNDS = {"servo.kt": (0.01, 10.0, 0.3), "servo.R": (0.1, 100.0, 3.0), "servo.armature": (1e-6, 0.1, 1e-3),
-          "pendulum.phi0": (-0.3, 0.3, 0.02), "servo.tau_c": (0.0, 2.0, 0.01), "servo.d": (0.0, 1.0, 0.003)}
 
-def candidate(e) -> Candidate:
-    """The diagnosis candidate of effect record ``e``."""
-    return Candidate(e.id, e.parameter, e.zero, e.bounds, e.scale, POSITION, e.unit, e.probe, e.typical, e.excludes)
-
-
-CANDIDATES = {k: candidate(e) for k, e in fx.EFFECTS.items()}
 
 #: the replays' integrator: RK4 on the recording's own samples (:mod:`acausal.simulation.compiled.fixed_step`), the
 #: logged inputs linear inside each step, at first ``SUBSTEPS`` steps per sample interval, doubled per recording and
-#: model while the fixed step's error exceeds :func:`replay_tolerance` (checked as the fit moves:
+#: model while the fixed step's error exceeds :func:`replay_tolerance` (the fixed step's error control,
+#: :class:`~acausal.simulation.compiled.substep_control.SubstepControl`, checked as the fit moves:
 #: :class:`ReplayBatch`). On the XL330 set the baseline's replays with sensitivities take 4 to 8 substeps at a
 #: fifth of the cost of CVODES at rtol 1e-5; the smooth Coulomb law's 0.01 rad/s (times the load friction's gain)
-#: is what needs more.
+#: is what needs more, and the play of ``backlash`` 8 to 16 with its flanks (``effects.FLANKS``)
 SUBSTEPS = 4
-#: the most substeps tried before a recording's replays go to CVODES (:func:`max_substeps`): with the steps in C
-#: (:mod:`acausal.simulation.compiled.native`) RK4 with sensitivities at 128 substeps costs less than half of CVODES at
-#: rtol 1e-5 on an XL330 recording with load friction and play (230 ms against 525 ms, and nearer the tight solution:
-#: the play's replay at 16 substeps is within 2e-8 rad of one at 256, CVODES within 1.5e-4); on CasADi's virtual
-#: machine RK4 at 16 substeps costs about a third of CVODES, at 32 as much (the play of ``backlash`` takes 8 to 16
-#: with its flanks, ``effects.FLANKS``)
-MAX_SUBSTEPS = {"C": 128, "CasADi": 32}
 #: tolerances of a replay on CVODES (``substeps=None``): within 5e-5 rad of rtol 1e-8 on the XL330 set; with load
 #: friction (``coulomb`` and ``load`` at the benchmark's parameters) within 2.1e-4 rad on the native loop (median
 #: over the 16 recordings 6.6e-5) and 3.0e-4 on CasADi's CVODES (median 3.6e-5)
@@ -120,24 +105,6 @@ def replay_job(key, rec, values: dict, names=(), substeps: int | None = SUBSTEPS
     return (key, rec.t, replay_columns(rec), {**rig_params(rec.meta), **values}, start(rec), tuple(names), substeps)
 
 
-def max_substeps(cm) -> int:
-    """The most substeps a replay of ``cm`` takes before CVODES: :data:`MAX_SUBSTEPS` of the backend its fixed
-    step runs on (:attr:`FixedStep.backend <acausal.simulation.compiled.fixed_step.FixedStep.backend>`: C where the
-    machine's compiler built its loop, else CasADi's virtual machine)."""
-    from acausal.simulation.compiled.fixed_step import fixed_step
-    return MAX_SUBSTEPS[fixed_step(cm, SUBSTEPS).backend]
-
-
-def fixed_step_runs(cm) -> bool:
-    """Whether the replays of ``cm`` can take the fixed step (:mod:`acausal.simulation.compiled.fixed_step`): CasADi is
-    installed and the model has neither events nor a Newton block."""
-    try:
-        from acausal.simulation.compiled.fixed_step import unsupported
-    except ImportError:
-        return False
-    return unsupported(cm) is None
-
-
 def replay(job: tuple) -> tuple:
     """One closed-loop replay (a module-level function, so a process pool can run it): ``job`` =
     ``(model key, t, input columns, params, starts, names, substeps)`` (:func:`replay_job`); returns
@@ -192,87 +159,65 @@ class ReplayBatch:
     Experiments are batched with those of the same role (fitted or held out), since a calibration asks only for
     the fitted ones.
 
-    **Substeps** (RK4 per sample interval) are chosen per recording and checked against ``tol`` [rad] by the
-    difference between a replay and one at twice the substeps: on every recording at the first parameter set
-    asked for (from ``start``, doubled until the difference is within ``tol``; beyond :func:`max_substeps`, that
-    recording goes to CVODES), then at every new parameter set asked for with sensitivities (a fit's accepted
-    iterates) or for the held-out recordings, on the recording of the batch closest to its limit (its replay at
-    twice the substeps runs in the same call as the batch), and on all of them again where that one fails: a
-    candidate that stiffens the model as its size grows (load friction) gets more substeps where and when it needs
-    them. ``start``: the substeps to start from (one number for every recording, or per recording; None: CVODES);
-    ``extends``: the batch of the model this one extends, already checked: its substeps are taken and checked on
-    the recording closest to its limit only (an extension at its zero is that model); ``parent``, ``index``: the
-    batch and recording whose substeps a one-recording batch takes."""
+    **Substeps** (RK4 per sample interval) are the fixed step's error control's
+    (:class:`~acausal.simulation.compiled.substep_control.SubstepControl`, ``control``): chosen per recording at the
+    first parameter set asked for (from ``start``) and held within ``tol`` [rad] of a replay at twice the substeps;
+    at every new parameter set asked for with sensitivities (a fit's accepted iterates) or for the held-out
+    recordings, the recording of the batch closest to its limit is checked (its replay at twice the substeps runs in
+    the same call as the batch), and all of them again where it fails. ``start``: the substeps to start from (one
+    number for every recording, or per recording; None: CVODES); ``extends``: the batch of the model this one
+    extends, already checked: its substeps are taken and checked on the recording closest to its limit only (an
+    extension at its zero is that model); ``parent``, ``index``: the batch and recording whose substeps a
+    one-recording batch takes."""
 
     def __init__(self, key, recordings, held, executor, tol: float = np.inf, parent=None, index: int = 0,
                  start=SUBSTEPS, extends=None):
         self.key, self.recordings, self.held, self.executor = key, recordings, held, executor
         self.tol, self.parent, self.index = tol, parent, index
-        self.start = start if isinstance(start, dict) else {j: start for j in range(len(recordings))}
-        self.chosen = None  # recording -> substeps (None: CVODES), once checked
-        self.errors: dict = {}  # recording -> the last check's difference [rad]
-        self.probe_next = False  # check the recording nearest its limit at the next batch, whatever its kind
-        if extends is not None and extends.chosen is not None:
-            self.chosen, self.errors, self.probe_next = dict(extends.chosen), dict(extends.errors), True
-            if not fixed_step_runs(compiled(*key)):  # an extension with a Newton block: CVODES throughout
-                self.chosen = {j: None for j in self.chosen}
+        start = start if isinstance(start, dict) else {j: start for j in range(len(recordings))}
+        self.control = SubstepControl(compiled(*key), tol, start)
+        if extends is not None and extends.control.chosen is not None:
+            self.control.adopt(extends.control)
         self._cache: dict = {}
 
     def _map(self, jobs):
         return list((self.executor.map if self.executor is not None else map)(replay, jobs))
 
-    def _check(self, ks: dict, values: dict) -> dict:
-        """Substeps from ``ks`` (recording -> substeps) on, doubled per recording until its replay differs from
-        one at twice as many by ``tol`` at most (None beyond :func:`max_substeps`: CVODES)."""
-        out = dict(ks)
-        cm = compiled(*self.key)
-        if not fixed_step_runs(cm):  # e.g. a Newton block (a current limit behind a sagging bus)
-            return {j: None for j in ks}
-        most = max_substeps(cm)
-        todo = [j for j, k in ks.items() if k is not None]
-        coarse = dict(zip(todo, self._map([replay_job(self.key, self.recordings[j], values, (), ks[j])
-                                           for j in todo])))
-        while todo:
-            fine = dict(zip(todo, self._map([replay_job(self.key, self.recordings[j], values, (), 2 * out[j])
-                                             for j in todo])))
-            failed = []
-            for j in todo:
-                self.errors[j] = float(np.max(np.abs(coarse[j][0] - fine[j][0])))
-                if self.errors[j] > self.tol:
-                    out[j] = 2 * out[j] if 2 * out[j] <= most else None
-                    if out[j] is not None:
-                        failed.append(j)
-            todo, coarse = failed, fine
-        return out
+    def _positions(self, values: dict):
+        """The control's ``run``: the replayed positions of ``(recording, substeps)`` pairs at ``values``."""
+        def run(pairs):
+            return [r[0] for r in self._map([replay_job(self.key, self.recordings[j], values, (), k)
+                                             for j, k in pairs])]
+        return run
 
     def _start(self, values: dict) -> None:
         """The substeps at the parameter set asked for first: those of the model extended (or of the parent), or
-        checked on every recording."""
-        if self.chosen is None and self.parent is not None and self.parent.chosen is not None:
-            self.chosen, self.probe_next = {0: self.parent.chosen[self.index]}, True
-        if self.chosen is None:
-            self.chosen = self._check(self.start, values)
+        chosen on every recording."""
+        control = self.control
+        if control.chosen is None and self.parent is not None and self.parent.control.chosen is not None:
+            control.chosen, control.probe_next = {0: self.parent.control.chosen[self.index]}, True
+        control.choose(self._positions(values))
 
     def _run(self, group: list, values: dict, names: tuple) -> list:
         """The replays of recordings ``group`` at ``values`` with sensitivities to ``names``; the substeps checked
         as the class docstring says."""
         self._start(values)
-        jobs = [replay_job(self.key, self.recordings[j], values, names, self.chosen[j]) for j in group]
-        rk4 = [j for j in group if self.chosen[j] is not None]
+        control = self.control
+        jobs = [replay_job(self.key, self.recordings[j], values, names, control.chosen[j]) for j in group]
         probe = None
-        if rk4 and (names or self.probe_next or self.held[group[0]]):
-            probe = max(rk4, key=lambda j: self.errors.get(j, np.inf))
-            jobs.append(replay_job(self.key, self.recordings[probe], values, (), 2 * self.chosen[probe]))
+        if names or control.probe_next or self.held[group[0]]:
+            probe = control.nearest_limit(group)
+        if probe is not None:
+            jobs.append(replay_job(self.key, self.recordings[probe], values, (), 2 * control.chosen[probe]))
         results = self._map(jobs)
         if probe is None:
             return results
         fine = results.pop()
-        self.probe_next = False
-        self.errors[probe] = float(np.max(np.abs(results[group.index(probe)][0] - fine[0])))
-        if self.errors[probe] <= self.tol:
+        if control.accepts(probe, results[group.index(probe)][0], fine[0]):
             return results
-        self.chosen = self._check(self.chosen, values)
-        return self._map([replay_job(self.key, self.recordings[j], values, names, self.chosen[j]) for j in group])
+        control.chosen = control.refine(self._positions(values), control.chosen)
+        return self._map([replay_job(self.key, self.recordings[j], values, names, control.chosen[j])
+                          for j in group])
 
     def get(self, k: int, values: dict, names=()) -> tuple:
         key = (tuple(sorted(values.items())), tuple(names), bool(self.held[k]))
@@ -351,7 +296,7 @@ class ServoProblem(Problem):
             if e.id in self.effects:
                 raise DataError(f"candidate {e.id!r} is given twice (built-in or user)")
             self.effects[e.id] = e
-        self.candidates = {k: candidate(e) for k, e in self.effects.items()}
+        self.candidates = self.effects  # an effect record is the diagnosis's candidate
         if not isinstance(recordings, (list, tuple)):
             recordings = bam_logs.load(recordings, strict=strict)  # the servo format, or BAM's raw logs converted
         self.recordings = list(recordings)
@@ -377,15 +322,10 @@ class ServoProblem(Problem):
         return self._cache[key]
 
     def base_free(self, start: dict) -> list:
-        from acausal.library.servo import PositionServo
-        defaults = {"servo.kt": PositionServo.kt.default, "servo.R": PositionServo.R.default,
-                    "servo.armature": PositionServo.armature.default, "pendulum.phi0": 0.0,
-                    "servo.tau_c": PositionServo.tau_c.default, "servo.d": PositionServo.d.default}
-        out = []
-        for n in BASELINE:
-            lo, hi, scale = BOUNDS[n]
-            out.append(Free(n, float(np.clip(start.get(n, defaults[n]), lo, hi)), lo, hi, scale))
-        return out
+        """The baseline parameters, bounds and scales as the servo and the pendulum declare them, started at the
+        library's defaults (BAM's xl330 m1 set)."""
+        cm = compiled(*model_key(()))
+        return [Free.declared(cm, n, start) for n in BASELINE]
 
     def period(self, exp) -> float:
         return float(exp.t[-1] - exp.t[0]) * (1 + 1e-9)

@@ -181,3 +181,62 @@ def test_a_library_is_built_once_per_source_and_a_refused_source_says_why(tmp_pa
     with pytest.raises(BuildError, match="failed"):
         shared_library("int broken(void) { return }\n")
     assert sorted(p.suffix for p in (tmp_path / "native").iterdir()) == [first.suffix]  # no leftovers
+
+
+# ------------------------------------------------------------------------------------------ substep control
+def _grids(cm, seeds=(0, 1, 2)):
+    """The control's ``run`` over logged RC grids: the capacitor voltage of grid j at k substeps, and the count of
+    runs asked for."""
+    logs = [_log(s, n=60) for s in seeds]
+    calls = []
+
+    def run(pairs):
+        calls.append(list(pairs))
+        out = []
+        for j, k in pairs:
+            t, y = logs[j]
+            out.append(cm.sensitivities(t, [], names=["C.v"], inputs={"src.v_ref": SampledSignal(t, y)},
+                                        t_start=t[0], method="RK4", substeps=k)[0]["C.v"])
+        return out
+    return logs, run, calls
+
+
+def test_the_substep_control_doubles_each_grid_until_twice_the_substeps_agree_within_its_tolerance():
+    from acausal.simulation.compiled.substep_control import SubstepControl
+    t, y = _log(0, n=60)
+    cm = compile_model(RC(SampledSignal(t, y)))
+    logs, run, calls = _grids(cm)
+    tol = 1e-9
+    control = SubstepControl(cm, tol, {j: 1 for j in range(len(logs))})
+    chosen = control.choose(run)
+    assert set(chosen) == {0, 1, 2} and all(k is not None and k > 1 for k in chosen.values())
+    for j, k in chosen.items():  # what it chose meets the tolerance, and half of it would not have
+        coarse, fine = run([(j, k), (j, 2 * k)])
+        assert np.max(np.abs(coarse - fine)) <= tol
+        half, same = run([(j, k // 2), (j, k)])
+        assert np.max(np.abs(half - same)) > tol
+    assert control.choose(run) is chosen  # chosen once: a second call runs nothing
+    j = control.nearest_limit([0, 1, 2])
+    assert control.errors[j] == max(control.errors.values())
+    coarse, fine = run([(j, chosen[j]), (j, 2 * chosen[j])])
+    assert control.accepts(j, coarse, fine)
+    assert not control.accepts(j, coarse, coarse + 10 * tol)
+
+
+def test_the_substep_control_sends_a_grid_beyond_its_most_substeps_to_the_error_controlled_integrator():
+    from acausal.simulation.compiled.substep_control import MAX_SUBSTEPS, SubstepControl
+    t, y = _log(0, n=60)
+    cm = compile_model(RC(SampledSignal(t, y)))
+    _, run, _ = _grids(cm, seeds=(0,))
+    control = SubstepControl(cm, 0.0, {0: 1})  # nothing meets a zero tolerance
+    assert control.most in MAX_SUBSTEPS.values()
+    assert control.choose(run) == {0: None}
+
+
+def test_a_model_the_fixed_step_cannot_run_has_every_grid_on_the_error_controlled_integrator():
+    from acausal.simulation.compiled.substep_control import SubstepControl
+    t, y = _log(0, n=60)
+    rectifier = compile_model(RC(SampledSignal(t, y), diode=True))  # an event-law diode: zero functions
+    control = SubstepControl(rectifier, 1e-6, {0: 4, 1: 4})
+    assert not control.possible
+    assert control.choose(lambda pairs: pytest.fail("nothing may run on the fixed step")) == {0: None, 1: None}
