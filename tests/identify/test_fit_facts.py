@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from acausal import Component, DataError, Model, ModelError, Parameter, compile_model
+from acausal import DataError, Model, ModelError, Parameter, compile_model
 from acausal.identify.calibrate import Free
 from acausal.identify.verdict import Candidate
-from acausal.library.rotational import Damper, Fixed, Inertia, TorqueSource
+from acausal.library.rotational import Damper, Fixed, Inertia
 
 
 class Drag(Damper):
