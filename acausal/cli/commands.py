@@ -452,7 +452,8 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--strict", action="store_true", help="refuse a recording with a sample that cannot be physical (a dropout, a glitch, a "
                     "repeated time stamp, an empty cell), naming file, line and column; by default such samples "
                     "are masked, named in the report and left out of the fit")
-    dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all)")
+    dg.add_argument("--candidates", help="comma-separated candidate effects to try (default: all; your own "
+                    "--candidate and --candidates-file ones are tried too)")
     dg.add_argument("--max-effects", type=whole_number("--max-effects"), default=None,
                     help="effects to name at most (default: as many as the evidence supports; a significant "
                     "candidate the limit leaves out is said)")

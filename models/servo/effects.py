@@ -25,10 +25,11 @@ A user's own candidate is an :class:`Effect` too, made from a plain dict (:func:
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from acausal import Component, DataError, ModelError
+from acausal import Component, DataError, ModelError, Parameter
 from acausal.library.friction import TERMS
 from acausal.library.servo import SLOTS
 from acausal.cli.references import load_class
@@ -183,13 +184,21 @@ def user_effect(spec: dict, where: str = "candidate") -> Effect:
     (``MODULE:CLASS`` or ``FILE.py:CLASS``), ``parameter`` (the component's size parameter), ``bounds``
     ``[lo, hi]``; optional ``zero`` (default 0), ``unit``, ``typical``, ``scale``, ``probe``, ``doc``, ``fixed``
     (its other parameters). The component is loaded and built once here, so a wrong reference, slot or
-    parameter is named now, not inside a worker. ``where`` names the source in messages."""
+    parameter is named now, not inside a worker (that the model compiles with it and is unchanged at its zero is
+    checked on the data: :meth:`~.problem.ServoProblem.check_user_effect`). ``where`` names the source in
+    messages."""
+    if not isinstance(spec, dict):
+        raise DataError(f"{where}: a candidate is an object of keys ({', '.join(sorted(_USER_KEYS))}), got a "
+                        f"{type(spec).__name__}: {spec!r}")
     unknown = sorted(set(spec) - _USER_KEYS)
     if unknown:
         raise DataError(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(_USER_KEYS))}")
     for key in ("id", "slot", "component", "parameter", "bounds"):
         if key not in spec:
             raise DataError(f"{where}: key {key!r} is missing")
+    bounds = spec["bounds"]
+    if isinstance(bounds, (str, bytes, dict)) or not hasattr(bounds, "__len__") or len(bounds) != 2:
+        raise DataError(f"{where}: bounds must be a pair [lo, hi], got {bounds!r}")
     cid, slot, param = str(spec["id"]), str(spec["slot"]), str(spec["parameter"])
     if not cid.isidentifier():
         raise DataError(f"{where}: id {cid!r} must be a name (letters, digits, _)")
@@ -206,15 +215,30 @@ def user_effect(spec: dict, where: str = "candidate") -> Effect:
         typical = float(spec.get("typical", probe if probe is not None else (zero + hi) / 2))
     except (TypeError, ValueError) as exc:
         raise DataError(f"{where}: bounds, zero, probe, scale, typical and fixed must be numbers ({exc})") from None
+    if not all(math.isfinite(v) for v in (lo, hi, zero, scale, typical) + ((probe,) if probe is not None else ())):
+        raise DataError(f"{where}: bounds, zero, probe, scale and typical must be finite numbers (a fit searches a "
+                        f"finite range), got bounds [{lo}, {hi}]")
     if not lo <= zero <= hi or lo >= hi:
         raise DataError(f"{where}: bounds [{lo}, {hi}] must be increasing and hold zero = {zero}")
+    if probe is not None and (not lo <= probe <= hi or probe == zero):
+        raise DataError(f"{where}: probe = {probe} must lie inside bounds [{lo}, {hi}] and differ from zero = "
+                        f"{zero} (the fingerprint is the change from zero to the probe)")
+    if not lo <= typical <= hi:
+        raise DataError(f"{where}: typical = {typical} must lie inside bounds [{lo}, {hi}]")
+    if scale <= 0:
+        raise DataError(f"{where}: scale = {scale} must be positive (the size's typical magnitude)")
     where_param = "winding" if slot == "winding" else cid  # a replaced winding keeps its name
     e = Effect(id=cid, slot=slot, component=str(spec["component"]), parameter=f"servo.{where_param}.{param}",
                unit=str(spec.get("unit", "")), zero=zero, typical=typical, bounds=(lo, hi), scale=scale,
                doc=str(spec.get("doc", "a user's candidate")), probe=probe, fixed=fixed)
     cls = load_class(e.component, Component, f"{where}: component")
-    if param not in cls.declarations():
-        raise DataError(f"{where}: {e.component} has no parameter {param!r}")
+    declared = cls.declarations()
+    known = ", ".join(k for k, d in declared.items() if isinstance(d, Parameter)) or "none"
+    if param not in declared:
+        raise DataError(f"{where}: {e.component} has no parameter {param!r}; its parameters: {known}")
+    if not isinstance(declared[param], Parameter):
+        raise DataError(f"{where}: {param!r} of {e.component} is a {type(declared[param]).__name__}, not a "
+                        f"parameter; its parameters: {known}")
     element = e.factory()(**({"R": 1.0} if slot == "winding" else {}))  # a wrong fixed parameter is named here
     ports = SLOTS[slot]
     if not all(hasattr(element, p) for p in ports):
@@ -232,12 +256,16 @@ def parse_candidate(text: str) -> Effect:
             raise DataError(f"--candidate {text!r}: {part!r} is not KEY=VALUE")
         key = key.strip()
         value = value.strip()
+        if key in spec and key != "fixed":
+            raise DataError(f"--candidate {text!r}: key {key!r} is given twice")
         if key == "bounds":
             spec[key] = value.split(":")
             if len(spec[key]) != 2:
                 raise DataError(f"--candidate {text!r}: bounds must be LO:HI, got {value!r}")
         elif key == "fixed":
             name, _, v = value.partition(":")
+            if name in spec.get("fixed", {}):
+                raise DataError(f"--candidate {text!r}: fixed parameter {name!r} is given twice")
             spec.setdefault("fixed", {})[name] = v
         else:
             spec[key] = value
@@ -247,12 +275,19 @@ def parse_candidate(text: str) -> Effect:
 def load_candidates_file(path) -> list:
     """A JSON file holding a list of candidate dicts (:func:`user_effect`), each named by file and index."""
     path = Path(path)
+    def unique(pairs):
+        keys = [k for k, _ in pairs]
+        twice = sorted({k for k in keys if keys.count(k) > 1})
+        if twice:
+            raise DataError(f"{path}: key(s) {', '.join(repr(k) for k in twice)} given twice in one object")
+        return dict(pairs)
+
     try:
-        items = json.loads(path.read_text())
+        items = json.loads(path.read_text(), object_pairs_hook=unique)
     except FileNotFoundError:
         raise DataError(f"{path}: no such candidates file") from None
     except json.JSONDecodeError as exc:
         raise DataError(f"{path}: not JSON: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
     if not isinstance(items, list):
         raise DataError(f"{path}: expected a JSON list of candidates")
-    return [user_effect(spec if isinstance(spec, dict) else {}, f"{path} [{k}]") for k, spec in enumerate(items)]
+    return [user_effect(spec, f"{path} [{k}]") for k, spec in enumerate(items)]

@@ -309,6 +309,34 @@ class ServoProblem(Problem):
         self.replay_tolerance = replay_tolerance(self.step)
         self._cache: dict = {}
         self._batches: dict = {}
+        for e in extra:
+            self.check_user_effect(e)
+
+    def check_user_effect(self, e) -> None:
+        """A user's candidate ``e`` is refused, naming it, unless the model compiles with it and, at its zero,
+        replays the shortest training recording as the baseline does (within the reading's noise): a size whose
+        zero is not neutral (a gain inserted at 0 cuts the servo off) would make every score and detection limit
+        false."""
+        try:
+            cm = compiled(*model_key((e,)))
+        except Exception as exc:  # a user's component may fail in any way; it is named, not a traceback
+            raise DataError(f"candidate {e.id!r} ({e.component}): the servo model with it does not build or "
+                            f"compile: {type(exc).__name__}: {exc}") from exc
+        held = np.asarray(self.mask, dtype=bool)
+        rec = min((r for r, h in zip(self.recordings, held) if not h), key=lambda r: r.t.size)
+        substeps = SUBSTEPS if fixed_step_runs(cm) and fixed_step_runs(compiled(*model_key(()))) else None
+        try:
+            base = replay(replay_job(model_key(()), rec, {}, (), substeps))[0]
+            at_zero = replay(replay_job(model_key((e,)), rec, {e.parameter: e.zero}, (), substeps))[0]
+        except Exception as exc:
+            raise DataError(f"candidate {e.id!r} ({e.component}): a replay of {rec.name} with it at zero "
+                            f"({e.parameter} = {e.zero:g}) fails: {type(exc).__name__}: {exc}") from exc
+        off = float(np.max(np.abs(at_zero - base)))
+        noise = self.step / np.sqrt(12.0)
+        if not off <= noise:
+            raise DataError(f"candidate {e.id!r}: at its zero ({e.parameter} = {e.zero:g}) it changes the model "
+                            f"(the replay of {rec.name} moves by up to {off:.3g} rad, more than the reading's noise "
+                            f"{noise:.2g} rad): give the zero at which {e.component} leaves the servo as it is")
 
     def experiments(self, effects: tuple) -> list:
         key = model_key(self.effects[e] for e in effects)
@@ -369,7 +397,10 @@ def run(recordings, split: Split = Split(), thresholds: Thresholds = Thresholds(
     """Diagnose servo ``recordings`` (list or folder); returns ``(Diagnosis, ServoProblem)``. ``executor``: a
     process pool to run the replays of one parameter set in parallel (default: in this process); ``extra``: the
     user's own candidates (:func:`~.effects.user_effect` records), tried beside the library's; ``strict``: a
-    folder's samples that cannot be physical refuse it instead of being masked."""
+    folder's samples that cannot be physical refuse it instead of being masked; ``candidates``: the library's
+    candidates to try (None: all), the user's own (``extra``) always with them."""
     problem = ServoProblem(recordings, split, executor, extra, strict)
+    if candidates is not None:  # the user's own candidates are tried whatever --candidates names
+        candidates = [*candidates, *(e.id for e in extra if e.id not in candidates)]
     d = diagnose(problem, thresholds=thresholds, max_effects=max_effects, candidates=candidates, progress=progress)
     return d, problem

@@ -110,6 +110,13 @@ def test_user_candidate_from_the_command_line_and_from_a_file(tmp_path):
     ("id=x,slot=goal,component=acausal.library.blocks:Bias,parameter=bias", "'bounds' is missing"),
     ("id=load,slot=goal,component=acausal.library.blocks:Bias,parameter=bias,bounds=0:1", "built-in"),
     ("id=x,slot=goal,component=acausal.library.blocks:Bias,parameter=bias,bound=0:1", "unknown key"),
+    ("id=x,slot=goal,component=acausal.library.blocks:Bias,parameter=bias,bounds=0:1,bounds=0:2", "'bounds' is given "
+     "twice"),
+    ("id=x,slot=goal,component=acausal.library.blocks:Bias,parameter=bias,bounds=-0.2:0.2,probe=5", "probe = 5.0 "
+     "must lie inside bounds"),
+    ("id=x,slot=goal,component=acausal.library.blocks:Bias,parameter=bias,bounds=-inf:inf", "finite numbers"),
+    ("id=x,slot=goal,component=acausal.library.blocks:Bias,parameter=u,bounds=0:1", "'u' of .* is a RealInput, "
+     "not a parameter; its parameters: bias"),
 ])
 def test_user_candidate_errors_name_the_fault(text, match):
     with pytest.raises((DataError, ModelError), match=match):
@@ -124,6 +131,55 @@ def test_candidates_file_errors_name_file_and_entry(tmp_path):
     bad.write_text('[{"id": "x", "slot": "goal"}]')
     with pytest.raises(DataError, match=r"c.json \[0\]: key 'component' is missing"):
         fx.load_candidates_file(bad)
+    good = {"id": "x", "slot": "goal", "component": "acausal.library.blocks:Bias", "parameter": "bias"}
+    bad.write_text(json.dumps([{**good, "bounds": "02"}]))  # a string is no pair, though it has two characters
+    with pytest.raises(DataError, match=r"c.json \[0\]: bounds must be a pair"):
+        fx.load_candidates_file(bad)
+    bad.write_text(json.dumps([{**good, "bounds": [0, 1]}, "goal_offset"]))
+    with pytest.raises(DataError, match=r"c.json \[1\]: a candidate is an object .* got a str"):
+        fx.load_candidates_file(bad)
+    bad.write_text('[{"id": "x", "slot": "goal", "component": "acausal.library.blocks:Bias", "parameter": "bias", '
+                   '"bounds": [0, 1], "bounds": [0, 2]}]')
+    with pytest.raises(DataError, match=r"c.json: key\(s\) 'bounds' given twice"):
+        fx.load_candidates_file(bad)
+
+
+def _problem(extra):
+    import importlib.resources as r
+    from acausal.models.servo.problem import ServoProblem
+    return ServoProblem(str(r.files("acausal.models.servo").joinpath("data/xl330/recordings")), extra=extra)
+
+
+def test_a_user_candidate_whose_zero_changes_the_model_is_refused_naming_it():
+    cut = fx.parse_candidate("id=goal_gain,slot=goal,component=acausal.library.blocks:Gain,parameter=k,bounds=0:2")
+    with pytest.raises(DataError, match=r"candidate 'goal_gain': at its zero \(servo.goal_gain.k = 0\) it changes "
+                                        r"the model"):
+        _problem([cut])
+    neutral = fx.parse_candidate("id=goal_gain,slot=goal,component=acausal.library.blocks:Gain,parameter=k,"
+                                 "bounds=0:2,zero=1")
+    assert _problem([neutral]).candidates["goal_gain"].zero == 1.0  # at 1 a gain leaves the goal as it is
+
+
+def test_a_user_candidate_whose_equations_raise_is_refused_naming_it_before_any_replay(tmp_path):
+    path = tmp_path / "broken.py"
+    path.write_text("from acausal.library.blocks import Bias\n\n"
+                    "class Broken(Bias):\n    def equations(self):\n        return [self.y.value + None]\n")
+    e = fx.parse_candidate(f"id=broken,slot=goal,component={path}:Broken,parameter=bias,bounds=-1:1")
+    with pytest.raises(DataError, match=r"candidate 'broken' \(.*Broken\): the servo model with it does not build "
+                                        r"or compile: TypeError"):
+        _problem([e])
+
+
+def test_the_users_own_candidates_are_tried_beside_those_named_by_candidates(monkeypatch):
+    from acausal.models.servo import problem
+    seen = {}
+    monkeypatch.setattr(problem, "diagnose", lambda p, candidates=None, **kw: seen.setdefault("ids", candidates))
+    offset = fx.parse_candidate("id=goal_offset,slot=goal,component=acausal.library.blocks:Bias,parameter=bias,"
+                                "bounds=-0.2:0.2")
+    import importlib.resources as r
+    problem.run(str(r.files("acausal.models.servo").joinpath("data/xl330/recordings")), candidates=["load"],
+                extra=[offset])
+    assert seen["ids"] == ["load", "goal_offset"]
 
 
 # ------------------------------------------------------------------------------------------------ hidden effects
