@@ -162,6 +162,11 @@ class Component:
         if isinstance(value, Component) and not name.startswith("_"):
             if value is self:
                 raise ModelError(f"{self._describe()}: self.{name} = self; a component cannot contain itself")
+            if not name.isidentifier():
+                raise ModelError(f"{self._describe()}: a part named {name!r} (a {type(value).__name__}): a part's "
+                                 "name must be a Python name; a '.' in it would collide with the path of a part of "
+                                 "a sub-component" + (f" ({name.split('.')[0]!r} holds its own)" if "." in name
+                                                      else ""))
             if value._parent is not None and value._parent is not self:
                 raise ModelError(f"{value._describe()} is already part of {value._parent._describe()}; "
                                  f"create a new instance for {self._child_path(name)!r}")

@@ -124,3 +124,20 @@ def test_text_is_never_executed_as_an_expression():
         ExpressionSignal('__import__("os")')
     with pytest.raises(ModelError, match=r"der\('x'\): give a variable .*self.x, not 'x'"):
         der("x")
+
+
+def test_a_part_whose_name_holds_a_dot_is_refused_naming_the_sub_component_it_collides_with():
+    from acausal import Model
+    from acausal.library.electrical import Resistor
+
+    class Divider(Model):
+        def build(self):
+            self.R = Resistor()
+
+    class Clash(Model):
+        def build(self):
+            self.a = Divider()
+            setattr(self, "a.R", Resistor())  # would share the path of a's own resistor
+
+    with pytest.raises(ModelError, match=r"a part named 'a.R' \(a Resistor\).*'a' holds its own"):
+        compile_model(Clash())

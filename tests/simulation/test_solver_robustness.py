@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from acausal import Eq, Model, Parameter, SimulationError, Start, Variable, compile_model, connect, der, time
+from acausal import (Discrete, Eq, Event, Model, Parameter, SimulationError, Start, Variable, compile_model, connect,
+                     der, time)
 from acausal.backends.numpy import runtime
 from acausal.library.electrical import Capacitor, Ground, Resistor
 from acausal.model.partials import OnePort
@@ -243,3 +244,37 @@ def test_singular_linear_block_names_time_and_variables():
     assert "'m.a', 'm.b'" in msg and "Mesh 'm'" in msg and "method='BDF'" in msg and "max_step" in msg
     a, b = runtime.linsolve([[1.0, 1.0], [-t, 1.0]], [1.0, 2.0], label, t)  # regular for t >= 0
     assert np.allclose(a + b, 1.0) and np.allclose(-t * a + b, 2.0)
+
+
+class _Breaker(OnePort):
+    """The users' guide's latching breaker as a careless author writes it: R_on, divided by, declared min 0 only."""
+
+    I_trip = Parameter(5.0, unit="A", min=0.0)
+    R_on = Parameter(1e-3, unit="Ohm", min=0.0)
+    G_off = Parameter(1e-6, unit="S", min=0.0)
+    tripped = Discrete(start=0.0)
+
+    def equations(self):
+        closed = 1 - self.tripped
+        return [*super().equations(), Eq(self.i, closed * self.v / self.R_on + self.tripped * self.G_off * self.v)]
+
+    def events(self):
+        return [Event(self.i - self.I_trip, on_rising={self.tripped: 1})]
+
+
+class _Trip(Model):
+    def build(self):
+        from acausal.library.electrical import ConstantVoltage, Ground, Inductor, Resistor
+        self.src, self.brk, self.gnd = ConstantVoltage(V=12.0), _Breaker(R_on=0.0), Ground()
+        self.R, self.L = Resistor(R=1.0), Inductor(L=0.1, i=Start(0.0))
+        connect(self.src.p, self.brk.p)
+        connect(self.brk.n, self.R.p)
+        connect(self.R.n, self.L.p)
+        connect(self.L.n, self.src.n, self.gnd.p)
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_a_parameter_at_zero_that_an_equation_divides_by_is_named_not_a_zero_division_traceback(method):
+    cm = compile_model(_Trip())
+    with pytest.raises(SimulationError, match=r"brk.R_on = 0 is divided by in an equation of _Breaker 'brk'"):
+        cm.simulate(0.5, **({} if method == "auto" else {"method": method}))

@@ -277,8 +277,13 @@ class _Dense:
     def rate(self, k):
         if k not in self.rates:
             seg = self.seg
-            self.rates[k] = np.asarray(seg.cm.funcs["rhs"](float(self.nodes[k]), self.states[:, k].tolist(),
-                                                           seg.p.tolist(), seg.d.tolist(), seg.u), dtype=float)
+            try:
+                self.rates[k] = np.asarray(seg.cm.funcs["rhs"](float(self.nodes[k]), self.states[:, k].tolist(),
+                                                               seg.p.tolist(), seg.d.tolist(), seg.u), dtype=float)
+            except (ZeroDivisionError, OverflowError, ValueError):  # a division by zero, a root of a negative
+                from ..scipy.failures import non_finite_error
+                raise non_finite_error(seg.cm, float(self.nodes[k]), self.states[:, k], seg.p, seg.d,
+                                       seg.u) from None
         return self.rates[k]
 
     def smooth(self, k) -> bool:

@@ -4,6 +4,7 @@ integrator gave up. Used by :mod:`acausal.simulation.simulate` on the scipy path
 from __future__ import annotations
 
 import numpy as np
+import sympy as sp
 
 from ...errors import SimulationError
 from ...compile.solve import step_vars
@@ -19,6 +20,30 @@ def zero_parameters_hint(cm, p, names) -> str:
             if zero else "")
 
 
+def zero_divisors(cm, p) -> list:
+    """The parameters equal to zero that an equation of ``cm`` divides by (a zero inside the declared bounds of a
+    parameter its component divides by: ``i = v / R_on`` with ``R_on = 0``)."""
+    zero = {k for k, v in zip(cm.param_names, np.atleast_1d(p)) if np.ndim(v) == 0 and v == 0}
+    found = set()
+    for st in cm.steps:
+        expr = getattr(st, "expr", None)
+        if zero and expr is not None and hasattr(expr, "atoms"):
+            found |= {str(w.base) for w in expr.atoms(sp.Pow) if w.exp.is_negative and w.base.is_Symbol
+                      and str(w.base) in zero}
+    return sorted(found)
+
+
+def divisor_hint(cm, p) -> str:
+    """The sentence naming :func:`zero_divisors` and their components, or ``""``."""
+    found = zero_divisors(cm, p)
+    if not found:
+        return ""
+    paths = sorted({cm.flat.parameters[k].owner for k in found if k in cm.flat.parameters})
+    owners = ", ".join(f"{cm.flat.components.get(o, 'component')} {o!r}" for o in paths)
+    return (f"; {', '.join(f'{k} = 0' for k in found)} is divided by in an equation of {owners}: give a positive "
+            "value (a component that divides by a parameter declares it nonzero=True or with a positive min)")
+
+
 def non_finite_error(cm, t, x, p, d, u, where="rhs") -> SimulationError:
     """The error for a non-finite value at ``(t, x)``: the unknown that went non-finite first, its owner, the
     others after it, the non-finite states; with ``where="jac"`` and finite values, the Jacobian's entry."""
@@ -26,6 +51,7 @@ def non_finite_error(cm, t, x, p, d, u, where="rhs") -> SimulationError:
     # non-finite unknown computed *first* (the cause, e.g. y = sqrt(x)) rather than the first in name order
     # (often a derivative that merely depends on it, 'der(z)' for z' = y); the others follow as consequences.
     t_np = np.float64(t)
+    x, p, d = (np.asarray(a, dtype=float) for a in (x, p, d))  # numpy scalars: a division by zero gives inf
     try:
         with np.errstate(all="ignore"):
             vals = cm.funcs["all_values"](t_np, x, p, d, u)
@@ -52,7 +78,8 @@ def non_finite_error(cm, t, x, p, d, u, where="rhs") -> SimulationError:
                                    f"d {cm.state_names[j]} = {J[i, j]} at {dict(zip(cm.state_names, x))}")
         except Exception:  # pragma: no cover
             pass
-    return SimulationError(f"non-finite value at t = {t:.9g} s" + (f" in states {bad_state}" if bad_state else ""))
+    return SimulationError(f"non-finite value at t = {t:.9g} s" + (f" in states {bad_state}" if bad_state else "")
+                           + divisor_hint(cm, p))
 
 
 def step_failure(cm, solver, msg, p, d, u, rtol, atol) -> SimulationError:
