@@ -342,7 +342,8 @@ def _newton_error(what, label, t, y, r_arr, mask) -> SimulationError:
 def _hint(names) -> str:
     who = ", ".join(map(repr, names))
     return (f"Hint: every evaluation starts this block from its start values, so give {who} a start value near "
-            "the solution (Start(value) where the component is made, or Variable(start=...) in its class); "
+            "the solution (Start(value) where the component is made, or Variable(start=...) in its class: "
+            "simulate(starts={...}) gives initial values the states must meet, not this block's iteration start); "
             "if the integrator stepped far (a trial state), try method='BDF' or a smaller max_step.")
 
 
