@@ -55,6 +55,21 @@ class SwitchedResistor(OnePort):
                 Eq(self.loss_power, self.v * self.i)]
 
 
+class BrakingWinding(SwitchedResistor):
+    """A servo's winding behind its torque-enable that the bridge does not leave floating with the torque off: a
+    fraction ``brake`` of the winding's conductance stays (``i = (closed + brake (1 - closed)) v / R``): 0 is the
+    floating bridge (coast: :class:`SwitchedResistor`), 1 both low sides on (the winding shorted: dynamic braking,
+    the back-EMF's current drags the back-driven rotor). H-bridge drivers offer both decay modes (coast and brake,
+    e.g. TI DRV8833's IN1 = IN2 = 0 and = 1); which one a servo's torque-off uses is not in its manual.
+    ``loss_power = v i >= 0``."""
+
+    brake = Parameter(0.0, unit="1", min=0.0, max=1.0, doc="winding conductance left with the torque off, per 1/R")
+
+    def equations(self):
+        on = self.closed.value + self.brake * (1 - self.closed.value)
+        return [*OnePort.equations(self), Eq(self.i, on * self.v / self.R), Eq(self.loss_power, self.v * self.i)]
+
+
 class CurrentLimitedResistor(SwitchedResistor):
     """A :class:`SwitchedResistor` behind a driver that caps its current at ``i_max = 1 / inv_i_max`` (a servo's
     current limit, e.g. a Dynamixel's Current Limit register): ``i = closed (v/R) / max(1, inv_i_max |v/R|)``.

@@ -9,6 +9,8 @@ block                  size (zero)         what it models
 :class:`GoalRateLimit` ``t_v`` [s/rad]     a profile-velocity / maximum-velocity limit on the goal the firmware
                                            tracks (``1 / v_max``; Feetech's ``max_velocity``, Dynamixel's
                                            Profile Velocity)
+:class:`GoalAccelLimit` ``t_a`` [s2/rad] a profile-acceleration limit: the goal the firmware tracks changes its
+                                           speed no faster than ``1 / t_a`` (Dynamixel's Profile Acceleration)
 :class:`DeadZone`      ``uMax``            ``y = u - clamp(u, -uMax, uMax)`` (MSL ``Blocks.Nonlinear.DeadZone``,
                                            symmetric): a deadband of the position error (Dynamixel's
                                            compliance margin, Feetech's insensitive zone), or the mean effect of
@@ -28,7 +30,8 @@ block                  size (zero)         what it models
 A zero offset of a reading is the library's :class:`~acausal.library.blocks.Bias`. Sources of the defaults:
 Rhoban/bam (Apache-2.0) ``bam/feetech/actuator.py`` (the STS3215's goal rate limit and error-gain ratio),
 ``bam/actuator.py`` (the duty and current limits of a voltage-controlled servo); ROBOTIS e-Manual, XL330 control
-table (Profile Velocity, PWM Limit 885, position resolution 4096 per turn).
+table (Profile Velocity, Profile Acceleration in steps of 214.577 rev/min^2 = 0.374 rad/s^2, PWM Limit 885, position
+resolution 4096 per turn).
 """
 import sympy as sp
 
@@ -36,7 +39,7 @@ from acausal import Component, Eq, Parameter, RealInput, RealOutput, Variable, d
 
 from .control import clamp
 
-__all__ = ["GoalRateLimit", "DeadZone", "ErrorGain", "GainScale", "Punch", "LoopDelay"]
+__all__ = ["GoalRateLimit", "GoalAccelLimit", "DeadZone", "ErrorGain", "GainScale", "Punch", "LoopDelay"]
 
 
 class _SISO(Component):
@@ -65,6 +68,42 @@ class GoalRateLimit(_SISO):
         return [Eq(self.v, self.k * self.z / sp.Max(1, self.t_v * self.k * sp.Abs(self.z))),
                 Eq(der(self.z), der(self.u.value) - self.v),
                 Eq(self.y.value, self.u.value - self.z + self.v / self.k)]
+
+
+class GoalAccelLimit(_SISO):
+    """The goal a firmware tracks, its speed changed no faster than ``a_max = 1 / t_a`` (a profile-acceleration
+    limit: Dynamixel's Profile Acceleration shapes a goal step into a ramp of speed up and down)::
+
+        z = u - x, v = der(x)                        (lag and speed of the limited goal, start 0)
+        w = (k/4) z / sqrt(max(1, (k/4)^2 t_a |z| / 2))  (closing speed: at most what can stop within z)
+        a = der(v) = a_f / max(1, t_a |a_f|),          a_f = k (du/dt + w - v)
+        y = u - z + z_f                              (z_f: the same follower without the limit)
+
+    ``x`` follows ``u`` (its speed fed forward) as a critically damped second-order follower (poles at ``-k/2``),
+    closing the lag no faster than the speed it can still brake from at ``a_max`` (``sqrt(2 a_max |z|)``), with
+    its acceleration clamped smoothly at ``a_max``: a goal step becomes a speed ramp up, a cruise and a ramp down,
+    without overshoot. A follower lags a goal that turns within ``1 / k`` (a sampled step of goal is a ramp over one
+    sample); the output adds the lag of the same follower without the limit back (``z_f``), so ``y = u`` exactly
+    while the limit is not reached: with ``t_a = 0`` the block is the identity. The limit has no first-order effect
+    at zero, so the diagnosis probes it at a size.
+    """
+
+    t_a = Parameter(0.0, unit="s2/rad", min=0.0, doc="1 / largest goal acceleration (0: unlimited)")
+    k = Parameter(1000.0, unit="1/s", min=1e-9, doc="tracking rate of the goal followers")
+    z = Variable(start=0.0, fixed=True, unit="rad", doc="lag of the limited goal behind the input")
+    v = Variable(start=0.0, fixed=True, unit="rad/s", doc="speed of the limited goal")
+    a = Variable(unit="rad/s2", doc="acceleration of the limited goal")
+    z_f = Variable(start=0.0, fixed=True, unit="rad", doc="lag of the unlimited follower")
+    v_f = Variable(start=0.0, fixed=True, unit="rad/s", doc="speed of the unlimited follower")
+
+    def equations(self):
+        du, q = der(self.u.value), self.k / 4
+        w = q * self.z / sp.sqrt(sp.Max(1, q**2 * self.t_a * sp.Abs(self.z) / 2))  # smooth where z = 0
+        a_lim = self.k * (du + w - self.v)
+        return [Eq(der(self.z), du - self.v), Eq(self.a, a_lim / sp.Max(1, self.t_a * sp.Abs(a_lim))),
+                Eq(der(self.v), self.a),
+                Eq(der(self.z_f), du - self.v_f), Eq(der(self.v_f), self.k * (du + q * self.z_f - self.v_f)),
+                Eq(self.y.value, self.u.value - self.z + self.z_f)]
 
 
 class DeadZone(_SISO):

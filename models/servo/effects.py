@@ -5,10 +5,11 @@ The candidates span the chain, firmware to sensor. Each is one library component
 value), with one parameter that sets its size:
 
 * friction (:class:`~acausal.library.friction.GearFriction` terms): ``stribeck``, ``load``, ``backdrive``;
-* firmware (:mod:`acausal.library.firmware`): ``goal_rate_limit``, ``error_deadband``, ``error_dependent_gain``,
-  ``gain_error``, ``duty_limit``, ``punch``, ``loop_delay``;
+* firmware (:mod:`acausal.library.firmware`): ``goal_rate_limit``, ``goal_accel_limit``, ``error_deadband``,
+  ``error_dependent_gain``, ``gain_error``, ``duty_limit``, ``punch``, ``loop_delay``;
 * electrics: ``supply_sag`` (a resistance between the logged supply voltage and the bridge),
-  ``duty_quantisation``, ``current_limit`` (the driver caps the winding's current);
+  ``duty_quantisation``, ``current_limit`` (the driver caps the winding's current), ``torque_off_brake`` (the
+  bridge brakes the back-driven motor with the torque off instead of letting it coast);
 * sensing and drive train: ``encoder_offset``, ``backlash`` (play between the shaft the encoder reads and the
   output), ``gear_backlash`` (play in the gear train ahead of an encoder that reads the output shaft).
 
@@ -92,6 +93,11 @@ EFFECTS = {e.id: e for e in [
            unit="s/rad", zero=0.0, typical=0.19, bounds=(0.0, 2.0), scale=0.1,
            doc="the firmware moves its internal goal no faster than 1/t_v (Feetech STS3215: 3400 steps/s = 5.2 rad/s, "
                "t_v 0.19 s/rad, Rhoban/bam feetech/actuator.py; Dynamixel Profile Velocity)", probe=0.25),
+    Effect(id="goal_accel_limit", slot="goal", component=F + "GoalAccelLimit", parameter="servo.goal_accel_limit.t_a",
+           unit="s2/rad", zero=0.0, typical=0.05, bounds=(0.0, 2.0), scale=0.02,
+           doc="the firmware changes the speed of its internal goal no faster than 1/t_a (Dynamixel Profile "
+               "Acceleration, steps of 0.374 rad/s2: a goal step becomes a speed ramp; typical 20 rad/s2). A hard "
+               "limit: fingerprinted by the secant to 0.05 s2/rad", probe=0.05),
     Effect(id="error_deadband", slot="error", component=F + "DeadZone", parameter="servo.error_deadband.uMax",
            unit="rad", zero=0.0, typical=3 * _STEP, bounds=(0.0, 0.1), scale=0.003,
            doc="no drive within a band of position error (Dynamixel compliance margin, Feetech insensitive zone; "
@@ -141,6 +147,11 @@ EFFECTS = {e.id: e for e in [
                "magnetic encoder does): the firmware regulates the output, so the rotor crosses the gap unseen when "
                "the torque reverses; flanks and fingerprint as for backlash. Not with backlash: two plays in series "
                "with no inertia between them are one play", fixed=FLANKS, probe=0.01, excludes=("backlash",)),
+    Effect(id="torque_off_brake", slot="winding", component="acausal.library.electrical:BrakingWinding",
+           parameter="servo.winding.brake", unit="1", zero=0.0, typical=1.0, bounds=(0.0, 1.0), scale=0.1,
+           doc="with the torque off the bridge shorts the winding instead of floating (dynamic braking: the "
+               "back-driven rotor's back-EMF drives a current kt^2 w / R against it); the fraction of the "
+               "winding's conductance left, 1 for a full short", excludes=("current_limit",)),
     Effect(id="current_limit", slot="winding",
            component="acausal.library.electrical:CurrentLimitedResistor", parameter="servo.winding.inv_i_max",
            unit="1/A", zero=0.0, typical=1 / 1.75, bounds=(0.0, 20.0), scale=0.5,

@@ -243,7 +243,7 @@ def test_hidden_pair_that_masks_itself_is_named_together(tmp_path):
 
 HIDDEN = [("goal_rate_limit", 0.4), ("error_deadband", 0.01), ("error_dependent_gain", 2.0), ("duty_limit", 0.45),
           ("punch", 0.05), ("supply_sag", 3.0), ("duty_quantisation", 0.03), ("encoder_offset", 0.03),
-          ("backlash", 0.05), ("gear_backlash", 0.05), ("current_limit", 2.0)]
+          ("backlash", 0.05), ("gear_backlash", 0.05), ("current_limit", 2.0), ("goal_accel_limit", 0.05)]
 
 
 @pytest.mark.slow
@@ -256,11 +256,25 @@ def test_hidden_effect_is_named_among_its_neighbours(tmp_path, eid, size):
               "punch": "error_deadband,stribeck", "supply_sag": "duty_limit,load",
               "duty_quantisation": "error_deadband,punch", "encoder_offset": "loop_delay,backlash",
               "backlash": "encoder_offset,stribeck", "gear_backlash": "backlash,stribeck",
-              "current_limit": "duty_limit,supply_sag"}[eid]
+              "current_limit": "duty_limit,supply_sag", "goal_accel_limit": "goal_rate_limit,loop_delay"}[eid]
     v = _diagnose(tmp_path, {eid: size}, "--candidates", f"{eid},{others}", "--max-effects", "1",
                   gains=(300, 600, 1200), duration=2.0)  # 6 recordings of 2 s, those at kp 600 held out
     assert v["cause"] == eid, v["candidates"]
     _recovered(v, eid, size)
+
+
+@pytest.mark.slow
+def test_a_bridge_that_brakes_with_the_torque_off_is_named_from_the_falls(tmp_path):
+    """The bridge shorts the winding with the torque off (dynamic braking of the back-driven motor): the falls of
+    lift_and_drop show it, against the friction laws that also slow a fall; named, size recovered. (A partial
+    brake, half the conductance, is absorbed by the baseline's viscous friction on these trajectories: during the
+    falls both are a torque proportional to the speed, and the powered phases at these gains pin neither.)"""
+    from acausal.models.servo import virtual
+    v = _diagnose(tmp_path, {"torque_off_brake": 1.0}, "--candidates", "torque_off_brake,backdrive,stribeck,load",
+                  "--max-effects", "1", gains=(150, 300, 600), trajectories=virtual.TRAJECTORIES, duration=3.0)
+    assert v["cause"] == "torque_off_brake", v["candidates"]
+    _recovered(v, "torque_off_brake", 1.0)
+    assert v["heldout"]["extended"] < 0.6 * v["heldout"]["baseline"]
 
 
 # ------------------------------------------------------------------------------------------------ check
