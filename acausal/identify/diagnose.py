@@ -23,7 +23,9 @@ the baseline parameters to fit, the candidates, regressors for the residual anal
    linearised best case gains less than ``Thresholds.screen`` is not refitted: it is scored by one Gauss-Newton
    step and marked ``screened``; so are those beyond the problem's ``max_refits`` most promising ones, ranked
    by the share of the residual their Gauss-Newton step explains once clipped to the candidate's bounds: an
-   effect that can only act the other way cannot help at first order.) Scores, all on residuals in units of
+   effect that can only act the other way cannot help at first order. A candidate significant in the step
+   before is refitted whatever its rank: a second effect is named when it holds out of sample on top of the
+   first.) Scores, all on residuals in units of
    sensor noise pooled over the signals:
 
    * ``heldout_rmse_gain = 1 - RMSE_extended / RMSE_before`` on the held-out strides;
@@ -301,11 +303,13 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     limit = len(ids) if max_effects is None else max_effects
     steps, causes = [], []
     optima: list = []  # sentences: a named model whose fit has another optimum (settled)
+    held = set()  # candidates significant in the step before: refitted again on top of what it named
     while len(causes) < limit:
         rest = _open(problem, ids, causes)
         fp_step = fp if not causes else fingerprints(problem, base, rest, scales, probes, numeric)
         scores = _scores(problem, base, causes, {k: fp_step[k] for k in [None, *rest]}, scales, thresholds, say,
-                         probes)
+                         probes, always=held)
+        held = {s.id for s in scores if s.significant}
         best = next((s for s in scores if s.significant), None)
         if best is None and len(causes) + 2 <= limit:
             found = _lookahead(problem, base, causes, scores, rest, scales, thresholds, say, probes)
@@ -360,17 +364,18 @@ def diagnose(problem: Problem, start: dict | None = None, thresholds: Thresholds
     return d
 
 
-def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say, probes=None) -> list:
+def _scores(problem, base: Fit, causes, fp_step: dict, scales, thresholds, say, probes=None, always=()) -> list:
     """Every candidate of ``fp_step`` (id -> projected fingerprint at ``base``; the residual under None) scored on
     top of ``base`` (the model with ``causes``): the most promising refitted (a hard limit from the size in
-    ``probes`` its fingerprint was taken to), the rest screened (step 3 of the module docstring); sorted by
-    held-out gain."""
+    ``probes`` its fingerprint was taken to), and those of ``always`` (significant in the step before: a second
+    effect that holds out of sample on top of the first is refitted there, not left to the ranking), the rest
+    screened (step 3 of the module docstring); sorted by held-out gain."""
     rest = [cid for cid in fp_step if cid is not None]
     r = fp_step[None]
     cosines = {cid: _cos(r, fp_step[cid]) for cid in rest}
     share = {cid: _linearised(problem.candidates[cid], r, fp_step[cid], cosines[cid])[1] for cid in rest}
     order = sorted(rest, key=lambda cid: -share[cid])
-    refit = set(order if problem.max_refits is None else order[:problem.max_refits])
+    refit = set(order if problem.max_refits is None else order[:problem.max_refits]) | (set(always) & set(rest))
     scores = []
     for cid in order:
         cos = cosines[cid]

@@ -286,8 +286,9 @@ class ServoProblem(Problem):
     #: accepted step is that run's; a replay with sensitivities costs 1.8 without); a relative change of 1e-5 in
     #: cost or step is far below what the held-out scores resolve
     fit_options = {"max_nfev": 20, "tol": 1e-5, "together": True}
-    #: the library spans the chain (14 candidates): each step refits the four whose fingerprints explain most of
-    #: the residual, and scores the rest by their linearised step (a second step looks at them again)
+    #: the library spans the chain (18 candidates): each step refits the four whose fingerprints explain most of
+    #: the residual and those significant in the step before, and scores the rest by their linearised step (a
+    #: second step looks at them again)
     max_refits = 4
 
     def __init__(self, recordings, split: Split = Split(), executor=None, extra=(), strict: bool = False):
