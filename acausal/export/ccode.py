@@ -23,6 +23,7 @@ just before its first use.
 """
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +32,7 @@ from sympy.printing.c import C99CodePrinter
 
 from ..errors import ModelError
 from ..simulation.events import CASCADE_ITER, KNEE, ROUNDOFF, SETTLE_ITER
+from ..simulation.simulate import simulate
 from ..model.signals import ParametricSignal, SignalCall
 from ..compile.solve import Assign, LinearSolve, NewtonSolve
 from ..compile.program import lower
@@ -39,6 +41,12 @@ from ..model.symbols import der_name, time
 
 class ExportError(ModelError):
     """A model (or the machine) cannot produce an FMU; the message says what is missing and what to do."""
+
+
+#: the FMU's event limit: an Integer parameter of this name (value reference NR, after every Real), whose start is
+#: simulate()'s default max_events; more events than that stop the FMU as they stop simulate()
+MAX_EVENTS_NAME = "max_events"
+MAX_EVENTS = inspect.signature(simulate).parameters["max_events"].default
 
 
 @dataclass
@@ -254,6 +262,10 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     constants and tables (before the runtime), ``tail`` its functions (after it); :func:`source` joins them with
     the FMI declarations and the runtime (``templates/``)."""
     lay = layout_of(cm)
+    if MAX_EVENTS_NAME in lay.index:
+        raise ExportError(f"the model's variable {MAX_EVENTS_NAME!r} has the name of the FMU's event limit (the "
+                          f"Integer parameter {MAX_EVENTS_NAME!r}, simulate()'s max_events): rename it to export "
+                          "the model")
     off = lay.offsets
     bindings = cm.bindings
     signals, described = input_forms(cm, params, inputs)
@@ -294,6 +306,8 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
             # the event iteration's rules, from their one home (acausal.simulation.events)
             f"#define KNEE {_c_double(KNEE)}", f"#define ROUNDOFF {_c_double(ROUNDOFF)}",
             f"#define MAX_CASCADE {CASCADE_ITER}", f"#define MAX_SETTLE {SETTLE_ITER}",
+            # simulate()'s default event limit (the FMU's Integer parameter max_events starts there)
+            f"#define MAX_EVENTS_DEFAULT {int(MAX_EVENTS)}",
             _array("double", "start_values", start, _c_double),
             _array("char *const", "var_names", [*lay.params, *lay.states, *lay.unknowns, *lay.aliases,
                                                  *lay.discretes], _c_string),

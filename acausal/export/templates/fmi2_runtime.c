@@ -17,12 +17,16 @@
  * Events (fmi2NewDiscreteStates) follow acausal.simulation.events, in fmi2_events.c (after this file): the crossings since the
  * last event apply their assignments, and the event iteration runs to its end in the same call (a cycle of modes
  * is kept at the knee or is an error naming the components; a NaN or infinite indicator is an error naming it).
+ * More events than the Integer parameter max_events (simulate()'s max_events and its default) are an error
+ * naming the limit, the time and the last event's component, as simulate() raises it: a chattering model stops
+ * instead of stepping on from event to event.
  * --------------------------------------------------------------------------------------------------------- */
 
 #define NX1 (NX > 0 ? NX : 1)
 #define NZ1 (NZ > 0 ? NZ : 1)
 #define ND1 (ND > 0 ? ND : 1)
 #define NT1 (NT > 0 ? NT : 1)
+#define VR_MAX_EVENTS NR     /* the one Integer variable, max_events: its value reference follows every Real's */
 
 enum { PHASE_INSTANTIATED, PHASE_INIT, PHASE_EVENT, PHASE_CONTINUOUS, PHASE_TERMINATED, PHASE_ERROR };
 
@@ -38,6 +42,8 @@ typedef struct {
     int valid;               /* r holds unknowns, aliases and indicators of the current inputs */
     int initial;             /* the next fmi2NewDiscreteStates is the initial event update */
     int states_changed;      /* the last event update reinitialised states (Event.reinit) */
+    int max_events;          /* the event limit (parameter max_events; simulate()'s max_events) */
+    long n_events;           /* events since initialisation, counted as simulate() counts Result.events */
     int logging;
     fmi2CallbackLogger logger;
     fmi2CallbackFreeMemory free_memory;
@@ -315,6 +321,8 @@ static void reset_instance(Inst *m) {
     m->phase = PHASE_INSTANTIATED;
     m->valid = 0;
     m->initial = 0;
+    m->max_events = MAX_EVENTS_DEFAULT;
+    m->n_events = 0;
     model_bound_parameters(m);
 }
 
@@ -388,6 +396,7 @@ FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     }
     if (ensure(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
     memcpy(m->z_pre, m->z, sizeof(double) * NZ);
+    m->n_events = 0;
     m->initial = 1;
     m->phase = PHASE_EVENT;
     return fmi2OK;
@@ -450,9 +459,14 @@ FMI2_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[
 
 FMI2_EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                       fmi2Integer value[]) {
-    (void)vr; (void)value;
+    size_t i;
     CHECK_INST;
-    if (nvr) FAIL("fmi2GetInteger: the model has no Integer variables");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] != VR_MAX_EVENTS)
+            FAIL("fmi2GetInteger: no Integer variable has the value reference %u (the one Integer variable is "
+                 "max_events, %u)", vr[i], (unsigned int)VR_MAX_EVENTS);
+        value[i] = INST->max_events;
+    }
     return fmi2OK;
 }
 
@@ -474,9 +488,18 @@ FMI2_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference v
 
 FMI2_EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                       const fmi2Integer value[]) {
-    (void)vr; (void)value;
+    size_t i;
     CHECK_INST;
-    if (nvr) FAIL("fmi2SetInteger: the model has no Integer variables");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] != VR_MAX_EVENTS)
+            FAIL("fmi2SetInteger: no Integer variable has the value reference %u (the one Integer variable is "
+                 "max_events, %u)", vr[i], (unsigned int)VR_MAX_EVENTS);
+        if (INST->phase > PHASE_INIT)
+            FAIL("fmi2SetInteger: max_events is fixed: set it before fmi2ExitInitializationMode");
+        if (value[i] < 0) FAIL("fmi2SetInteger: max_events = %d is negative (the number of events allowed, 0 or "
+                               "more; simulate()'s default is %d)", value[i], MAX_EVENTS_DEFAULT);
+        INST->max_events = value[i];
+    }
     return fmi2OK;
 }
 
