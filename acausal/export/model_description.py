@@ -134,6 +134,8 @@ def model_description(cm, layout, start, tabulated, *, identifier: str, guid: st
         lines += ["  <UnitDefinitions>", *(f"    <Unit name={quoteattr(u)}/>" for u in units), "  </UnitDefinitions>"]
     lines += ["  <LogCategories>",
               '    <Category name="logEvents" description="every event: time, indicator, direction"/>',
+              '    <Category name="logNewton" description="a Newton block solved from its start values after its '
+              'iteration from the last solution failed (time, block, why)"/>',
               '    <Category name="logStatusWarning" description="warnings"/>',
               '    <Category name="logStatusError" description="errors: what failed, with the variable or block"/>',
               "  </LogCategories>"]
