@@ -130,14 +130,15 @@ static double max_abs(int n, const double *r) {
  * Newton with the exact Jacobian, NEWTON_MAXITER iterations at most; each solves J dy = -r and takes the full step
  * where max |r_i| does not grow there, else halves it up to NEWTON_HALVINGS times; converged when every step is
  * below NEWTON_TOL relative to 1 + |y_i|; after the last iteration accepted when every residual is below
- * NEWTON_ACCEPT. 0 when converged, else 1 with why the iteration failed in why. */
-static int newton_iterate(Inst *m, int n, double *y, double *res, residual_fn f, char *why, size_t size) {
+ * NEWTON_ACCEPT. 0 when converged, else 1 with why the iteration failed in why (start: what y was, for it). */
+static int newton_iterate(Inst *m, int n, double *y, double *res, residual_fn f, const char *start, char *why,
+                          size_t size) {
     double jac[NEWTON_MAX * NEWTON_MAX], A[NEWTON_MAX * NEWTON_MAX], dy[NEWTON_MAX], y_new[NEWTON_MAX];
     double r_new[NEWTON_MAX], nr, nr_new;
     int it, i, h;
     f(m, y, res, jac);
     nr = max_abs(n, res);
-    if (!isfinite(nr)) { snprintf(why, size, "the residual is not finite at the start values"); return 1; }
+    if (!isfinite(nr)) { snprintf(why, size, "the residual is not finite at %s", start); return 1; }
     for (it = 0; it < NEWTON_MAXITER; it++) {
         double step = 0.0;
         memcpy(A, jac, sizeof(double) * n * n);
@@ -197,8 +198,8 @@ static void values_text(char *buf, size_t size, int n, const char *const *names,
  * from step to step, and a segment after an event starts from where the one before ended), else from its start
  * values; when the iteration fails from the last solution, once more from the start values (as a failed run on
  * the compiled path runs again on the scipy path, which starts every evaluation from them). The solution is in
- * m->newton_y + at; a failure's message (both tries: the reason, the last iterate beside the start, the residuals)
- * is in m->message, and m->newton_y keeps the last solution. */
+ * m->newton_y + at; a failure's message (why from the start values, and from the last solution where tried; the
+ * last iterate beside the start values, the residuals) is in m->message, and m->newton_y keeps the last solution. */
 MAYBE_UNUSED static int solve_newton(Inst *m, int n, int b, int at, residual_fn f, const char *label,
                                      const char *const *names) {
     double y[NEWTON_MAX], res[NEWTON_MAX];
@@ -213,19 +214,19 @@ MAYBE_UNUSED static int solve_newton(Inst *m, int n, int b, int at, residual_fn 
     }
     if (m->newton_solved[b]) {
         memcpy(y, m->newton_y + at, sizeof(double) * n);
-        if (!newton_iterate(m, n, y, res, f, why, sizeof why)) {
+        if (!newton_iterate(m, n, y, res, f, "the last solution", why, sizeof why)) {
             memcpy(m->newton_y + at, y, sizeof(double) * n);
             return 0;
         }
         values_text(last, sizeof last, n, names, m->newton_y + at, 6);
         memcpy(first, why, sizeof first);
-        snprintf(before, sizeof before, ", nor from the last solution %s (%s)", last, first);
+        snprintf(before, sizeof before, "; from the last solution %s: %s", last, first);
     }
     memcpy(y, guess, sizeof(double) * n);
-    if (!newton_iterate(m, n, y, res, f, why, sizeof why)) {
+    if (!newton_iterate(m, n, y, res, f, "the start values", why, sizeof why)) {
         if (m->newton_solved[b])
-            log_msg(m, fmi2OK, "logNewton", "t = %.17g s: Newton iteration for %s did not converge from the last "
-                    "solution %s (%s); solved from the start values", m->time, label, last, first);
+            log_msg(m, fmi2OK, "logNewton", "t = %.17g s: Newton iteration for %s from the last solution %s: %s; "
+                    "solved from the start values", m->time, label, last, first);
         memcpy(m->newton_y + at, y, sizeof(double) * n);
         m->newton_solved[b] = 1;
         return 0;
@@ -239,8 +240,8 @@ MAYBE_UNUSED static int solve_newton(Inst *m, int n, int b, int at, residual_fn 
         if (k < 0) break;
         used += (size_t)k;
     }
-    snprintf(m->message, sizeof m->message, "Newton iteration for %s: %s from the start values%s; last iterate %s "
-             "(start %s), residuals %s. Hint: give %s a start value near the solution (Start(value) where the "
+    snprintf(m->message, sizeof m->message, "Newton iteration for %s: %s%s; last iterate %s (start %s), "
+             "residuals %s. Hint: give %s a start value near the solution (Start(value) where the "
              "component is made, or Variable(start=...) in its class) and export again; if the importing tool's "
              "integrator stepped far (a trial state), try a smaller step", label, why, before, iterate, starts,
              residuals, who);
