@@ -47,7 +47,8 @@ typedef struct {
     int initial;             /* the next fmi2NewDiscreteStates is the initial event update */
     int states_changed;      /* the last event update reinitialised states (Event.reinit) */
     int max_events;          /* the event limit (parameter max_events; simulate()'s max_events) */
-    double newton_y[NNY1];   /* each Newton block's tear variables where it last converged (from newton_at[b]) */
+    double newton_y[NNY1];   /* each Newton block's tear variables where it last converged (block b at the offset
+                              * its solve_newton call passes), its start values before */
     int newton_solved[NNB1]; /* block b has converged since the start: its next iteration starts from there */
     long n_events;           /* events since initialisation, counted as simulate() counts Result.events */
     int logging;
@@ -193,7 +194,7 @@ static void values_text(char *buf, size_t size, int n, const char *const *names,
     }
 }
 
-/* Newton block b (n tear variables, names, from newton_at: its slots in newton_guess and m->newton_y) solved as
+/* Newton block b (n tear variables called names, from offset at in newton_guess and m->newton_y) solved as
  * simulate() solves it: from its last converged solution where it has one (as IDAS carries a block's variables
  * from step to step, and a segment after an event starts from where the one before ended), else from its start
  * values; when the iteration fails from the last solution, once more from the start values (as a failed run on
