@@ -9,10 +9,12 @@ parameters, states, unknowns (state derivatives included), aliases and discrete 
 * ``model_check_parameter``: one parameter's value against its bounds (finite, ``min``, ``max``);
 * ``model_check_assertions``: the conditions on parameters (:meth:`Component.assertions
   <acausal.model.components.Component.assertions>`), each failure logged with its component and message;
-* ``model_evaluate``: every unknown (assignments, linear blocks by Gaussian elimination, Newton blocks with their
-  exact Jacobian and the same start guesses, iteration limits and tolerances as
-  :func:`acausal.backends.numpy.runtime.newton`), every alias and every event zero function, from time, states,
-  parameters and modes;
+* ``model_evaluate``: every unknown (assignments, linear blocks by Gaussian elimination, Newton blocks by
+  ``solve_newton`` in the runtime), every alias and every event zero function, from time, states, parameters and
+  modes. A Newton block is solved by the rules of simulate(): the damped iteration of
+  :func:`acausal.backends.numpy.runtime.newton` (its exact Jacobian, its line search, iteration limit, step test
+  and accepted residual), from the block's last converged solution (as IDAS carries the block's variables on the
+  compiled path), and from its start values where that fails (as the scipy path starts every evaluation);
 * ``model_event``: the assignments of an event (rising or falling), evaluated before any is made.
 
 Numeric input signals are compiled in: a signal with polynomial pieces (:meth:`Signal.table
@@ -23,14 +25,17 @@ just before its first use.
 """
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
+from ..backends.numpy import runtime
 from ..errors import ModelError
 from ..simulation.events import CASCADE_ITER, KNEE, ROUNDOFF, SETTLE_ITER
+from ..simulation.simulate import simulate
 from ..model.signals import ParametricSignal, SignalCall
 from ..compile.solve import Assign, LinearSolve, NewtonSolve
 from ..compile.program import lower
@@ -39,6 +44,19 @@ from ..model.symbols import der_name, time
 
 class ExportError(ModelError):
     """A model (or the machine) cannot produce an FMU; the message says what is missing and what to do."""
+
+
+#: the FMU's event limit: an Integer parameter of this name (value reference NR, after every Real), whose start is
+#: simulate()'s default max_events; more events than that stop the FMU as they stop simulate()
+MAX_EVENTS_NAME = "max_events"
+MAX_EVENTS = inspect.signature(simulate).parameters["max_events"].default
+
+#: the Newton iteration's rules, from runtime.newton (its tolerance and iteration limit, its line search); the
+#: residual it accepts after its last iteration is a literal there
+_NEWTON = inspect.signature(runtime.newton).parameters
+NEWTON_TOL, NEWTON_MAXITER = float(_NEWTON["tol"].default), int(_NEWTON["maxiter"].default)
+NEWTON_ACCEPT = 1e-8
+NEWTON_MAX = 16  # tear variables of one block at most in the C runtime (its arrays are fixed in size)
 
 
 @dataclass
@@ -254,6 +272,10 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     constants and tables (before the runtime), ``tail`` its functions (after it); :func:`source` joins them with
     the FMI declarations and the runtime (``templates/``)."""
     lay = layout_of(cm)
+    if MAX_EVENTS_NAME in lay.index:
+        raise ExportError(f"the model's variable {MAX_EVENTS_NAME!r} has the name of the FMU's event limit (the "
+                          f"Integer parameter {MAX_EVENTS_NAME!r}, simulate()'s max_events): rename it to export "
+                          "the model")
     off = lay.offsets
     bindings = cm.bindings
     signals, described = input_forms(cm, params, inputs)
@@ -289,11 +311,23 @@ def generate(cm, identifier: str, guid: str, params: dict | None = None, inputs:
     tabulated = {pn: v for t in described.values() for pn, v in t.parameters.items()}
     program = cm.program
     order = program.evaluation_order()
+    blocks = [st for st in program.steps if isinstance(st, NewtonSolve)]
+    newton_guess = [float(g) for st in blocks for g in st.guesses]
+    newton_names = [v for st in blocks for v in st.vars]
     origins = sorted({ev.origin for ev in program.events})  # the events' components, sorted as modes.py's messages
     out += [f"#define NT {len(targets)}", f"#define NPT {len(tabulated)}", f"#define NO {len(origins)}",
             # the event iteration's rules, from their one home (acausal.simulation.events)
             f"#define KNEE {_c_double(KNEE)}", f"#define ROUNDOFF {_c_double(ROUNDOFF)}",
             f"#define MAX_CASCADE {CASCADE_ITER}", f"#define MAX_SETTLE {SETTLE_ITER}",
+            # simulate()'s default event limit (the FMU's Integer parameter max_events starts there)
+            f"#define MAX_EVENTS_DEFAULT {int(MAX_EVENTS)}",
+            # the Newton blocks (their start values, their tear variables' names) and runtime.newton's rules
+            f"#define NNB {len(blocks)}", f"#define NNY {len(newton_guess)}", f"#define NEWTON_MAX {NEWTON_MAX}",
+            f"#define NEWTON_TOL {_c_double(NEWTON_TOL)}", f"#define NEWTON_MAXITER {NEWTON_MAXITER}",
+            f"#define NEWTON_HALVINGS {runtime.LINE_SEARCH_HALVINGS}",
+            f"#define NEWTON_ACCEPT {_c_double(NEWTON_ACCEPT)}",
+            _array("double", "newton_guess", newton_guess, _c_double),
+            _array("char *const", "newton_names", newton_names, _c_string),
             _array("double", "start_values", start, _c_double),
             _array("char *const", "var_names", [*lay.params, *lay.states, *lay.unknowns, *lay.aliases,
                                                  *lay.discretes], _c_string),
@@ -404,6 +438,10 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
         bp = _Printer(local, printer._tables)
         em = _Emitter(bp, local, f"_n{k}c")
         m = len(st.vars)
+        if m > NEWTON_MAX:
+            raise ExportError(f"the block of {', '.join(map(repr, st.vars))} (equations from "
+                              f"{', '.join(sorted(set(st.origins)))}) has {m} tear variables; the FMU's C runtime "
+                              f"solves Newton blocks of {NEWTON_MAX} at most")
         for i, r in enumerate(st.residuals):
             em.assign(f"res[{i}]", inline(r))
         for i, row in enumerate(st.jac):
@@ -414,8 +452,9 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
                      "    double *r = m->r;\n    const double t = m->time;\n    (void)r; (void)t;\n"
                      + em.render() + "\n}")
 
-    # every unknown, alias and zero function
+    # every unknown, alias and zero function (the tear variables of the block-th Newton block at m->newton_y[at...])
     em = _Emitter(printer, names, "_c")
+    block = at = 0
     for k, st in enumerate(program.steps):
         if isinstance(st, Assign):
             em.assign(f"r[{lay.index[st.var]}]", inline(st.expr))
@@ -434,11 +473,11 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
         else:
             fn, label = newton_fns[k]
             m = len(st.vars)
-            guesses = ", ".join(_c_double(g) for g in st.guesses)
-            em.code(f"double N{k}y[{m}] = {{{guesses}}};")
-            em.code(f"if (solve_newton(m, {m}, N{k}y, {fn}, {_c_string(label)})) return 1;")
+            em.code(f"if (solve_newton(m, {m}, {block}, {at}, {fn}, {_c_string(label)}, newton_names + {at})) "
+                    "return 1;")
             for i, v in enumerate(st.vars):
-                em.code(f"r[{lay.index[v]}] = N{k}y[{i}];")
+                em.code(f"r[{lay.index[v]}] = m->newton_y[{at + i}];")
+            block, at = block + 1, at + m
     for n in lay.aliases:
         em.assign(f"r[{lay.index[n]}]", inline(program.aliases[n]))
     for i, ev in enumerate(program.events):

@@ -8,7 +8,9 @@ Variables, in value-reference order (``index`` = value reference + 1):
   to meet the fixed start of another variable) and ``nominal``;
 * unknowns (state derivatives with their ``derivative`` attribute, algebraic variables) and aliases: outputs,
   ``initial="calculated"``;
-* discrete modes: ``local``, ``discrete``.
+* discrete modes: ``local``, ``discrete``;
+* last, ``max_events``: an Integer ``parameter`` (value reference one past the last Real's), the event limit,
+  starting at simulate()'s default ``max_events``.
 
 ``numberOfEventIndicators`` is the number of the model's event zero functions.
 """
@@ -19,6 +21,11 @@ import re
 from xml.sax.saxutils import quoteattr
 
 from ..model.symbols import der_name, split_der
+from .ccode import MAX_EVENTS, MAX_EVENTS_NAME
+
+#: the description of the FMU's event limit (modelDescription.xml and the documentation page)
+MAX_EVENTS_DOC = (f"the event limit: more events than this stop the FMU with an error (fmi2Error, naming the time), "
+                  f"as simulate(max_events=...) stops (its default, {MAX_EVENTS})")
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 
@@ -127,6 +134,8 @@ def model_description(cm, layout, start, tabulated, *, identifier: str, guid: st
         lines += ["  <UnitDefinitions>", *(f"    <Unit name={quoteattr(u)}/>" for u in units), "  </UnitDefinitions>"]
     lines += ["  <LogCategories>",
               '    <Category name="logEvents" description="every event: time, indicator, direction"/>',
+              '    <Category name="logNewton" description="a Newton block solved from its start values after its '
+              'iteration from the last solution failed (time, block, why)"/>',
               '    <Category name="logStatusWarning" description="warnings"/>',
               '    <Category name="logStatusError" description="errors: what failed, with the variable or block"/>',
               "  </LogCategories>"]
@@ -142,6 +151,11 @@ def model_description(cm, layout, start, tabulated, *, identifier: str, guid: st
         lines.append(f"    <ScalarVariable {attrs}>")
         lines.append(f"      {_real(v['real'])}")
         lines.append("    </ScalarVariable>")
+    lines += [f"    <!-- index {len(vs) + 1} -->",
+              f"    <ScalarVariable name={quoteattr(MAX_EVENTS_NAME)} valueReference=\"{layout.offsets['R']}\" "
+              f"description={quoteattr(MAX_EVENTS_DOC)} causality=\"parameter\" variability=\"fixed\" "
+              "initial=\"exact\">",
+              f"      <Integer start=\"{int(MAX_EVENTS)}\" min=\"0\"/>", "    </ScalarVariable>"]
     lines.append("  </ModelVariables>")
     outputs = [k + 1 for k, v in enumerate(vs) if v["causality"] == "output"]
     derivatives = [layout.index[der_name(s)] + 1 for s in layout.states]
@@ -207,6 +221,10 @@ def documentation(cm, layout, start, tabulated, *, description: str, doc: str, i
          "switching point); otherwise no mode is consistent, and the call fails (<code>fmi2Error</code>) with a "
          "message naming the components. A NaN or infinite indicator is an error naming its event.</p>")
         if events else "<p>None.</p>",
+        f"<p>The Integer parameter <code>{esc(MAX_EVENTS_NAME)}</code> ({MAX_EVENTS} unless set, the default of "
+        "<code>simulate(max_events=...)</code>): more events than that stop the FMU with <code>fmi2Error</code> and "
+        "a message naming the limit, the time and the last event's component, as they stop <code>simulate()</code>; "
+        "a model that chatters stops instead of stepping on from event to event.</p>" if events else "",
         "<h2>Inputs compiled in</h2>", ("<ul>" + "".join(inputs) + "</ul>") if inputs else "<p>None.</p>",
         "<h2>Parameters</h2>",
         "<table border=\"1\"><tr><th>name</th><th>value</th><th>unit</th><th>bounds</th><th>description</th></tr>"

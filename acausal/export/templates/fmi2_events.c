@@ -14,6 +14,9 @@
  *                    cycle is within KNEE of zero, and is otherwise an error naming the components that chatter
  * knee_offsets       modes.knee_offsets: after an event, the thresholds the indicators are watched at (m->off)
  * reinits            modes.apply_reinits: the rising crossings' Event.reinit restart states before the cascade
+ * event limit        events.record_events: more than max_events events (the hits that change a mode, each
+ *                    counted as Result.events lists it) are an error naming the limit, the time and the last
+ *                    event's component
  * --------------------------------------------------------------------------------------------------------- */
 
 /* KNEE (an indicator this close to zero is at its switching point), ROUNDOFF, MAX_CASCADE and MAX_SETTLE are
@@ -256,6 +259,12 @@ static int event_update(Inst *m, int initial) {
             log_msg(m, fmi2OK, "logEvents", "t = %.17g s: event %d (%s: %s) %s", m->time, hit[k],
                     origin_names[event_origin[hit[k]]], event_zero[hit[k]], rising[k] ? "rising" : "falling");
             if (side[hit[k]] == 0.0) side[hit[k]] = rising[k] ? 1.0 : -1.0;
+        }
+        m->n_events += nh;
+        if (m->n_events > m->max_events) {  /* events.record_events' message */
+            log_msg(m, fmi2Error, "logStatusError", "more than %d events by t = %.6g s (last from %s): the model "
+                    "chatters", m->max_events, m->time, origin_names[event_origin[hit[nh - 1]]]);
+            return 1;
         }
         if (cascade(m, d_old, side, kept)) return 1;
         if (knee_offsets(m, kept)) return 1;

@@ -6,7 +6,9 @@
  * Every real variable lives in r[] at the index of its value reference: parameters, states, unknowns (state
  * derivatives included), aliases, discrete modes. model_evaluate computes unknowns, aliases and event indicators
  * from time, states, parameters and modes; the runtime evaluates lazily (values are valid until time, a state, a
- * parameter or a mode changes).
+ * parameter or a mode changes). A Newton block is solved as simulate() solves it (solve_newton): the damped
+ * iteration of acausal.backends.numpy.runtime.newton, from the block's last converged solution, and from its start
+ * values where that fails.
  *
  * Initialisation (fmi2ExitInitializationMode) follows acausal's simulate(): bound parameters computed and every
  * parameter checked against its bounds; the states start at their start values, and variables with a fixed start
@@ -17,12 +19,18 @@
  * Events (fmi2NewDiscreteStates) follow acausal.simulation.events, in fmi2_events.c (after this file): the crossings since the
  * last event apply their assignments, and the event iteration runs to its end in the same call (a cycle of modes
  * is kept at the knee or is an error naming the components; a NaN or infinite indicator is an error naming it).
+ * More events than the Integer parameter max_events (simulate()'s max_events and its default) are an error
+ * naming the limit, the time and the last event's component, as simulate() raises it: a chattering model stops
+ * instead of stepping on from event to event.
  * --------------------------------------------------------------------------------------------------------- */
 
 #define NX1 (NX > 0 ? NX : 1)
 #define NZ1 (NZ > 0 ? NZ : 1)
 #define ND1 (ND > 0 ? ND : 1)
 #define NT1 (NT > 0 ? NT : 1)
+#define VR_MAX_EVENTS NR     /* the one Integer variable, max_events: its value reference follows every Real's */
+#define NNB1 (NNB > 0 ? NNB : 1)
+#define NNY1 (NNY > 0 ? NNY : 1)
 
 enum { PHASE_INSTANTIATED, PHASE_INIT, PHASE_EVENT, PHASE_CONTINUOUS, PHASE_TERMINATED, PHASE_ERROR };
 
@@ -38,12 +46,17 @@ typedef struct {
     int valid;               /* r holds unknowns, aliases and indicators of the current inputs */
     int initial;             /* the next fmi2NewDiscreteStates is the initial event update */
     int states_changed;      /* the last event update reinitialised states (Event.reinit) */
+    int max_events;          /* the event limit (parameter max_events; simulate()'s max_events) */
+    double newton_y[NNY1];   /* each Newton block's tear variables where it last converged (block b at the offset
+                              * its solve_newton call passes), its start values before */
+    int newton_solved[NNB1]; /* block b has converged since the start: its next iteration starts from there */
+    long n_events;           /* events since initialisation, counted as simulate() counts Result.events */
     int logging;
     fmi2CallbackLogger logger;
     fmi2CallbackFreeMemory free_memory;
     fmi2ComponentEnvironment env;
     char name[128];
-    char message[512];       /* why the last evaluation failed */
+    char message[2048];      /* why the last evaluation failed */
 } Inst;
 
 static void model_bound_parameters(Inst *m);
@@ -106,40 +119,133 @@ MAYBE_UNUSED static int solve_linear(int n, double *A, double *b) {
 
 typedef void (*residual_fn)(Inst *m, const double *y, double *res, double *jac);
 
-/* Newton's method with the exact Jacobian, as acausal.backends.numpy.runtime.newton: at most 60 steps, converged when every
- * step is below 1e-12 relative to 1 + |y|; otherwise accepted when every residual is below 1e-8. */
-MAYBE_UNUSED static int solve_newton(Inst *m, int n, double *y, residual_fn f, const char *label) {
-    double res[16], jac[256];
-    int it, i;
-    if (n > 16) { snprintf(m->message, sizeof m->message, "%s: more than 16 tear variables", label); return 1; }
-    for (it = 0; it < 60; it++) {
+/* max |r_i| (NaN when one is NaN, as numpy's max) */
+static double max_abs(int n, const double *r) {
+    double w = 0.0;
+    int i;
+    for (i = 0; i < n; i++) if (!(fabs(r[i]) <= w)) w = fabs(r[i]);
+    return w;
+}
+
+/* acausal.backends.numpy.runtime.newton from y (overwritten with the last iterate; res with its residuals): damped
+ * Newton with the exact Jacobian, NEWTON_MAXITER iterations at most; each solves J dy = -r and takes the full step
+ * where max |r_i| does not grow there, else halves it up to NEWTON_HALVINGS times; converged when every step is
+ * below NEWTON_TOL relative to 1 + |y_i|; after the last iteration accepted when every residual is below
+ * NEWTON_ACCEPT. 0 when converged, else 1 with why the iteration failed in why (start: what y was, for it). */
+static int newton_iterate(Inst *m, int n, double *y, double *res, residual_fn f, const char *start, char *why,
+                          size_t size) {
+    double jac[NEWTON_MAX * NEWTON_MAX], A[NEWTON_MAX * NEWTON_MAX], dy[NEWTON_MAX], y_new[NEWTON_MAX];
+    double r_new[NEWTON_MAX], nr, nr_new;
+    int it, i, h;
+    f(m, y, res, jac);
+    nr = max_abs(n, res);
+    if (!isfinite(nr)) { snprintf(why, size, "the residual is not finite at %s", start); return 1; }
+    for (it = 0; it < NEWTON_MAXITER; it++) {
         double step = 0.0;
-        f(m, y, res, jac);
-        for (i = 0; i < n; i++) res[i] = -res[i];
-        if (solve_linear(n, jac, res)) {
-            snprintf(m->message, sizeof m->message, "Newton iteration for %s: singular Jacobian", label);
-            return 1;
-        }
+        memcpy(A, jac, sizeof(double) * n * n);
+        for (i = 0; i < n; i++) dy[i] = -res[i];
+        if (solve_linear(n, A, dy)) { snprintf(why, size, "singular Jacobian"); return 1; }
         for (i = 0; i < n; i++) {
             double s;
-            y[i] += res[i];
-            s = fabs(res[i]) / (1.0 + fabs(y[i]));
+            y_new[i] = y[i] + dy[i];
+            s = fabs(dy[i]) / (1.0 + fabs(y_new[i]));
             if (!(s <= step)) step = s;  /* NaN propagates */
         }
         if (!isfinite(step)) {
-            snprintf(m->message, sizeof m->message, "Newton iteration for %s: non-finite iterate", label);
+            snprintf(why, size, "non-finite Newton step (the Jacobian is not finite or nearly singular)");
             return 1;
         }
-        if (step < 1e-12) return 0;
+        if (step < NEWTON_TOL) { memcpy(y, y_new, sizeof(double) * n); return 0; }
+        f(m, y_new, r_new, jac);
+        nr_new = max_abs(n, r_new);
+        if (!(nr_new <= nr)) {  /* worse, or not finite: backtrack */
+            double lam = 1.0;
+            for (h = 0; h < NEWTON_HALVINGS; h++) {
+                lam *= 0.5;
+                for (i = 0; i < n; i++) y_new[i] = y[i] + lam * dy[i];
+                f(m, y_new, r_new, jac);
+                nr_new = max_abs(n, r_new);
+                if (nr_new <= nr) break;
+            }
+            if (!isfinite(nr_new)) {
+                snprintf(why, size, "the residual is not finite on the Newton step nor on the shortest damped step");
+                return 1;
+            }
+        }
+        memcpy(y, y_new, sizeof(double) * n);
+        memcpy(res, r_new, sizeof(double) * n);
+        nr = nr_new;
     }
-    f(m, y, res, jac);
-    {
-        double worst = 0.0;
-        for (i = 0; i < n; i++) if (!(fabs(res[i]) <= worst)) worst = fabs(res[i]);
-        if (worst < 1e-8) return 0;
-        snprintf(m->message, sizeof m->message, "Newton iteration for %s did not converge (residual %.3g)", label,
-                 worst);
+    if (nr < NEWTON_ACCEPT) return 0;
+    snprintf(why, size, "did not converge in %d iterations (residual %.3g)", NEWTON_MAXITER, nr);
+    return 1;
+}
+
+/* "'name' = value, ..." of a block's tear variables to 6 digits (names NULL: "value, ..." to digits) */
+static void values_text(char *buf, size_t size, int n, const char *const *names, const double *y, int digits) {
+    size_t used = 0;
+    int i;
+    buf[0] = 0;
+    for (i = 0; i < n && used < size; i++) {
+        int k = names ? snprintf(buf + used, size - used, "%s'%s' = %.6g", i ? ", " : "", names[i], y[i])
+                      : snprintf(buf + used, size - used, "%s%.*g", i ? ", " : "", digits, y[i]);
+        if (k < 0) break;
+        used += (size_t)k;
     }
+}
+
+/* Newton block b (n tear variables called names, from offset at in newton_guess and m->newton_y) solved as
+ * simulate() solves it: from its last converged solution where it has one (as IDAS carries a block's variables
+ * from step to step, and a segment after an event starts from where the one before ended), else from its start
+ * values; when the iteration fails from the last solution, once more from the start values (as a failed run on
+ * the compiled path runs again on the scipy path, which starts every evaluation from them). The solution is in
+ * m->newton_y + at; a failure's message (why from the start values, and from the last solution where tried; the
+ * last iterate beside the start values, the residuals) is in m->message, and m->newton_y keeps the last solution. */
+MAYBE_UNUSED static int solve_newton(Inst *m, int n, int b, int at, residual_fn f, const char *label,
+                                     const char *const *names) {
+    double y[NEWTON_MAX], res[NEWTON_MAX];
+    const double *guess = newton_guess + at;
+    char why[256], first[256], before[768], last[512], iterate[512], starts[512], residuals[512], who[512];
+    size_t used = 0;
+    int i;
+    before[0] = 0;
+    if (n > NEWTON_MAX) {
+        snprintf(m->message, sizeof m->message, "%s: more than %d tear variables", label, NEWTON_MAX);
+        return 1;
+    }
+    if (m->newton_solved[b]) {
+        memcpy(y, m->newton_y + at, sizeof(double) * n);
+        if (!newton_iterate(m, n, y, res, f, "the last solution", why, sizeof why)) {
+            memcpy(m->newton_y + at, y, sizeof(double) * n);
+            return 0;
+        }
+        values_text(last, sizeof last, n, names, m->newton_y + at, 6);
+        memcpy(first, why, sizeof first);
+        snprintf(before, sizeof before, "; from the last solution %s: %s", last, first);
+    }
+    memcpy(y, guess, sizeof(double) * n);
+    if (!newton_iterate(m, n, y, res, f, "the start values", why, sizeof why)) {
+        if (m->newton_solved[b])
+            log_msg(m, fmi2OK, "logNewton", "t = %.17g s: Newton iteration for %s from the last solution %s: %s; "
+                    "solved from the start values", m->time, label, last, first);
+        memcpy(m->newton_y + at, y, sizeof(double) * n);
+        m->newton_solved[b] = 1;
+        return 0;
+    }
+    values_text(iterate, sizeof iterate, n, names, y, 6);
+    values_text(residuals, sizeof residuals, n, NULL, res, 3);
+    values_text(starts, sizeof starts, n, NULL, guess, 6);
+    who[0] = 0;
+    for (i = 0; i < n && used < sizeof who; i++) {
+        int k = snprintf(who + used, sizeof who - used, "%s'%s'", i ? ", " : "", names[i]);
+        if (k < 0) break;
+        used += (size_t)k;
+    }
+    snprintf(m->message, sizeof m->message, "Newton iteration for %s: %s%s; last iterate %s (start %s), "
+             "residuals %s. Hint: give %s a start value near the solution (Start(value) where the "
+             "component is made, or Variable(start=...) in its class) and export again; if the importing tool's "
+             "integrator stepped far (a trial state), try a smaller step", label, why, before, iterate, starts,
+             residuals, who);
     return 1;
 }
 
@@ -315,6 +421,10 @@ static void reset_instance(Inst *m) {
     m->phase = PHASE_INSTANTIATED;
     m->valid = 0;
     m->initial = 0;
+    m->max_events = MAX_EVENTS_DEFAULT;
+    m->n_events = 0;
+    memcpy(m->newton_y, newton_guess, sizeof(double) * NNY);
+    memset(m->newton_solved, 0, sizeof m->newton_solved);
     model_bound_parameters(m);
 }
 
@@ -388,6 +498,7 @@ FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     }
     if (ensure(m)) { m->phase = PHASE_ERROR; return fmi2Error; }
     memcpy(m->z_pre, m->z, sizeof(double) * NZ);
+    m->n_events = 0;
     m->initial = 1;
     m->phase = PHASE_EVENT;
     return fmi2OK;
@@ -450,9 +561,14 @@ FMI2_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[
 
 FMI2_EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                       fmi2Integer value[]) {
-    (void)vr; (void)value;
+    size_t i;
     CHECK_INST;
-    if (nvr) FAIL("fmi2GetInteger: the model has no Integer variables");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] != VR_MAX_EVENTS)
+            FAIL("fmi2GetInteger: no Integer variable has the value reference %u (the one Integer variable is "
+                 "max_events, %u)", vr[i], (unsigned int)VR_MAX_EVENTS);
+        value[i] = INST->max_events;
+    }
     return fmi2OK;
 }
 
@@ -474,9 +590,18 @@ FMI2_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference v
 
 FMI2_EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                       const fmi2Integer value[]) {
-    (void)vr; (void)value;
+    size_t i;
     CHECK_INST;
-    if (nvr) FAIL("fmi2SetInteger: the model has no Integer variables");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] != VR_MAX_EVENTS)
+            FAIL("fmi2SetInteger: no Integer variable has the value reference %u (the one Integer variable is "
+                 "max_events, %u)", vr[i], (unsigned int)VR_MAX_EVENTS);
+        if (INST->phase > PHASE_INIT)
+            FAIL("fmi2SetInteger: max_events is fixed: set it before fmi2ExitInitializationMode");
+        if (value[i] < 0) FAIL("fmi2SetInteger: max_events = %d is negative (the number of events allowed, 0 or "
+                               "more; simulate()'s default is %d)", value[i], MAX_EVENTS_DEFAULT);
+        INST->max_events = value[i];
+    }
     return fmi2OK;
 }
 
