@@ -41,12 +41,9 @@ TABLE2_PRESETS = ["paper_datasheet", "paper_estimated_total", "paper_optimized_t
                   "paper_optimized_total_arm_side"]
 
 #: what neither the paper nor the inference fixes, and how the inference's choices act (named in the report where
-#: sim and paper differ > 25 %)
+#: sim and paper differ > 25 %); the driver's and the motor's, which depend on what the inference fitted, are
+#: written from its record (:func:`assumptions`)
 ASSUMPTIONS = {
-    "driver": "the driver's constant draw (within the paper's measured 10-15 W), bridge resistance and switching-"
-              "loss coefficient are inferred, and end on the current-dependent ends of their ranges, unidentified; "
-              "the rectifier returns nothing; the paper's driver was tuned near 8 mm (4.2.1), ours has no "
-              "tuning-dependent loss",
     "gears": "the planetary's mesh efficiency and output drag are inferred (ranges: catalogue 55-75 %, 0-15 mN m at "
              "the motor); the helical stage's 90 % is assumed; the mesh efficiency is the same in every condition, "
              "so the gearing loss varies over the grid only through the drag",
@@ -57,9 +54,6 @@ ASSUMPTIONS = {
                 "the gait torque is inferred from Table 1",
     "supply": "the supply is assumed 48 V (the motor's nominal; not stated in the paper); where the motor stops "
               "following (required duty > 0.9) is set by it and by the planner's inferred torque tolerance",
-    "motor": "the motor's resistance, inertia and friction are datasheet values at 25 degC (R = {R} ohm, "
-             "J = {J} kg m2, b = {b} N m s/rad), with no winding heating and no cable resistance"
-             .format(**{k[6:]: f"{v:g}".replace("e-0", "e-") for k, v in MOTOR_DATASHEET.items()}),
     "direct_drive": "the paper's direct drive, the bench's output motor, is modelled as a drive that imposes the gait "
                     "angle while the actuator pushes the joint; its drive train is not published and is guessed as "
                     "the actuator's own motor, driver and 860:1 gears (4.1: it delivered about 10 % less than the "
@@ -187,13 +181,64 @@ def comparison_table(comps: list[dict]) -> str:
     return md_table(["quantity", "simulation", "paper", "ratio sim/paper"], rows)
 
 
+def _in_range(u: dict) -> str:
+    """An inferred value with its place in its range: ``"driver.R_on = 0.0255 (4 % of 0-0.5)"``."""
+    frac = (u["value"] - u["lo"]) / (u["hi"] - u["lo"])
+    return f"{u['parameter']} = {u['value']:.3g} ({100 * frac:.0f} % of {u['lo']:g}-{u['hi']:g})"
+
+
+#: the order the report lists the assumptions in
+_ASSUMPTION_ORDER = ("driver", "gears", "maccepa", "geometry", "supply", "motor", "direct_drive", "first_experiment",
+                     "closed_loop")
+#: the motor's datasheet parameters the report names: (word, symbol, unit)
+_MOTOR_WORDS = {"motor.R": ("resistance", "R", "ohm"), "motor.J": ("inertia", "J", "kg m2"),
+                "motor.b": ("friction", "b", "N m s/rad")}
+
+
+def assumptions(record: dict | None = None) -> dict:
+    """:data:`ASSUMPTIONS` with the driver's and the motor's, written from the inference's ``record``
+    (``paper_fit.json``): which of their values the inference fitted, where in its range each ended and whether the
+    data identified it, and which are the datasheet's."""
+    record = paper_fit_record() if record is None else record
+    fitted = {u["parameter"]: u for u in record["unknowns"]}
+    driver = [u for k, u in fitted.items() if k.startswith("driver.")]
+    said = ("all unidentified" if driver and not any(u["identified"] for u in driver) else
+            "identified: " + ", ".join(u["parameter"] for u in driver if u["identified"]))
+    driver_text = ("the driver's constant draw (within the paper's measured 10-15 W), bridge resistance and "
+                   "switching-loss coefficient are " + (f"inferred ({'; '.join(map(_in_range, driver))}; {said})"
+                                                        if driver else "the library's")
+                   + "; the rectifier returns nothing; the paper's driver was tuned near 8 mm (4.2.1), ours has no "
+                   "tuning-dependent loss")
+    sheet = [k for k in _MOTOR_WORDS if k not in fitted]
+    motor_text = ("the motor's " + " and ".join(_MOTOR_WORDS[k][0] for k in sheet) + " are datasheet values at "
+                  "25 degC (" + ", ".join(f"{_MOTOR_WORDS[k][1]} = {f'{MOTOR_DATASHEET[k]:g}'.replace('e-0', 'e-')} "
+                                          f"{_MOTOR_WORDS[k][2]}" for k in sheet) + ")"
+                  if sheet else "none of the motor's values are the datasheet's")
+    inferred = [k for k in _MOTOR_WORDS if k in fitted]
+    if inferred:
+        motor_text += "; its " + " and ".join(_MOTOR_WORDS[k][0] for k in inferred) + " is inferred (" + "; ".join(
+            _in_range(fitted[k]) for k in inferred) + ")"
+    motor_text += ", with no winding heating and no cable resistance"
+    written = {"driver": driver_text, "motor": motor_text}
+    return {k: written.get(k, ASSUMPTIONS.get(k)) for k in _ASSUMPTION_ORDER}
+
+
+def inferred_from(record: dict | None = None) -> str:
+    """The claims whose numbers the inference fitted, each with the paper's section: ``"C1 (Table 1), ..."``."""
+    from .claims import CLAIMS
+    record = paper_fit_record() if record is None else record
+    ids = sorted(fitted_claims(record), key=lambda c: int(c[1:]))
+    where = {c.id: c.section for c in CLAIMS}
+    return ", ".join(f"{c} ({where.get(c, 'the paper')})" for c in ids)
+
+
 def explanations(comps: list[dict]) -> str:
     """A sentence per quantity that differs by more than 25 %, naming the assumption that drives it."""
     out = []
     for c in comps:
         if c["differs"] and c["assumption"]:
             keys = c["assumption"] if isinstance(c["assumption"], (list, tuple)) else [c["assumption"]]
-            why = "; and ".join(ASSUMPTIONS[k] for k in keys)
+            why = "; and ".join(assumptions()[k] for k in keys)
             note = f" {c['note']}" if c.get("note") else ""
             out.append(f"- *{c['quantity']}* differs by more than 25 % "
                        f"({_fmt(c['sim'], c['fmt'], c['unit'])} vs {_fmt(c['paper'], c['fmt'], c['unit'])}): "
@@ -245,12 +290,12 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           + "), so the bus and, in closed loop, the controller have settled.", ""]
     record = paper_fit_record()
     L += [f"## Inferred parameters (`{HEADLINE}`)", "",
-          "What the paper does not publish, inferred from its Table 1 energies, Fig. 9's driver-loss range and "
-          "Fig. 7's direct-drive comparison by weighted least squares over the protocol "
-          "(`acausal.models.ankle.inference`; rerun with `acausal infer --out DIR`):", "",
+          f"What the paper does not publish, inferred from the numbers of claims {inferred_from(record)} by "
+          "weighted least squares over the protocol (`acausal.models.ankle.inference`; rerun with `acausal infer "
+          "--out DIR`):", "",
           inference_markdown(record), ""]
     L += ["## Assumptions (what neither the paper nor the inference fixes)", ""]
-    L += [f"- **{k}**: {v}." for k, v in ASSUMPTIONS.items()]
+    L += [f"- **{k}**: {v}." for k, v in assumptions(record).items()]
     L += [""]
 
     comps = []

@@ -112,3 +112,28 @@ def test_the_infer_verb_is_wired(capsys, tmp_path):
     assert main(["infer", "--out", str(tmp_path / "o"), "--start-from", str(tmp_path / "earlier.json")]) == 2
     said = capsys.readouterr().err
     assert "--start-from" in said and "earlier.json" in said and "no such file" in said
+
+
+def test_the_reports_words_on_the_inference_are_written_from_its_record():
+    """What the report says the inference fitted (the claims it fitted, the driver's and the motor's values and
+    where they ended) follows ``paper_fit.json``, so it cannot go stale when the record changes."""
+    import copy
+    from acausal.models.ankle import paper
+    from acausal.models.ankle.fit_record import fitted_claims
+    from acausal.models.ankle.presets import paper_fit_record
+    record = paper_fit_record()
+    import re
+    assert re.findall(r"\bC\d+\b", paper.inferred_from(record)) == sorted(fitted_claims(record),
+                                                                      key=lambda c: int(c[1:]))
+    said = paper.assumptions(record)
+    fitted = {u["parameter"]: u for u in record["unknowns"]}
+    for name in ("driver.P_q", "driver.R_on", "driver.k_sw"):
+        assert (name in said["driver"]) == (name in fitted)
+    assert ("inertia is inferred" in said["motor"]) == ("motor.J" in fitted)
+    other = copy.deepcopy(record)  # the inference without the motor's inertia, the bridge resistance identified
+    other["unknowns"] = [u for u in other["unknowns"] if u["parameter"] != "motor.J"]
+    for u in other["unknowns"]:
+        u["identified"] = u["identified"] or u["parameter"] == "driver.R_on"
+    again = paper.assumptions(other)
+    assert "inertia" in again["motor"].split(" are datasheet values")[0] and "J = 3.33e-6 kg m2" in again["motor"]
+    assert "identified: driver.R_on" in again["driver"]
