@@ -52,7 +52,7 @@ class MaskedSample:
     line: int
     column: str
     t: float
-    kind: str  # "time", "not a number", "dropout", "out of range" or "jump"
+    kind: str  # "time", "not a number", "dropout", "out of range", "jump" or "gap" (a recording split there)
     why: str
 
     def sentence(self) -> str:

@@ -13,7 +13,8 @@ up, and a recording the format's checks find implausible as a whole (a unit slip
 guessed: extra CSV columns are kept (``Recording.extra``) and otherwise ignored. A file separated by semicolons or
 tabs is named as such; extensions may be upper-case. A JSON key given twice is an error (a parser would silently
 keep the last value), and so is a gap in time wider than ``RecordingFormat.max_gap`` median sample intervals (rows
-dropped: a smoothed replay cannot bridge them).
+dropped: a smoothed replay cannot bridge them), unless the format's model can restart a replay inside a recording
+(``RecordingFormat.split_at_gaps``): :func:`load_recordings` then splits the recording there into parts.
 
 Samples as real loggers write them (a dropout row, an encoder read error, a repeated time stamp, an empty cell)
 are screened (:mod:`~.masking`): masked and named in ``Recording.masked``, the recording kept; one too damaged to
@@ -109,6 +110,12 @@ class RecordingFormat:
     dropout: tuple = ()
     #: the share of a recording's rows that may be masked; a recording with more is left out with the reason
     max_masked: float = 0.02
+    #: what a gap wider than ``max_gap`` is: False, an error naming the line (a replay that cannot restart inside a
+    #: recording: a smoothed one); True, the place where :func:`load_recordings` splits the recording in parts
+    #: (``Recording.part``), each replayed from its own first reading; a part shorter than ``min_part_rows`` rows
+    #: is left out with the reason
+    split_at_gaps: bool = False
+    min_part_rows: int = 20
 
     def column(self, name: str) -> Column:
         return next(c for c in self.columns if c.name == name)
@@ -137,6 +144,11 @@ class Recording:
     masks: dict = field(default_factory=dict)
     #: every sample the screening masked or left out (:class:`~.masking.MaskedSample`)
     masked: list = field(default_factory=list)
+    #: 0: the whole file; k >= 1: the k-th part of a file split at gaps (``RecordingFormat.split_at_gaps``), whose
+    #: first reading is not the file's (a model starts its replay from it, moving)
+    part: int = 0
+    #: the file line (header = 1) of every row (None: not read from a file)
+    lines: np.ndarray | None = None
 
     @property
     def t(self) -> np.ndarray:
@@ -158,7 +170,8 @@ class Recording:
         """The rows where ``mask`` is true (e.g. some strides), as a new recording."""
         return Recording(self.name, {k: v[mask] for k, v in self.columns.items()}, dict(self.meta),
                          {k: v[mask] for k, v in self.extra.items()}, self.path, list(self.notes),
-                         {k: v[mask] for k, v in self.masks.items()}, list(self.masked))
+                         {k: v[mask] for k, v in self.masks.items()}, list(self.masked), self.part,
+                         None if self.lines is None else self.lines[mask])
 
     def masked_rows(self, columns) -> np.ndarray:
         """Which samples have a masked value in any of ``columns`` (e.g. the fitted signals)."""
@@ -197,6 +210,12 @@ def screening_warnings(summary: dict, shown: int = 3) -> list:
     for m in summary.get("masked", []):
         by.setdefault(m["recording"], []).append(m)
     for name, ms in by.items():
+        cuts = [m for m in ms if m["kind"] == "gap"]
+        out += [f"{name}: starts after a gap at line {m['line']} ({m['why'].split(' before this row')[0]}): the "
+                "recording is split there, this part replayed from its own first reading" for m in cuts]
+        ms = [m for m in ms if m["kind"] != "gap"]
+        if not ms:
+            continue
         named = "; ".join(f"line {m['line']}" + (f" ({m['column']})" if m["column"] else "") + f": {m['kind']}"
                           for m in ms[:shown])
         more = f"; and {len(ms) - shown} more (listed in the report)" if len(ms) > shown else ""
@@ -234,9 +253,16 @@ def load_recordings(folder, fmt: RecordingFormat, strict: bool = False) -> Recor
     kept, left = [], []
     for s in sorted(csvs):
         try:
-            kept.append(load_recording(csvs[s], fmt, jsons[s], strict))
+            rec, gaps = _load(csvs[s], fmt, jsons[s], strict, split=fmt.split_at_gaps and not strict)
         except LeftOut as exc:
             left.append(exc)
+            continue
+        if not gaps:
+            kept.append(rec)
+            continue
+        parts, short = split_at_gaps(rec, gaps, fmt)
+        kept += parts
+        left += short
     if not kept:
         raise DataError(f"recording set {folder}: every recording was left out; the first: {left[0]}")
     return RecordingSet(kept, left)
@@ -296,7 +322,14 @@ def check_manifest(folder: Path, csvs: dict, jsons: dict):
 def load_recording(csv_path, fmt: RecordingFormat, json_path=None, strict: bool = False) -> Recording:
     """Load, validate and screen one experiment (``json_path``, default: the JSON next to the CSV with the same
     stem, its extension in any case): samples that cannot be physical are masked and named (:mod:`~.masking`;
-    ``strict``: refused); a :class:`~.masking.LeftOut` where too many are."""
+    ``strict``: refused); a :class:`~.masking.LeftOut` where too many are. A gap wider than the format's
+    ``max_gap`` is an error here (:func:`load_recordings` splits the recording there where the format allows)."""
+    return _load(csv_path, fmt, json_path, strict, split=False)[0]
+
+
+def _load(csv_path, fmt: RecordingFormat, json_path, strict: bool, split: bool) -> tuple:
+    """``(recording, gaps)``: :func:`load_recording`'s, and the rows after which a gap wider than ``max_gap`` falls
+    (empty unless ``split``: a gap is then not an error)."""
     csv_path = Path(csv_path)
     if json_path is None:
         same = [p for p in csv_path.parent.glob(f"{csv_path.stem}.*") if p.suffix.lower() == ".json"]
@@ -308,8 +341,14 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None, strict: bool 
         raise DataError(f"{csv_path}: no matching {json_path.name} next to it")
     meta, notes, twice = _load_meta(json_path, fmt)
     columns, extra, screened = _load_csv(csv_path, fmt, strict)
+    lines = np.flatnonzero(screened.keep) + 2  # the file line of every row kept
+    gaps = []
     if fmt.max_gap is not None:
-        _check_gaps(csv_path, columns[fmt.time_column], fmt.max_gap, fmt.time_column)
+        gaps = _gaps(columns[fmt.time_column], fmt.max_gap)
+        if gaps and not split:
+            raise DataError(_gap_sentence(csv_path, columns[fmt.time_column], gaps[0], lines, fmt.time_column)
+                            + ("" if not fmt.split_at_gaps else
+                               " (without strict, load_recordings splits the recording there)"))
     if fmt.expected_span is not None:
         _check_span(csv_path, columns[fmt.time_column], fmt.expected_span(meta))
     for check in fmt.checks:
@@ -320,20 +359,60 @@ def load_recording(csv_path, fmt: RecordingFormat, json_path=None, strict: bool 
         raise DataError(f"{json_path}: {twice}")
     if screened.left_out:  # after the checks: a recording wrong as a whole is refused, naming its column
         raise LeftOut(csv_path.stem, csv_path, screened.left_out)
-    return Recording(csv_path.stem, columns, meta, extra, csv_path, notes, screened.masks, screened.masked)
+    return Recording(csv_path.stem, columns, meta, extra, csv_path, notes, screened.masks, screened.masked,
+                     lines=lines), gaps
 
 
-def _check_gaps(path: Path, t: np.ndarray, max_gap: float, column: str):
-    """No interval between samples wider than ``max_gap`` median intervals (rows dropped)."""
+def _gaps(t: np.ndarray, max_gap: float) -> list:
+    """The rows after which the interval to the next sample is wider than ``max_gap`` median intervals (rows
+    dropped), widest first."""
     if t.size < 3:
-        return
+        return []
     dt = np.diff(t)
-    med = float(np.median(dt))
-    k = int(np.argmax(dt))
-    if dt[k] > max_gap * med:
-        raise DataError(f"{path}, line {k + 3}, column {column!r}: a gap of {dt[k]:.4g} s after t = {float(t[k])!r} "
-                        f"s, {dt[k] / med:.1f} times the median sample interval {med:.4g} s: rows are missing "
-                        "(dropped samples or a cut in the file)")
+    wide = np.flatnonzero(dt > max_gap * float(np.median(dt)))
+    return [int(k) for k in wide[np.argsort(-dt[wide], kind="stable")]]
+
+
+def _gap_sentence(path, t, k: int, lines, column: str) -> str:
+    dt, med = float(t[k + 1] - t[k]), float(np.median(np.diff(t)))
+    return (f"{path}, line {int(lines[k + 1])}, column {column!r}: a gap of {dt:.4g} s after t = {float(t[k])!r} s, "
+            f"{dt / med:.1f} times the median sample interval {med:.4g} s: rows are missing (dropped samples or a "
+            "cut in the file)")
+
+
+def split_at_gaps(rec: Recording, gaps, fmt: RecordingFormat) -> tuple:
+    """``(parts, left out)``: recording ``rec`` cut at the rows after ``gaps`` (:func:`_gaps`) into parts named
+    ``"NAME part k"`` (``Recording.part = k``), each a recording of its own (its masks and masked samples; the
+    first row of a later part named as a masked sample of kind ``"gap"``, so the report lists the cut); a part of
+    fewer than ``fmt.min_part_rows`` rows is left out (:class:`~.masking.LeftOut`) with the reason."""
+    from .masking import MaskedSample
+    t = rec.t
+    cuts = sorted(gaps)
+    bounds = [0, *(k + 1 for k in cuts), len(t)]
+    med = float(np.median(np.diff(t)))
+    parts, short = [], []
+    for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:]), start=1):
+        name = f"{rec.name} part {k}"
+        first, last = int(rec.lines[a]), int(rec.lines[b - 1])
+        if b - a < fmt.min_part_rows:
+            short.append(LeftOut(name, rec.path, f"lines {first}-{last}, {b - a} rows between gaps (fewer than "
+                                                 f"{fmt.min_part_rows}): too short to replay"))
+            continue
+        rows = np.zeros(len(t), dtype=bool)
+        rows[a:b] = True
+        part = rec.select(rows)
+        part.name, part.part = name, k
+        part.masked = [m for m in rec.masked if first <= m.line <= last]
+        for i, m in enumerate(part.masked):
+            part.masked[i] = MaskedSample(name, m.line, m.column, m.t, m.kind, m.why)
+        if a > 0:
+            gap = float(t[a] - t[a - 1])
+            part.masked.insert(0, MaskedSample(name, first, fmt.time_column, float(t[a]), "gap",
+                                               f"a gap of {gap:.4g} s ({gap / med:.1f} median sample intervals) "
+                                               f"before this row: {rec.name} is split here and this part replayed "
+                                               "from its own first reading"))
+        parts.append(part)
+    return parts, short
 
 
 def _check_span(path: Path, t: np.ndarray, span):

@@ -28,8 +28,9 @@ def screening_lines(d) -> list:
     if not masked and not left:
         return []
     out = ["**Screened samples**: what no sensor or motion can produce was masked (left out of the residual, the "
-           "replay's inputs held across it) or, where too much of a recording was, the recording left out; the raw "
-           "files are untouched (`--strict` refuses such a set instead).", ""]
+           "replay's inputs held across it) or, where too much of a recording was, the recording left out; a "
+           "recording with rows missing (a gap) is split there where the model can restart its replay (kind "
+           "`gap`); the raw files are untouched (`--strict` refuses such a set instead).", ""]
     if left:
         out += [md_table(["recording left out", "why"], [[x["recording"], x["why"]] for x in left]), ""]
     if masked:

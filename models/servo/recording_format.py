@@ -106,6 +106,8 @@ SERVO_FORMAT = RecordingFormat(
     checks=(_plausible,),
     # a lost read of the servo's registers: every reading 0 (BAM's logs mark such rows by a 0 V supply and 0 degC)
     dropout=("input_voltage_V", "temperature_C"),
+    # rows missing (a host that stalled): the replay restarts after the gap from the reading there, moving
+    split_at_gaps=True,
 )
 
 #: the fitted output and its column
@@ -148,9 +150,20 @@ def inputs_from(t, columns: dict, name: str = "recording") -> dict:
             "enable.signal": SampledSignal(t, columns["torque_enable"], name=f"{name}: torque enable")}
 
 
+#: the readings a part after a gap takes its start speed from [s] (a line through them)
+RESTART_WINDOW = 0.03
+
+
 def start(rec) -> dict:
-    """Initial state: the first measured position, at rest (the logs start with the arm still)."""
-    return {"pendulum.phi": float(rec[POSITION][0]), "pendulum.w": 0.0}
+    """Initial state: the first measured position, at rest (the logs start with the arm still); a part of a log
+    split at a gap (``rec.part > 1``) starts where the arm was moving, at the slope of a line through its readings
+    of the first :data:`RESTART_WINDOW`."""
+    t, q = rec.t, np.asarray(rec[POSITION])
+    w = 0.0
+    if getattr(rec, "part", 0) > 1:
+        n = max(3, int(np.searchsorted(t, t[0] + RESTART_WINDOW, side="right")))
+        w = float(np.polyfit(t[:n] - t[0], q[:n], 1)[0])
+    return {"pendulum.phi": float(q[0]), "pendulum.w": w}
 
 
 def shipped_recordings():

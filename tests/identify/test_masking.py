@@ -159,3 +159,36 @@ def test_the_shipped_servo_logs_and_the_virtual_bench_have_nothing_masked(tmp_pa
     run_bench(tmp_path, [BenchCondition(0.011, 1.2, strides=2)], seed=5)
     rs = load_recordings(tmp_path, ANKLE_FORMAT)
     assert rs.masked == [] and rs.left_out == []
+
+
+# ------------------------------------------------------------------------------------------------ gaps
+SPLIT = RecordingFormat(name="test rig, restartable", columns=FMT.columns, keys=FMT.keys, max_gap=2.5,
+                        checks=FMT.checks, dropout=FMT.dropout, split_at_gaps=True)
+
+
+def test_a_gap_splits_the_recording_where_the_format_can_restart_and_the_cut_is_named(tmp_path):
+    path = _write(tmp_path, edit=lambda ls: ls.__delitem__(slice(300, 312)))  # file lines 301-312 gone
+    rs = load_recordings(tmp_path, SPLIT)
+    assert [r.name for r in rs] == ["rec part 1", "rec part 2"] and [r.part for r in rs] == [1, 2]
+    assert len(rs[0]) + len(rs[1]) == N - 12 and rs[1].t[0] > rs[0].t[-1]
+    (cut,) = rs.masked
+    assert (cut.recording, cut.line, cut.kind) == ("rec part 2", 301, "gap") and "split here" in cut.why
+    assert rs[1].lines[0] == 301 and rs[0].lines[-1] == 300
+    with pytest.raises(DataError, match=r"rec.csv, line 301, column 'time_s': a gap of .* load_recordings splits"):
+        load_recording(path, SPLIT)  # one file on its own: refused, naming the line
+    with pytest.raises(DataError, match=r"line 301, column 'time_s': a gap of"):
+        load_recordings(tmp_path, SPLIT, strict=True)
+
+
+def test_a_part_too_short_between_gaps_is_left_out_with_the_reason_and_a_format_that_cannot_restart_refuses(tmp_path):
+    def two_gaps(ls):
+        del ls[310:320]
+        del ls[300:305]  # five rows kept between the gaps: too short to replay
+    _write(tmp_path, edit=two_gaps)
+    rs = load_recordings(tmp_path, SPLIT)
+    assert [r.name for r in rs] == ["rec part 1", "rec part 3"]
+    (short,) = rs.left_out
+    assert short.recording == "rec part 2" and "5 rows between gaps" in short.why
+    refusing = RecordingFormat(name="smoothed", columns=FMT.columns, keys=FMT.keys, max_gap=2.5, checks=FMT.checks)
+    with pytest.raises(DataError, match=r"line 306, column 'time_s': a gap of .*rows are missing"):  # the widest
+        load_recordings(tmp_path, refusing)

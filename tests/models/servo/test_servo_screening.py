@@ -86,3 +86,22 @@ def test_glitches_are_masked_named_and_change_nothing(tmp_path, capsys):
                  str(tmp_path / "strict"), "--strict", "--no-progress"])
     err = capsys.readouterr().err
     assert code == 2 and f"{csvs[0].name}" in err and "line 394" in err, err
+
+
+def test_a_log_with_rows_missing_is_split_at_the_gap_and_changes_nothing(tmp_path, capsys):
+    """A host that stalled for 90 ms in a training recording (16 rows missing mid-swing): the log is split there,
+    the part after the gap replayed from its reading, moving; the verdict and the held-out error are those of the
+    intact set (within 1 %), and the report and the JSON name the cut."""
+    shutil.copytree(shipped_recordings(), tmp_path / "gap")
+    csvs = sorted((tmp_path / "gap").glob("*.csv"))
+    _edit(csvs[5], lambda ls: ls.__delitem__(slice(599, 615)))
+    code, v = _diagnose(tmp_path / "gap", tmp_path / "out_gap")
+    assert code == 0
+    code, ref = _diagnose(shipped_recordings(), tmp_path / "out_intact")
+    assert code == 0
+    assert v["causes"] == ref["causes"] == ["load"]
+    assert v["heldout"]["extended"] == pytest.approx(ref["heldout"]["extended"], rel=0.01)
+    (cut,) = v["screening"]["masked"]
+    assert (cut["recording"], cut["line"], cut["kind"]) == (f"{csvs[5].stem} part 2", 600, "gap")
+    assert any("split there" in w for w in v["warnings"])
+    assert f"| {csvs[5].stem} part 2 | 600 | time_s |" in (tmp_path / "out_gap" / "report.md").read_text()
