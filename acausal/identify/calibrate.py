@@ -88,19 +88,20 @@ class Free:
     def declared(cls, cm, name: str, start: dict | None = None) -> "Free":
         """Parameter ``name`` of compiled model ``cm`` to fit as its declaration says
         (:class:`~acausal.model.declarations.Parameter`'s ``fit_range`` and ``nominal``), started at its value in
-        ``start`` (else the model's own), clipped into the range."""
+        ``start`` (else the model's own, clipped into the range; a start given outside it is refused)."""
         info = cm.flat.parameters.get(name)
         if info is None:
             raise DataError(f"parameter {name!r} to fit: model {cm.flat.name} has no such parameter")
         if info.fit_range is None or info.nominal is None:
             raise DataError(f"parameter {name!r} to fit: its declaration ({info.owner}) gives no fit_range and "
                             "nominal; give the fit's bounds and scale")
-        value = (start or {}).get(name, info.value)
-        if not isinstance(value, (int, float)):
-            raise DataError(f"parameter {name!r} to fit: its value {value} is an expression of other parameters; "
-                            "give a start value")
         lo, hi = info.fit_range
-        return cls(name, float(np.clip(value, lo, hi)), lo, hi, info.nominal)
+        if name in (start or {}):
+            return cls(name, float(start[name]), lo, hi, info.nominal)
+        if not isinstance(info.value, (int, float)):
+            raise DataError(f"parameter {name!r} to fit: its value {info.value} is an expression of other "
+                            "parameters; give a start value")
+        return cls(name, float(np.clip(info.value, lo, hi)), lo, hi, info.nominal)
 
 
 @dataclass

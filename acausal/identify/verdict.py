@@ -233,6 +233,9 @@ class Diagnosis:
     suspects: dict = field(default_factory=dict)
     #: what the screening of the recordings masked and left out (:meth:`Problem.screening`)
     screening: dict = field(default_factory=dict)
+    #: parameter -> how a model widened a named effect's standard error by the replay's own error (fitted, bias,
+    #: sandwich, std), where it measured it; empty: the cluster-robust errors alone
+    replay_bias: dict = field(default_factory=dict)
 
     def heldout(self) -> dict:
         """The verdict's held-out score: mean absolute error of the judging signal on the held-out samples, for
@@ -274,6 +277,7 @@ class Diagnosis:
                 "confusable": [dict(c) for c in self.confusable],
                 "detection_limits": {k: dict(v) for k, v in self.detection_limits.items()},
                 "drift": self.drift,
-                "standard_errors": {"method": self.final.cal.std_method, "clusters": self.final.cal.clusters},
+                "standard_errors": {"method": self.final.cal.std_method, "clusters": self.final.cal.clusters,
+                                    "replay_bias": {k: dict(v) for k, v in self.replay_bias.items()}},
                 "thresholds": vars(self.thresholds) if not hasattr(self.thresholds, "__dataclass_fields__")
                 else {k: getattr(self.thresholds, k) for k in self.thresholds.__dataclass_fields__}}

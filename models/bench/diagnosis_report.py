@@ -43,7 +43,10 @@ def write_report(out_dir, diagnosis, problem, data_label: str) -> dict:
           "from the same residual at a quarter of that scale, chi-square at 1 %): sensor noise and the replay's own "
           "fast error pass, a missed effect does not (a per-sample Ljung-Box test fails on every replayed recording, "
           "clean or not; its p values are in the residuals CSV). Standard errors: "
-          f"{d.final.cal.std_method} ({d.final.cal.clusters} clusters).", ""]
+          f"{d.final.cal.std_method} ({d.final.cal.clusters} clusters)." + "".join(
+              f" `{n}`: the re-recording moved it by {b['bias']:+.3g} ({100 * b['bias'] / b['fitted']:+.1f} %), its "
+              f"error {b['sandwich']:.2g} -> {b['std']:.2g}." for n, b in getattr(d, "replay_bias", {}).items()
+              if b["fitted"]), ""]
     md += ["## 1. The calibrated baseline (Eq. 4: R, J, b)", "",
            md_table(["parameter", "value", "std. error"],
                     [[f"`{n}`", f"{d.baseline.values[n]:.4g}", f"{d.baseline.cal.std[n]:.2g}"] for n in d.baseline.cal.names]),

@@ -27,7 +27,8 @@ def test_a_parameter_declares_its_fit_range_and_nominal_and_a_fit_reads_them():
     cm = compile_model(Rig())
     free = Free.declared(cm, "drag.d")
     assert free == Free("drag.d", 2.0, 0.1, 10.0, 1.0)  # started at the model's value
-    assert Free.declared(cm, "drag.d", {"drag.d": 50.0}).start == 10.0  # a start beyond the range is clipped
+    with pytest.raises(DataError, match=r"'drag.d': start value 50 is outside its bounds \[0.1, 10\]"):
+        Free.declared(cm, "drag.d", {"drag.d": 50.0})  # a start given beyond the range is refused, not clipped
     assert "fit_range=(0.1, 10.0)" in repr(Drag.d) and "nominal=1.0" in repr(Drag.d)
 
 
