@@ -195,19 +195,16 @@ def conditioning(res, rtol, atol) -> list:
             R, vals = both[:, :N], both[:, N:]
         dv = np.abs(vals - R[:, kk])  # [variable, moved sample]
         top, low = R.max(axis=1), R.min(axis=1)
-        span, size = top - low, np.maximum(np.abs(top), np.abs(low))
     dv[~np.isfinite(dv)] = 0.0
-    if not np.isfinite(span).all():
-        span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
-    # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
-    # stored energies) in the model, a millionth of it (an inductor that never carries current)
-    spans = span.tolist()
-    kinds = power.tolist()
-    floor = np.where(power, max((s for s, pw in zip(spans, kinds) if pw), default=0.0),
-                     max((s for s, pw in zip(spans, kinds) if not pw), default=0.0))
-    scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
     peak = dv.max(axis=1)
-    ratio = peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
+    scale, ratio = _scales(top, low, power, peak)
+    if not ratio.max() > CONDITION_LIMIT:
+        return []
+    # the range on the output grid can miss a transient between two outputs (a stiff spring's millisecond on a grid
+    # of 0.25 s): judged again on the range over the integrator's steps
+    steps_top, steps_low = _range_on_steps(res, names, power)
+    with np.errstate(invalid="ignore"):
+        scale, ratio = _scales(np.fmax(top, steps_top), np.fmin(low, steps_low), power, peak)
     if not ratio.max() > CONDITION_LIMIT:
         return []
     dv = dv.reshape(len(watched), n, -1)  # [variable, state, sample]
@@ -236,6 +233,56 @@ def conditioning(res, rtol, atol) -> list:
     return [f"variables not determined by the integration: {', '.join(items)}{more} move by more than "
             f"{CONDITION_LIMIT:g} of their range when a state moves by its error tolerance "
             f"({', '.join(dict.fromkeys(states))}): tighten atol/rtol, or make the model less stiff{culprits}"]
+
+
+def _scales(top, low, power, peak) -> tuple:
+    """``(scale, peak / scale)`` of the watched variables whose largest and smallest values over the run are ``top``
+    and ``low`` and that move by ``peak`` when a state moves by its tolerance: the scale a variable's move is judged
+    against (its range; one that barely changes: its size; one that stays near zero: the largest swing of its kind,
+    powers or stored energies, in the model, a millionth of it: an inductor that never carries current)."""
+    with np.errstate(invalid="ignore"):
+        span, size = top - low, np.maximum(np.abs(top), np.abs(low))
+    if not np.isfinite(span).all():
+        span, size = span.copy(), size.copy()
+        span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
+    spans = span.tolist()
+    kinds = power.tolist()
+    floor = np.where(power, max((s for s, pw in zip(spans, kinds) if pw), default=0.0),
+                     max((s for s, pw in zip(spans, kinds) if not pw), default=0.0))
+    scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
+    return scale, peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
+
+
+def _range_on_steps(res, names, power) -> tuple:
+    """``(largest, smallest)`` value of each watched variable ``names`` over the integrator's steps, where the run
+    keeps them (``-inf``, ``inf`` where it does not): on the scipy path at the Gauss nodes of its accepted steps (the
+    states on their interpolants); where the energies were integrated with the states (the compiled path's
+    quadratures, the scipy path's energies as states), a power's mean over each output interval, which its largest
+    value is no less than and its smallest no more than."""
+    cm = res.model
+    top, low = np.full(len(names), -np.inf), np.full(len(names), np.inf)
+    if res.t.size < 2:
+        return top, low
+    with np.errstate(all="ignore"):
+        if res.dense.steps and res.dense.nodes is None:
+            _, tn, _, _, Xn, Dn = res._node_samples()
+            if tn.size:
+                vals = rows(cm.generator.values_function(names)(tn.ravel(), Xn, res.params, Dn, res.inputs), tn.size)
+                vals = np.where(np.isfinite(vals), vals, np.nan)
+                seen = ~np.all(np.isnan(vals), axis=1)
+                top[seen] = np.nanmax(vals[seen], axis=1)
+                low[seen] = np.nanmin(vals[seen], axis=1)
+        dt = np.diff(res.t)
+        wide = dt > 0
+        for i, name in enumerate(names):
+            q = res.dense.integrals.get(name) if power[i] else None
+            if q is None or not wide.any():
+                continue
+            mean = (np.diff(np.asarray(q, dtype=float))[wide]) / dt[wide]
+            mean = mean[np.isfinite(mean)]
+            if mean.size:
+                top[i], low[i] = max(top[i], float(mean.max())), min(low[i], float(mean.min()))
+    return top, low
 
 
 def _watched(cm) -> tuple:

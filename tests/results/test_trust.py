@@ -355,3 +355,40 @@ def test_a_composite_components_inner_parts_are_not_taken_for_its_ports():
     res = compile_model(DCPMStart()).simulate(2.0, method="BDF")
     assert res._through("dcpm") == ["dcpm.flange", "dcpm.pin_an", "dcpm.pin_ap"]
     assert wrong_accounts(res) == [] and res.trust == []
+
+
+def _stiff_spring():
+    """A torsion spring c = 1e12 N.m/rad and a damper d = 1e7 N.m.s/rad in parallel between a fixed flange and an
+    inertia J = 1 kg.m2 turned 1 microradian from rest: the spring's 0.5 J go into the damper in about 10 us
+    (c/d = 1e5 /s), then nothing moves."""
+    from acausal.library.rotational import Damper, Fixed, Inertia, Spring
+
+    class StiffSpring(Model):
+        def build(self):
+            self.J = Inertia(J=1.0, phi=Start(1e-6))
+            self.k, self.d, self.f = Spring(c=1e12), Damper(d=1e7), Fixed()
+            connect(self.J.flange_a, self.k.flange_a, self.d.flange_a)
+            connect(self.k.flange_b, self.d.flange_b, self.f.flange)
+    return StiffSpring()
+
+
+@pytest.mark.parametrize("method", ["auto", "LSODA", "BDF", "Radau"])
+def test_a_transient_between_the_outputs_is_judged_on_the_integrators_steps(method):
+    """Five outputs over 1 s miss the 10-us transient: there the damper's loss is 1e-49 W or so at every output,
+    and the 1e-11 W its value moves by when the inertia's speed moves by its tolerance was more than 0.1 of that
+    range: a correct run refused. Over the integrator's steps (the scipy path's Gauss nodes, the compiled path's
+    mean loss over each output interval from its quadratures) the loss peaks near 1e5 W: accepted, and the energy
+    that left the spring is what the damper dissipated."""
+    res = compile_model(_stiff_spring()).simulate(1.0, n_points=5, method=method)
+    assert res.trust == []
+    assert res.integral("d.loss_power") == pytest.approx(0.5, rel=1e-4)
+    assert abs(res.energy_balance().residual) < 1e-5
+
+
+@pytest.mark.parametrize("method", ["auto", "BDF"])
+def test_a_wrong_current_is_refused_on_five_outputs_too(stiff, method):
+    """The range over the steps is no licence for noise: the 1 nohm RC's current is as wrong between the outputs as
+    at them, and its loss still moves by ten times its range over the steps when the capacitor's voltage moves by
+    its tolerance."""
+    with pytest.raises(UntrustedResult, match=r"variables not determined by the integration: 'R\.loss_power'"):
+        stiff.simulate(1.0, n_points=5, method=method)
