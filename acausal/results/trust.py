@@ -21,6 +21,13 @@ is kept as :attr:`Result.trust <acausal.results.result.Result.trust>` (an empty 
   its error test should not have accepted (a stiff system on an explicit or a badly conditioned implicit method) breaks
   it.
 
+  A residual that no account explains is told apart as a loose tolerance or a model stiff for the integrator by
+  runs 100 and 10^4 times tighter. These runs share a budget (:data:`acausal.simulation.simulate.RETRY_STEPS`
+  steps, ``RETRY_SECONDS`` seconds; :class:`acausal.simulation.run.Budget`) and never fall back to a slower path:
+  where the first of them spends it (a thermostat's switch on a state, which chatters and takes steps that grow as
+  fast as the tolerance tightens), the check says it could not conclude, as an :class:`UncheckedResultWarning`
+  (its finding an :class:`Unconcluded`), and the result is returned.
+
 The step-count guard of the scipy path (``max_steps``) is in :mod:`acausal.simulation.simulate`: a run that would take
 longer than any sensible one (a stiff model on an explicit method) stops with an error instead of running on.
 """
@@ -32,7 +39,7 @@ import warnings
 import numpy as np
 
 from . import finite
-from ..errors import AcausalError, SimulationError
+from ..errors import AcausalError, BudgetExceeded, SimulationError
 from ..backends.numpy.runtime import rows
 
 CONDITION_LIMIT = 0.1  # a variable may move by this fraction of its range when the states move by their tolerance
@@ -47,6 +54,16 @@ class UntrustedResult(SimulationError):
 
 class UntrustedResultWarning(UserWarning):
     """A simulation whose result the trust checks flag, run with ``trust="warn"``."""
+
+
+class UncheckedResultWarning(UntrustedResultWarning):
+    """A simulation a trust check could not conclude on within its budget (:class:`Unconcluded`), whatever
+    ``trust`` (but ``"off"``) says: the result is returned, the warning names what could not be checked and why."""
+
+
+class Unconcluded(str):
+    """A finding (in :attr:`Result.trust <acausal.results.result.Result.trust>`, a string like the others) that says
+    a check could not conclude: warned about, never raised (unless with other findings)."""
 
 
 def check_mode(trust) -> str:
@@ -76,11 +93,13 @@ def check(res, rtol, atol, trust: str, dense_output: bool, retry=None) -> None:
     res.trust = findings
     if not findings:
         return
-    head = f"simulate {res.model.flat.name} ({res.solver or 'no integrator'}): the result cannot be trusted: "
+    refused = [f for f in findings if not isinstance(f, Unconcluded)]
+    head = f"simulate {res.model.flat.name} ({res.solver or 'no integrator'}): " + \
+        ("the result cannot be trusted: " if refused else "a trust check could not conclude: ")
     text = head + "; ".join(findings)
-    if trust == "raise":
+    if trust == "raise" and refused:
         raise UntrustedResult(text + ' (simulate(..., trust="warn") returns it with a warning)')
-    warnings.warn(text, UntrustedResultWarning, stacklevel=4)
+    warnings.warn(text, UntrustedResultWarning if refused else UncheckedResultWarning, stacklevel=4)
 
 
 def nonfinite(res) -> list:
@@ -398,18 +417,24 @@ def _energy_balance(res, rtol, retry) -> list:
         return []
     total, scale, rel = found
     wrong = wrong_accounts(res)
+    left = (f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
+            f"the limit at rtol {float(np.max(rtol)):g})")
     if wrong:
-        hint = ("an account is wrong: " + "; ".join(wrong) + ": check the sign and the factor of its loss_power, "
-                "energy or source_power equation (or a port it leaves out)")
-    else:
-        hint = "every component's account holds at each instant, so the residual is the integration's: " + \
-            _integration_cause(res, rtol, limit, retry)
-    return [f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
-            f"the limit at rtol {float(np.max(rtol)):g}): {hint}"]
+        return [left + ": an account is wrong: " + "; ".join(wrong) + ": check the sign and the factor of its "
+                "loss_power, energy or source_power equation (or a port it leaves out)"]
+    cause = _integration_cause(res, rtol, limit, retry)
+    if isinstance(cause, Unconcluded):
+        return [Unconcluded(f"the energy balance could not be checked: it leaves {total:.3g} J of {scale:.3g} J "
+                            f"unaccounted (relative {rel:.2g} > {limit:.2g}, the limit at rtol "
+                            f"{float(np.max(rtol)):g}) with every component's account holding at each instant, "
+                            f"and {cause}")]
+    return [left + ": every component's account holds at each instant, so the residual is the integration's: " + cause]
 
 
 def _integration_cause(res, rtol, limit, retry) -> str:
-    """Too loose a tolerance, or a model stiff for the integrator: told apart by a tighter run when ``retry``."""
+    """Too loose a tolerance, or a model stiff for the integrator: told apart by a tighter run when ``retry``; an
+    :class:`Unconcluded` where the first tighter run spent the budget of the check's own runs
+    (:data:`acausal.simulation.simulate.RETRY_STEPS`, ``RETRY_SECONDS``) before it ended."""
     if "compiled path" in (res.solver or "") or res.dense.integrals:  # energies integrated under the error control
         stiff = "the integrator accepted steps it should not have (a stiff model)"
     else:
@@ -423,6 +448,16 @@ def _integration_cause(res, rtol, limit, retry) -> str:
         tight = float(np.max(rtol)) / k
         try:
             found = _residual(retry(k))
+        except BudgetExceeded as e:
+            if tried:  # a tighter run left it open: stiff, whatever the next would have said
+                tried.append(f"a run at rtol {tight:g} {e}")
+                break
+            return Unconcluded(
+                f"the run at rtol {tight:g} that tells a loose tolerance from a model stiff for the integrator {e} "
+                "(the check's own runs stop there): the states may be right, the energies are uncertain by that "
+                "residual. A right-hand side that jumps with a state (a Piecewise of a state, which makes no "
+                "event: the integrator steps across the jump again and again) takes steps that grow as fast as the "
+                "tolerance tightens; make the switch an Event, or check the run at a tighter rtol yourself")
         except AcausalError as e:
             tried.append(f"a run at rtol {tight:g} failed ({e})")
             break

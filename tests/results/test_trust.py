@@ -392,3 +392,72 @@ def test_a_wrong_current_is_refused_on_five_outputs_too(stiff, method):
     its tolerance."""
     with pytest.raises(UntrustedResult, match=r"variables not determined by the integration: 'R\.loss_power'"):
         stiff.simulate(1.0, n_points=5, method=method)
+
+
+def _thermostat():
+    """A body of 1000 J/K at 280 K, heated with 200 W while it is below 300 K (a Piecewise of its temperature, which
+    makes no event), losing heat through 5 W/K to a fixed 280 K: it reaches 300 K at 200 ln 2 = 139 s, and the
+    switch then chatters (100 W on average) at every step the integrator takes across it."""
+    from acausal import Component
+    from acausal.library.thermal import FixedTemperature, HeatCapacitor, HeatPort, ThermalConductor
+    from acausal.model.symbols import Eq
+
+    class Thermostat(Component):
+        port = HeatPort()
+
+        def equations(self):
+            return [Eq(self.port.Q_flow, -sp.Piecewise((200.0, self.port.T < 300.0), (0.0, True)))]
+
+    class Room(Model):
+        def build(self):
+            self.C, self.h = HeatCapacitor(C=1000.0, T=280.0), Thermostat()
+            self.G, self.amb = ThermalConductor(G=5.0), FixedTemperature(T=280.0)
+            connect(self.h.port, self.C.port)
+            connect(self.C.port, self.G.port_a)
+            connect(self.G.port_b, self.amb.port)
+    return Room()
+
+
+def test_a_chattering_thermostat_ends_with_a_warning_that_names_the_check_and_its_budget():
+    """The thermostat's energies are 1.4 % off at the default rtol (the switch chatters), and the run 100 times
+    tighter that would tell a loose tolerance from a stiff model needs 22 million steps (75 times the run's own:
+    they grow as fast as the tolerance tightens); it ran for a minute, and its fallback to the scipy path longer.
+    Under the budget of the check's own runs it stops, and the check says it could not conclude, as a warning:
+    the result (right: 300 K) is returned."""
+    from acausal.results.trust import Unconcluded, UncheckedResultWarning
+    from acausal.simulation.simulate import RETRY_SECONDS, RETRY_STEPS
+
+    cm = compile_model(_thermostat())
+    t0 = _time.perf_counter()
+    with pytest.warns(UncheckedResultWarning, match=rf"could not conclude: the energy balance could not be checked: "
+                      rf".* the run at rtol 1e-08 .* over its budget of ({RETRY_STEPS} steps|{RETRY_SECONDS:g} s)"):
+        res = cm.simulate(600.0)
+    assert _time.perf_counter() - t0 < 60  # a guard only: the budget is steps and seconds, not this
+    assert len(res.trust) == 1 and isinstance(res.trust[0], Unconcluded)
+    assert res["C.T"][-1] == pytest.approx(300.0, abs=1e-3)
+    assert np.max(res["C.T"]) < 300.0 + 1e-3
+    i = np.searchsorted(res.t, 100.0)  # before the switch: the exponential approach to 320 K
+    assert res["C.T"][i] == pytest.approx(320.0 - 40.0 * np.exp(-res.t[i] / 200.0), rel=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cm.simulate(600.0, trust="off").trust == []
+
+
+@pytest.mark.parametrize("method", ["CVODES", "LSODA"])
+def test_a_run_under_a_budget_stops_at_its_steps_or_its_seconds(method):
+    """A budget of 2000 steps stops the thermostat (300 thousand steps on the compiled path, more on LSODA) on either path with the
+    error saying so, as one of no seconds does before it begins; and a budgeted run that fails on the compiled path
+    is not run again on the scipy path."""
+    import dataclasses
+    from acausal.errors import BudgetExceeded
+    from acausal.simulation.run import Budget, prepare
+    from acausal.simulation.simulate import integrate
+
+    cm = compile_model(_thermostat())
+    run = prepare(cm, 600.0, t_start=0.0, params=None, inputs=None, starts=None, method=method, rtol=1e-6,
+                  atol=1e-9, t_eval=None, n_points=501, max_step=np.inf, first_step=None, max_events=10_000,
+                  dense_output=True, max_steps=None)
+    with pytest.raises(BudgetExceeded, match=r"over its budget of 2000 steps"):
+        integrate(dataclasses.replace(run, budget=Budget(2000, 60.0)))
+    with pytest.raises(BudgetExceeded, match=r"over its budget of 0 s"):
+        integrate(dataclasses.replace(run, budget=Budget(10**9, 0.0)))

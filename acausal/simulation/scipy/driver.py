@@ -72,6 +72,7 @@ class Stepper:
         rtol, atol = run.rtol, run.atol
         n_out = t_out.size
         has_events = self.has_events
+        budget = run.budget
         x = np.concatenate([loop.x, self.q]) if nq else loop.x
         fun, jac = _make_functions(seg, self.quad)
         opts = dict(rtol=rtol, atol=atol, max_step=run.max_step)
@@ -107,6 +108,8 @@ class Stepper:
             self.steps_left -= 1
             if self.steps_left < 0:
                 raise _too_many_steps(cm, method, self.limit, t_prev, t_new, run.t_start, t_end)
+            if budget is not None:
+                budget.spend(1, t_new)
             if t_new == t_prev:
                 continue
             need_out = loop.k < n_out and t_out[loop.k] <= t_new
@@ -187,8 +190,11 @@ class _Again:
         if t1 <= t0:
             return np.array(x0, dtype=float)
         again = self.solver_cls(self.fun, t0, x0, t1, **{**self.opts, "first_step": None})
+        budget = self.seg.budget
         while again.status == "running":
             msg = again.step()
+            if budget is not None:
+                budget.spend(1, again.t)
         if again.status != "finished":
             raise SimulationError(f"integrating again from t = {t0:.9g} s to {t1:.9g} s (to locate an event or an "
                                   f"output inside a step) failed: {msg}")
