@@ -379,6 +379,12 @@ def integration_fault(res, rtol) -> bool:
     return bool(energy_balance(res, rtol)) and not wrong_accounts(res)
 
 
+def balance_scale(res) -> float | None:
+    """The largest energy that moved in ``res`` [J] (the energy balance's scale), or None: no balance to check."""
+    found = _residual(res)
+    return None if found is None else float(found[1])
+
+
 def _once(res, key, find) -> list:
     """``find()``'s findings on ``res``, found once per result (the re-run decision and the check share them)."""
     key = ("trust:",) + key

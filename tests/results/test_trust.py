@@ -94,25 +94,25 @@ def test_the_same_circuit_with_a_sane_resistance_passes():
 
 def test_a_balance_the_tolerance_leaves_open_names_the_rtol_that_closes_it():
     """"Tolerance too loose for this balance" told apart from "stiff" and from "an account is wrong".
-    A 10 micro-ohm RC on LSODA at the default rtol 1e-6 leaves 0.39 % of the energy unaccounted (the limit 0.1 %),
+    A 1 micro-ohm RC on Radau at the default rtol 1e-6 leaves 5.8 % of the energy unaccounted (the limit 0.1 %),
     with its energies already integrated as states and every account right. The residual falls with the tolerance
-    (2.6e-5 at rtol 1e-8, still over that run's own limit 1e-5; 1e-7 at 1e-10), so the check's own tighter runs
+    (1.3e-5 at rtol 1e-8, still over that run's own limit 1e-5; 7e-9 at 1e-10), so the check's own tighter runs
     find the rtol that closes it, the message gives it, and a run at it is accepted."""
-    cm = compile_model(_stiff_rc(R=1e-5))
+    cm = compile_model(_stiff_rc(R=1e-6))
     with pytest.raises(UntrustedResult, match=r"the tolerance is too loose for this balance: a run at rtol 1e-10 "
                                               r".*within its limit 1e-05: pass rtol=1e-10") as e:
-        cm.simulate(1.0, method="LSODA")
+        cm.simulate(1.0, method="Radau")
     assert "stiff" not in str(e.value) and "account is wrong" not in str(e.value)
-    assert cm.simulate(1.0, method="LSODA", rtol=1e-10, atol=1e-13).trust == []
+    assert cm.simulate(1.0, method="Radau", rtol=1e-10, atol=1e-13).trust == []
 
 
 def test_a_balance_a_tighter_tolerance_does_not_close_is_blamed_on_stiffness():
-    """At 0.1 micro-ohm the same circuit leaves 43 % open at rtol 1e-6, and the runs 100 and 10^4 times tighter
-    leave it open too: stiff, not loose."""
-    cm = compile_model(_stiff_rc(R=1e-7))
+    """At 1 nano-ohm the same circuit on Radau leaves 0.28 % open at rtol 1e-6, and the runs 100 and 10^4 times
+    tighter leave it open too (0.3 %, 0.036 %): stiff, not loose."""
+    cm = compile_model(_stiff_rc(R=1e-9))
     with pytest.raises(UntrustedResult, match=r"a stiff model\) \(a tighter tolerance does not close it: at rtol "
                                               r"1e-08 .*, at rtol 1e-10 "):
-        cm.simulate(1.0, method="LSODA")
+        cm.simulate(1.0, method="Radau")
 
 def test_an_explicit_method_on_a_stiff_model_stops_with_an_error_instead_of_running_for_hours(stiff):
     t0 = _time.perf_counter()
@@ -461,3 +461,43 @@ def test_a_run_under_a_budget_stops_at_its_steps_or_its_seconds(method):
         integrate(dataclasses.replace(run, budget=Budget(2000, 60.0)))
     with pytest.raises(BudgetExceeded, match=r"over its budget of 0 s"):
         integrate(dataclasses.replace(run, budget=Budget(10**9, 0.0)))
+
+
+class _HalfWave1mF(Model):
+    """An ideal diode from a 10 V 50 Hz source into 1 mF || 100 ohm: it conducts near each positive peak (nine
+    switchings in 0.1 s), its current through the diode's 1e-5 ohm on-resistance the difference of two nearly equal
+    potentials."""
+
+    def build(self):
+        from acausal.library.electrical import Capacitor, IdealDiode, PrescribedVoltage, Resistor
+        self.src = PrescribedVoltage(v_ref=10 * sp.sin(2 * sp.pi * 50 * time))
+        self.d, self.R, self.C, self.g = IdealDiode(), Resistor(R=100.0), Capacitor(C=1e-3), Ground()
+        connect(self.src.p, self.d.p)
+        connect(self.d.n, self.R.p, self.C.p)
+        connect(self.src.n, self.R.n, self.C.n, self.g.p)
+
+
+@pytest.fixture(scope="module")
+def half_wave():
+    return compile_model(_HalfWave1mF())
+
+
+@pytest.mark.parametrize("method", ["auto", "LSODA", "Radau", "BDF"])
+def test_a_half_wave_rectifiers_energies_close_across_its_events_on_every_path(half_wave, method):
+    """At default settings the scipy path's energies, integrated as states, left 1.5 % unaccounted on LSODA (its
+    corrector stops at a fair part of the error weights and left the integrals, outside them, a correction behind
+    the states: now they take part in the error control) and 3.7 % on Radau (each segment after an event restarted
+    its integrals from the step's interpolant, though the crossing was located by integrating to it: now from there).
+    Accepted on every path, the balance closed within the trust limit (0.1 %: LSODA 5.6e-6, Radau 3.5e-5, BDF
+    2.2e-5, the compiled path 5.2e-6), the source's energy that of the compiled path."""
+    from acausal.results.run_balance import residual
+    from acausal.results.trust import balance_limit
+
+    res = half_wave.simulate(0.1, method=method)
+    assert res.trust == []
+    assert ("energies integrated as states" in res.solver) == (method != "auto"), res.solver
+    left = residual(res, 1e-12)[2]
+    assert left < balance_limit(1e-6) / 10
+    ref = half_wave.simulate(0.1, rtol=1e-10, atol=1e-13)  # the compiled path, 10^4 times tighter
+    assert res.integral("src.p") == pytest.approx(ref.integral("src.p"), rel=1e-4)
+    assert res.integral("R.loss_power") == pytest.approx(ref.integral("R.loss_power"), rel=1e-4)
