@@ -449,9 +449,9 @@ def test_a_chattering_thermostat_ends_with_a_warning_that_names_the_check_and_it
 
 @pytest.mark.parametrize("method", ["CVODES", "LSODA"])
 def test_a_run_under_a_budget_stops_at_its_steps_or_its_seconds(method):
-    """A budget of 2000 steps stops the thermostat (300 thousand steps on the compiled path, more on LSODA) on either path with the
-    error saying so, as one of no seconds does before it begins; and a budgeted run that fails on the compiled path
-    is not run again on the scipy path."""
+    """A budget of 2000 steps stops the thermostat (300 thousand steps on the compiled path, more on LSODA) on
+    either path with the error saying so, as one of no seconds does before it begins; and a budgeted run that fails
+    on the compiled path is not run again on the scipy path (where BDF fails otherwise)."""
     import dataclasses
     from acausal.errors import BudgetExceeded
     from acausal.simulation.compiled import available

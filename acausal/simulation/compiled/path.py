@@ -19,8 +19,7 @@ import typing
 
 import numpy as np
 
-from ...errors import SimulationError
-from ...errors import BudgetExceeded
+from ...errors import BudgetExceeded, SimulationError
 from .calls import first_line, run_integrator, steps_taken
 
 MAX_NUM_STEPS = 1_000_000

@@ -3,7 +3,7 @@ failure is reported with the time, the step size and the variable, and state eve
 zero crossing (located by Brent's method on the step's dense output, :mod:`acausal.simulation.events`); the event
 there and the restart are the one event loop's (:mod:`acausal.simulation.loop`: :class:`Stepper` is its segment
 integrator). With ``quadratures`` the energy integrals of the accounts are carried as extra states outside the error
-control (:mod:`acausal.simulation.scipy.quadratures`)."""
+control (:mod:`acausal.simulation.scipy.quadratures`; on LSODA inside it, :data:`CORRECTOR_ON_WEIGHTS`)."""
 from __future__ import annotations
 
 import math
@@ -29,11 +29,11 @@ MAX_STEPS = 2_000_000  # scipy steps of an implicit integrator at most (about 3 
 MAX_STEPS_EXPLICIT = 200_000  # of an explicit one: more means the model is stiff for it
 
 
-#: integrators whose corrector stops when its correction is a fair part of the error weights (LSODA's: 0.5/(order + 2)
-#: of them, against 1e-3 for scipy's BDF and Radau at rtol 1e-6): an integral outside the error control, left out of that test, stays
-#: the last correction behind the states, and an integrand that amplifies them (the current through a diode's 1e-5
-#: ohm) makes that percents of its energy (1.5 % on a half-wave rectifier). Their energy integrals take part in the
-#: error control, at an absolute tolerance from the energies the run moves (``energy_atol``)
+#: integrators whose corrector stops when its correction is a fair part of the error weights (LSODA's: 0.5/(order
+#: + 2) of them, against 1e-3 for scipy's BDF and Radau at rtol 1e-6): an integral outside the error control, left
+#: out of that test, stays the last correction behind the states, and an integrand that amplifies them (the current
+#: through a diode's 1e-5 ohm) makes that percents of its energy (1.5 % on a half-wave rectifier). Their energy
+#: integrals take part in the error control, at an absolute tolerance from the energies the run moves (``energy_atol``)
 CORRECTOR_ON_WEIGHTS = {"LSODA"}
 
 
@@ -50,7 +50,7 @@ class Stepper:
     ``method``, stepped one step at a time; each step's dense output searched for crossings
     (:func:`~acausal.simulation.events.crossings_in_step`; Radau's on the solution itself, a dip of an interpolant
     confirmed by integrating to it), the outputs it passes read off it. ``quadratures``: the energy integrals carried
-    as states outside the error control."""
+    as states outside the error control (but see :data:`CORRECTOR_ON_WEIGHTS`, ``energy_atol``)."""
 
     def __init__(self, run, method: str, why: str, quadratures: bool = False, energy_atol: float | None = None):
         cm = run.cm
