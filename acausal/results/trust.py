@@ -95,7 +95,7 @@ def check(res, rtol, atol, trust: str, dense_output: bool, retry=None) -> None:
         return
     refused = [f for f in findings if not isinstance(f, Unconcluded)]
     head = f"simulate {res.model.flat.name} ({res.solver or 'no integrator'}): " + \
-        ("the result cannot be trusted: " if refused else "a trust check could not conclude: ")
+        ("the result cannot be trusted: " if refused else "")
     text = head + "; ".join(findings)
     if trust == "raise" and refused:
         raise UntrustedResult(text + ' (simulate(..., trust="warn") returns it with a warning)')
