@@ -16,7 +16,7 @@ from .results.result import Result
 from .model.signals import (Constant, ExpressionSignal, FourierSeries, ParametricSignal, PeriodicSpline,
                             SampledSignal, Signal)
 from .model.symbols import Eq, der, time  # equations are written as Eq(lhs, rhs)
-from .results.trust import UntrustedResult, UntrustedResultWarning
+from .results.trust import UncheckedResultWarning, UntrustedResult, UntrustedResultWarning
 
 __version__ = "0.1.0"
 
@@ -28,5 +28,5 @@ __all__ = [
     "Pin", "Flange", "HeatPort", "RealInput", "RealOutput",
     "Signal", "Constant", "ExpressionSignal", "ParametricSignal", "PeriodicSpline", "SampledSignal", "FourierSeries",
     "AcausalError", "ModelError", "ConnectError", "StructureError", "SignalError", "SimulationError", "DataError",
-    "UntrustedResult", "UntrustedResultWarning",
+    "UntrustedResult", "UntrustedResultWarning", "UncheckedResultWarning",
 ]

@@ -38,5 +38,10 @@ class SimulationError(AcausalError):
     """Integration or initialisation failed; the message says the time and, when found, the variable."""
 
 
+class BudgetExceeded(SimulationError):
+    """A run stopped because it spent its budget of steps or seconds (:class:`acausal.simulation.run.Budget`: the
+    trust check's own tighter runs); the message says which and how much."""
+
+
 class DataError(AcausalError):
     """Bad input data; the message names the file, row and column."""

@@ -21,6 +21,13 @@ is kept as :attr:`Result.trust <acausal.results.result.Result.trust>` (an empty 
   its error test should not have accepted (a stiff system on an explicit or a badly conditioned implicit method) breaks
   it.
 
+  A residual that no account explains is told apart as a loose tolerance or a model stiff for the integrator by
+  runs 100 and 10^4 times tighter. These runs share a budget (:data:`acausal.simulation.simulate.RETRY_STEPS`
+  steps, ``RETRY_SECONDS`` seconds; :class:`acausal.simulation.run.Budget`) and never fall back to a slower path:
+  where the first of them spends it (a thermostat's switch on a state, which chatters and takes steps that grow as
+  fast as the tolerance tightens), the check says it could not conclude, as an :class:`UncheckedResultWarning`
+  (its finding an :class:`Unconcluded`), and the result is returned.
+
 The step-count guard of the scipy path (``max_steps``) is in :mod:`acausal.simulation.simulate`: a run that would take
 longer than any sensible one (a stiff model on an explicit method) stops with an error instead of running on.
 """
@@ -32,7 +39,7 @@ import warnings
 import numpy as np
 
 from . import finite
-from ..errors import AcausalError, SimulationError
+from ..errors import AcausalError, BudgetExceeded, SimulationError
 from ..backends.numpy.runtime import rows
 
 CONDITION_LIMIT = 0.1  # a variable may move by this fraction of its range when the states move by their tolerance
@@ -47,6 +54,16 @@ class UntrustedResult(SimulationError):
 
 class UntrustedResultWarning(UserWarning):
     """A simulation whose result the trust checks flag, run with ``trust="warn"``."""
+
+
+class UncheckedResultWarning(UntrustedResultWarning):
+    """A simulation a trust check could not conclude on within its budget (:class:`Unconcluded`), whatever
+    ``trust`` (but ``"off"``) says: the result is returned, the warning names what could not be checked and why."""
+
+
+class Unconcluded(str):
+    """A finding (in :attr:`Result.trust <acausal.results.result.Result.trust>`, a string like the others) that says
+    a check could not conclude: warned about, never raised (unless with other findings)."""
 
 
 def check_mode(trust) -> str:
@@ -76,11 +93,13 @@ def check(res, rtol, atol, trust: str, dense_output: bool, retry=None) -> None:
     res.trust = findings
     if not findings:
         return
-    head = f"simulate {res.model.flat.name} ({res.solver or 'no integrator'}): the result cannot be trusted: "
+    refused = [f for f in findings if not isinstance(f, Unconcluded)]
+    head = f"simulate {res.model.flat.name} ({res.solver or 'no integrator'}): " + \
+        ("the result cannot be trusted: " if refused else "")
     text = head + "; ".join(findings)
-    if trust == "raise":
+    if trust == "raise" and refused:
         raise UntrustedResult(text + ' (simulate(..., trust="warn") returns it with a warning)')
-    warnings.warn(text, UntrustedResultWarning, stacklevel=4)
+    warnings.warn(text, UntrustedResultWarning if refused else UncheckedResultWarning, stacklevel=4)
 
 
 def nonfinite(res) -> list:
@@ -195,19 +214,16 @@ def conditioning(res, rtol, atol) -> list:
             R, vals = both[:, :N], both[:, N:]
         dv = np.abs(vals - R[:, kk])  # [variable, moved sample]
         top, low = R.max(axis=1), R.min(axis=1)
-        span, size = top - low, np.maximum(np.abs(top), np.abs(low))
     dv[~np.isfinite(dv)] = 0.0
-    if not np.isfinite(span).all():
-        span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
-    # a variable that barely changes: its size; one that stays near zero: the largest swing of its kind (powers,
-    # stored energies) in the model, a millionth of it (an inductor that never carries current)
-    spans = span.tolist()
-    kinds = power.tolist()
-    floor = np.where(power, max((s for s, pw in zip(spans, kinds) if pw), default=0.0),
-                     max((s for s, pw in zip(spans, kinds) if not pw), default=0.0))
-    scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
     peak = dv.max(axis=1)
-    ratio = peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
+    scale, ratio = _scales(top, low, power, peak)
+    if not ratio.max() > CONDITION_LIMIT:
+        return []
+    # the range on the output grid can miss a transient between two outputs (a stiff spring's millisecond on a grid
+    # of 0.25 s): judged again on the range over the integrator's steps
+    steps_top, steps_low = _range_on_steps(res, names, power)
+    with np.errstate(invalid="ignore"):
+        scale, ratio = _scales(np.fmax(top, steps_top), np.fmin(low, steps_low), power, peak)
     if not ratio.max() > CONDITION_LIMIT:
         return []
     dv = dv.reshape(len(watched), n, -1)  # [variable, state, sample]
@@ -236,6 +252,56 @@ def conditioning(res, rtol, atol) -> list:
     return [f"variables not determined by the integration: {', '.join(items)}{more} move by more than "
             f"{CONDITION_LIMIT:g} of their range when a state moves by its error tolerance "
             f"({', '.join(dict.fromkeys(states))}): tighten atol/rtol, or make the model less stiff{culprits}"]
+
+
+def _scales(top, low, power, peak) -> tuple:
+    """``(scale, peak / scale)`` of the watched variables whose largest and smallest values over the run are ``top``
+    and ``low`` and that move by ``peak`` when a state moves by its tolerance: the scale a variable's move is judged
+    against (its range; one that barely changes: its size; one that stays near zero: the largest swing of its kind,
+    powers or stored energies, in the model, a millionth of it: an inductor that never carries current)."""
+    with np.errstate(invalid="ignore"):
+        span, size = top - low, np.maximum(np.abs(top), np.abs(low))
+    if not np.isfinite(span).all():
+        span, size = span.copy(), size.copy()
+        span[~np.isfinite(span)], size[~np.isfinite(size)] = 0.0, 0.0
+    spans = span.tolist()
+    kinds = power.tolist()
+    floor = np.where(power, max((s for s, pw in zip(spans, kinds) if pw), default=0.0),
+                     max((s for s, pw in zip(spans, kinds) if not pw), default=0.0))
+    scale = np.maximum(np.maximum(span, 1e-3 * size), 1e-6 * floor)
+    return scale, peak / np.where(scale > 0, scale, np.inf)  # a variable that never moves: 0
+
+
+def _range_on_steps(res, names, power) -> tuple:
+    """``(largest, smallest)`` value of each watched variable ``names`` over the integrator's steps, where the run
+    keeps them (``-inf``, ``inf`` where it does not): on the scipy path at the Gauss nodes of its accepted steps (the
+    states on their interpolants); where the energies were integrated with the states (the compiled path's
+    quadratures, the scipy path's energies as states), a power's mean over each output interval, which its largest
+    value is no less than and its smallest no more than."""
+    cm = res.model
+    top, low = np.full(len(names), -np.inf), np.full(len(names), np.inf)
+    if res.t.size < 2:
+        return top, low
+    with np.errstate(all="ignore"):
+        if res.dense.steps and res.dense.nodes is None:
+            _, tn, _, _, Xn, Dn = res._node_samples()
+            if tn.size:
+                vals = rows(cm.generator.values_function(names)(tn.ravel(), Xn, res.params, Dn, res.inputs), tn.size)
+                vals = np.where(np.isfinite(vals), vals, np.nan)
+                seen = ~np.all(np.isnan(vals), axis=1)
+                top[seen] = np.nanmax(vals[seen], axis=1)
+                low[seen] = np.nanmin(vals[seen], axis=1)
+        dt = np.diff(res.t)
+        wide = dt > 0
+        for i, name in enumerate(names):
+            q = res.dense.integrals.get(name) if power[i] else None
+            if q is None or not wide.any():
+                continue
+            mean = (np.diff(np.asarray(q, dtype=float))[wide]) / dt[wide]
+            mean = mean[np.isfinite(mean)]
+            if mean.size:
+                top[i], low[i] = max(top[i], float(mean.max())), min(low[i], float(mean.min()))
+    return top, low
 
 
 def _watched(cm) -> tuple:
@@ -313,6 +379,12 @@ def integration_fault(res, rtol) -> bool:
     return bool(energy_balance(res, rtol)) and not wrong_accounts(res)
 
 
+def balance_scale(res) -> float | None:
+    """The largest energy that moved in ``res`` [J] (the energy balance's scale), or None: no balance to check."""
+    found = _residual(res)
+    return None if found is None else float(found[1])
+
+
 def _once(res, key, find) -> list:
     """``find()``'s findings on ``res``, found once per result (the re-run decision and the check share them)."""
     key = ("trust:",) + key
@@ -351,18 +423,24 @@ def _energy_balance(res, rtol, retry) -> list:
         return []
     total, scale, rel = found
     wrong = wrong_accounts(res)
+    left = (f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
+            f"the limit at rtol {float(np.max(rtol)):g})")
     if wrong:
-        hint = ("an account is wrong: " + "; ".join(wrong) + ": check the sign and the factor of its loss_power, "
-                "energy or source_power equation (or a port it leaves out)")
-    else:
-        hint = "every component's account holds at each instant, so the residual is the integration's: " + \
-            _integration_cause(res, rtol, limit, retry)
-    return [f"the energy balance leaves {total:.3g} J of {scale:.3g} J unaccounted (relative {rel:.2g} > {limit:.2g}, "
-            f"the limit at rtol {float(np.max(rtol)):g}): {hint}"]
+        return [left + ": an account is wrong: " + "; ".join(wrong) + ": check the sign and the factor of its "
+                "loss_power, energy or source_power equation (or a port it leaves out)"]
+    cause = _integration_cause(res, rtol, limit, retry)
+    if isinstance(cause, Unconcluded):
+        return [Unconcluded(f"the energy balance could not be checked: it leaves {total:.3g} J of {scale:.3g} J "
+                            f"unaccounted (relative {rel:.2g} > {limit:.2g}, the limit at rtol "
+                            f"{float(np.max(rtol)):g}) with every component's account holding at each instant, "
+                            f"and {cause}")]
+    return [left + ": every component's account holds at each instant, so the residual is the integration's: " + cause]
 
 
 def _integration_cause(res, rtol, limit, retry) -> str:
-    """Too loose a tolerance, or a model stiff for the integrator: told apart by a tighter run when ``retry``."""
+    """Too loose a tolerance, or a model stiff for the integrator: told apart by a tighter run when ``retry``; an
+    :class:`Unconcluded` where the first tighter run spent the budget of the check's own runs
+    (:data:`acausal.simulation.simulate.RETRY_STEPS`, ``RETRY_SECONDS``) before it ended."""
     if "compiled path" in (res.solver or "") or res.dense.integrals:  # energies integrated under the error control
         stiff = "the integrator accepted steps it should not have (a stiff model)"
     else:
@@ -376,6 +454,16 @@ def _integration_cause(res, rtol, limit, retry) -> str:
         tight = float(np.max(rtol)) / k
         try:
             found = _residual(retry(k))
+        except BudgetExceeded as e:
+            if tried:  # a tighter run left it open: stiff, whatever the next would have said
+                tried.append(f"a run at rtol {tight:g} {e}")
+                break
+            return Unconcluded(
+                f"the run at rtol {tight:g} that tells a loose tolerance from a model stiff for the integrator {e} "
+                "(the check's own runs stop there): the states may be right, the energies are uncertain by that "
+                "residual. A right-hand side that jumps with a state (a Piecewise of a state, which makes no "
+                "event: the integrator steps across the jump again and again) takes steps that grow as fast as the "
+                "tolerance tightens; make the switch an Event, or check the run at a tighter rtol yourself")
         except AcausalError as e:
             tried.append(f"a run at rtol {tight:g} failed ({e})")
             break

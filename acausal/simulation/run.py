@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import BudgetExceeded, ModelError
 from .choose import COMPILED
 from .initial import initialize, number, whole
 from .scipy.driver import METHODS
@@ -38,6 +39,7 @@ class Run:
     dense_output: bool
     max_steps: int | None
     starts: dict | None
+    budget: "Budget | None" = None  # steps and seconds it may spend at most (the trust check's own runs)
 
     def tighter(self, k: float) -> "Run":
         """The same run with both tolerances divided by ``k``."""
@@ -50,7 +52,7 @@ class Run:
         """The :class:`Segment` of this run in the modes ``d`` (default: the discrete start), with the inputs ``u``
         (default: the run's)."""
         return Segment(self.cm, self.p, self.d if d is None else d, self.u if u is None else u, self.rtol,
-                       self.atol, self.max_step, self.first_step)
+                       self.atol, self.max_step, self.first_step, self.budget)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -67,10 +69,44 @@ class Segment:
     atol: object
     max_step: float = np.inf
     first_step: float | None = None
+    budget: "Budget | None" = None  # the run's (:class:`Budget`)
 
     def tighter(self, k: float) -> "Segment":
         """The same segment with both tolerances multiplied by ``k``."""
         return dataclasses.replace(self, rtol=self.rtol * k, atol=self.atol * k)
+
+
+class Budget:
+    """What runs may spend together: ``steps`` integrator steps and ``seconds`` of wall time from the budget's
+    creation, for the runs the trust check makes for itself (:mod:`acausal.results.trust`: a tighter run that
+    tells a loose tolerance from a stiff model), which must end however the model behaves (a thermostat's
+    state-dependent switch chatters, and its steps grow as fast as the tolerance tightens). A segment integrator
+    reports what it spent (:meth:`spend`); the budget raises :class:`~acausal.errors.BudgetExceeded` once either is
+    spent. A run under a budget takes no slower path when it fails (the compiled path's fallback to scipy)."""
+
+    def __init__(self, steps: int, seconds: float):
+        self.steps, self.seconds = int(steps), float(seconds)
+        self.used = 0
+        self._start = time.monotonic()
+
+    @property
+    def steps_left(self) -> int:
+        return max(self.steps - self.used, 0)
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self._start
+
+    def spend(self, steps: int = 0, t: float | None = None) -> None:
+        """Count ``steps`` more; raise :class:`~acausal.errors.BudgetExceeded` where the steps or the seconds are
+        spent (``t``: the simulated time reached, for the message)."""
+        self.used += int(steps)
+        where = "" if t is None else f" at t = {t:.6g} s"
+        if self.used > self.steps:
+            raise BudgetExceeded(f"stopped{where} after {self.used} steps, over its budget of {self.steps} steps")
+        elapsed = self.elapsed()
+        if elapsed > self.seconds:
+            raise BudgetExceeded(f"stopped{where} after {elapsed:.3g} s ({self.used} steps), over its budget of "
+                                 f"{self.seconds:g} s")
 
 
 def prepare(cm, t_end, *, t_start, params, inputs, starts, method, rtol, atol, t_eval, n_points, max_step,

@@ -20,16 +20,26 @@ after index reduction is evaluated algebraically at the output times.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..errors import SimulationError
 from . import COMPILED, ROBUST, check_tolerances, choose_path, initialize, prepare  # noqa: F401
 from .choose import fallback
+from .run import Budget
 from . import algebraic
 from .compiled import driver as compiled_driver
 from .scipy import driver as scipy_driver
 from .scipy.driver import MAX_STEPS, MAX_STEPS_EXPLICIT, METHODS  # noqa: F401
-from ..results.trust import check, check_mode, integration_fault
+from ..results.trust import balance_limit, balance_scale, check, check_mode, integration_fault
+
+#: what the trust check's own runs (:func:`acausal.results.trust.energy_balance`'s tighter ones) may spend together at
+#: most: integrator steps (a legitimate run 10^4 times tighter takes a few times the steps of the run checked; a
+#: chattering switch, 75 times more already at 100 times tighter) and seconds of wall time. Spent, the check says
+#: it could not conclude (a warning) instead of running on.
+RETRY_STEPS = 1_000_000
+RETRY_SECONDS = 5.0
 
 __all__ = ["simulate", "check_tolerances", "initialize", "MAX_STEPS", "MAX_STEPS_EXPLICIT", "METHODS"]
 
@@ -67,19 +77,36 @@ def simulate_run(run, trust: str = "raise"):
     :func:`acausal.simulation.batch.simulate_many` do with each of their runs."""
     rtol, atol, dense_output = run.rtol, run.atol, run.dense_output
     res, on_scipy = integrate(run)
+    scale = None  # the energy the run moves [J], where its energies are integrated again as states
     if trust != "off" and dense_output and integration_fault(res, rtol):
         # the scipy path's energies, integrated on the steps' interpolants, miss what every account holds: the
         # run again with them as states, under the integrator's error control (acausal.simulation.scipy.quadratures)
-        res = scipy_driver.integrate(run, *on_scipy, quadratures=True)
+        scale = balance_scale(res)
+        res = scipy_driver.integrate(run, *on_scipy, quadratures=True, energy_atol=_energy_atol(scale, rtol))
     with_quadratures = on_scipy is not None and bool(res.dense.integrals)
+    spent = []  # the budget all the check's own runs share, from the first on
 
     def retry(k):  # the same run, both tolerances divided by k, unchecked (the balance's cause, acausal.results.trust)
-        tight = run.tighter(k)
-        return scipy_driver.integrate(tight, *on_scipy, quadratures=with_quadratures) if on_scipy else \
+        if not spent:
+            spent.append(Budget(RETRY_STEPS, RETRY_SECONDS))
+        tight = dataclasses.replace(run.tighter(k), budget=spent[0])
+        return scipy_driver.integrate(tight, *on_scipy, quadratures=with_quadratures,
+                                      energy_atol=_energy_atol(scale, tight.rtol)) if on_scipy else \
             integrate(tight)[0]
 
     check(res, rtol, atol, trust, dense_output, retry)
     return res
+
+
+#: the share of the balance's limit (:func:`acausal.results.trust.balance_limit`) the energy integrals carried as
+#: states may be off by where they take part in the error control (:data:`.scipy.driver.CORRECTOR_ON_WEIGHTS`):
+#: their absolute tolerance is this times the limit times the energy the run moves
+ENERGY_ATOL_SHARE = 1e-3
+
+
+def _energy_atol(scale, rtol) -> float | None:
+    """The absolute tolerance [J] of the energy integrals of a run at ``rtol`` that moves ``scale`` joules."""
+    return None if scale is None else ENERGY_ATOL_SHARE * balance_limit(rtol) * scale
 
 
 def integrate(run) -> tuple:
@@ -95,5 +122,7 @@ def integrate(run) -> tuple:
         try:
             return compiled_driver.integrate(run), None
         except SimulationError as exc:  # the scipy path names the time, the step and the variable
+            if run.budget is not None:  # a run under a budget ends here: the scipy path would crawl on
+                raise
             method, why = ROBUST, str(exc)
     return scipy_driver.integrate(run, method, why), (method, why)

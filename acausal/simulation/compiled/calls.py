@@ -58,6 +58,18 @@ def _call(integ, call) -> dict:
     return out
 
 
+def steps_taken(integ) -> int:
+    """The steps SUNDIALS took in the last call of ``integ`` on this thread (:func:`run_integrator`), from its
+    buffer's statistics; 0 where it has none."""
+    found = integ.__dict__.get("_acausal_buffers", {}).get(threading.get_ident())
+    if found is None:
+        return 0
+    try:
+        return int(found[0].stats().get("nsteps", 0))
+    except (RuntimeError, TypeError, ValueError):  # no statistics (a call that failed before its first step)
+        return 0
+
+
 def first_line(exc) -> str:
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
     useful = [ln for ln in lines if "CV_" in ln or "IDA_" in ln or "failed" in ln.lower()]

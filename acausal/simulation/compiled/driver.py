@@ -26,8 +26,8 @@ def integrate(run):
     # the states at the Gauss nodes of the output intervals, integrated when first asked for (events: the steps')
     nodes = path.gauss_states(t_start, run.x0, t_out, run.segment()) if dense and not cm.event_zeros else None
     names = account_integrals(cm.accounts) if dense and cm.accounts is not None else []
-    runner, sig = native_loop.runner_for(cm, u, names)
-    if runner is not None:
+    runner, sig = native_loop.runner_for(cm, u, names) if run.budget is None else (None, None)
+    if runner is not None:  # (a run under a budget takes CasADi's calls, between which it can stop)
         try:
             return native_loop.simulate_native(run, runner, sig, nodes)
         except SimulationError:
@@ -37,9 +37,34 @@ def integrate(run):
         return simulate_with_events(run)
     x0, d = run.x0, run.d.copy()
     seg = run.segment(d)
-    X, integrals = path.integrate(t_start, x0, t_out, seg, integrals=names if dense else ())
+    if run.budget is None:
+        X, integrals = path.integrate(t_start, x0, t_out, seg, integrals=names if dense else ())
+    else:
+        X, integrals = _in_chunks(path, t_start, x0, t_out, seg, names if dense else ())
     if not np.isfinite(X).all():
         raise SimulationError("compiled path: non-finite states")
     later = path.quadratures_later(t_start, x0, t_out, seg) if dense else None
     return Result(cm, t_out, X, p, u, d, events=[], dense=DenseOutput(nodes=nodes, integrals=integrals, more=later),
                   solver=f"{path.integrator_name(u)} (compiled path, CasADi)")
+
+
+CHUNKS = 64  # a run under a budget: CVODES calls over this many parts of its output times at most
+
+
+def _in_chunks(path, t_start, x0, t_out, seg, names) -> tuple:
+    """``path.integrate`` over the output times ``t_out`` in up to :data:`CHUNKS` calls, each from where the one
+    before ended (the integrals added up): a run under a budget (``seg.budget``) stops between two of them when
+    its seconds are spent, and within one when its steps are."""
+    size = max(1, -(-t_out.size // CHUNKS))
+    X = np.empty((len(x0), t_out.size))
+    Q = {name: np.zeros(t_out.size) for name in names}
+    t, x, done = t_start, np.asarray(x0, dtype=float), dict.fromkeys(names, 0.0)
+    for k in range(0, t_out.size, size):
+        grid = t_out[k:k + size]
+        Xs, Qs = path.integrate(t, x, grid, seg, integrals=names)
+        X[:, k:k + size] = Xs
+        for name in names:
+            Q[name][k:k + size] = done[name] + Qs[name]
+            done[name] += float(Qs[name][-1])
+        t, x = float(grid[-1]), Xs[:, -1].copy()
+    return X, Q

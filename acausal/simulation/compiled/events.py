@@ -37,7 +37,7 @@ import dataclasses
 
 import numpy as np
 
-from ...errors import SimulationError
+from ...errors import BudgetExceeded, SimulationError
 from ..events import crossings
 from ..loop import event_modes, integrate_segments
 
@@ -99,6 +99,8 @@ class Windows:
                                           f"{t!r} s towards the output at {t_out[k_out]!r} s in the present modes")
             try:
                 Xs, Qs = path.integrate(t, x, grid, seg, integrals=names, variation=True, max_num_steps=WINDOW_STEPS)
+            except BudgetExceeded:  # a run under a budget (the trust check's own) spent it: no closer look
+                raise
             except SimulationError:
                 if self.window > 1:
                     self.window //= 2  # the old mode may not go on far past a crossing: look closer

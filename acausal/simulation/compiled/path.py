@@ -19,8 +19,8 @@ import typing
 
 import numpy as np
 
-from ...errors import SimulationError
-from .calls import first_line, run_integrator
+from ...errors import BudgetExceeded, SimulationError
+from .calls import first_line, run_integrator, steps_taken
 
 MAX_NUM_STEPS = 1_000_000
 EPS = float(np.finfo(float).eps)
@@ -201,6 +201,13 @@ class CompiledPath:
                 tau = _scaled_grid(grid, t_start, span)
                 if tau is None:  # distinct times equal on the scaled time (a round-off apart): CVODES says so
                     tau = (grid - t_start) / span
+            budget = seg.budget if B == 1 else None  # a run under a budget (the trust check's own): counted
+            clamped = False
+            if budget is not None:
+                budget.spend(0, t_start)  # its seconds spent already: stop before the call
+                clamped = budget.steps_left < int(max_num_steps)
+                if clamped:  # a power of two: the integrators cached by their limits stay few
+                    max_num_steps = 1 << max(budget.steps_left, 1).bit_length() - 1
             limits = _Limits(float(rtol), float(atol), max_step / span,
                              None if first_step is None else first_step / span, int(max_num_steps))
             integ = self._integrator(entry, names, qexpr, tau, limits)
@@ -229,6 +236,11 @@ class CompiledPath:
                 xdot0 = span * self._state_rates(entry, t_start, call["x0"][:, 0], call["z0"][:, 0], P[2:, 0])
                 out, failed, said = run_integrator(self._integrator(entry, names, qexpr, tau, limits, xdot0), call,
                                                    True)
+            if budget is not None:
+                budget.spend(steps_taken(integ), t_end if failed is None else None)
+                if failed is not None and clamped and "TOO_MUCH_WORK" in failed:  # the budget's steps stopped it
+                    raise BudgetExceeded(f"stopped between t = {t_start:.6g} and {t_end:.6g} s, its steps over its "
+                                         f"budget of {budget.steps} steps")
             if failed is not None:
                 raise SimulationError(f"compiled path ({self.integrator_name(u)}): integration from t = "
                                       f"{t_start:g} s to {t_end:g} s failed: {failed}"

@@ -4,7 +4,9 @@ On the scipy path :meth:`Result.energy <acausal.results.result.Result.energy>` i
 interpolants. A power that amplifies the states' error (a switch's current through a tiny on-resistance, ``(v_src - v_C)
 / R_on``) is then off by far more than the states are, and the energy balance fails although every account holds at
 each instant. Carried as states, ``q' = P(t, x)``, the integrals are under the integrator's error control, as the
-compiled path's CVODES quadratures are. The integrands are :func:`acausal.compile.accounts.integrand_expr`.
+compiled path's CVODES quadratures are (on LSODA inside its error control, see
+:data:`acausal.simulation.scipy.driver.CORRECTOR_ON_WEIGHTS`). The integrands are
+:func:`acausal.compile.accounts.integrand_expr`.
 """
 from __future__ import annotations
 
