@@ -27,6 +27,11 @@ term                budget contribution                               physics (B
                     ``+ |k_es tau_ext - k_ms tau_a| S(w)``            external measure)
 ``quadratic``       ``S(w) (k_eq tau_ext^2 [|tau_ext| < |tau_a|]``    quadratic load friction while motor and load
                     ``+ k_mq tau_a^2 [|tau_ext| > |tau_a|])``         torques oppose (M6; BAM's pairing of names)
+``unpowered``       ``tau_u (1 - enable)``                            friction of the train while the motor is not
+                                                                      driven and the load back-drives it (the
+                                                                      input ``enable``: BAM's models fit torque-off
+                                                                      phases apart; the rotor's cogging, a gear
+                                                                      mesh loaded by the rotor's own inertia)
 ==================  ================================================  ==============================================
 
 ``tau_a = flange_a.tau``; ``S(w) = exp(-(|w|_c / w_s)^alpha)`` is the Stribeck curve. **The load measure**
@@ -56,7 +61,7 @@ __all__ = ["GearFriction", "CoulombViscousFriction", "StribeckFriction", "LoadDe
            "DirectionalFriction", "TERMS", "Clutch", "Brake"]
 
 #: the budget terms a law may have, in the order they are documented
-TERMS = ("coulomb", "stribeck", "load", "backdrive", "load_stribeck", "directional", "quadratic")
+TERMS = ("coulomb", "stribeck", "load", "backdrive", "load_stribeck", "directional", "quadratic", "unpowered")
 #: the terms that need the external load torque (``load_measure="external"``)
 EXTERNAL_TERMS = ("directional", "quadratic")
 
@@ -85,6 +90,7 @@ class GearFriction(PartialElementaryTwoFlangesAndSupport2):
     k_mq = Parameter(0.0, unit="1/(N.m)", min=0.0, doc="quadratic load friction per motor torque squared")
     k_eq = Parameter(0.0, unit="1/(N.m)", min=0.0, doc="quadratic load friction per external torque squared")
     w_c = Parameter(0.01, unit="rad/s", min=1e-12, doc="speed scale of the smooth Coulomb law")
+    tau_u = Parameter(0.0, unit="N.m", min=0.0, doc="Coulomb friction added while the motor is not driven")
 
     phi = Variable(unit="rad", doc="shaft angle relative to the support")
     w = Variable(unit="rad/s", doc="shaft speed relative to the support")
@@ -111,6 +117,8 @@ class GearFriction(PartialElementaryTwoFlangesAndSupport2):
         super().__init__(use_support=use_support, **kw)
         if load_measure == "external":
             self.tau_ext = RealInput(doc="external torque on the load [N m] (e.g. a pendulum's gravity torque)")
+        if "unpowered" in terms:
+            self.enable = RealInput(doc="1 while the motor is driven, 0 while not (a servo's torque enable)")
 
     def budget_terms(self) -> dict:
         """term name -> its contribution to the budget (sympy), for the chosen terms."""
@@ -127,6 +135,7 @@ class GearFriction(PartialElementaryTwoFlangesAndSupport2):
             "directional": lambda: (sp.Abs(self.k_e * ext - self.k_m * tau_a)
                                     + sp.Abs(self.k_es * ext - self.k_ms * tau_a) * S),
             # BAM M6: on while the two torques have opposite signs; the external term where the motor's is larger
+            "unpowered": lambda: self.tau_u * (1 - self.enable.value),
             "quadratic": lambda: S * (1 - sp.sign(ext) * sp.sign(tau_a)) / 2 * (
                 (1 + sp.sign(sp.Abs(tau_a) - sp.Abs(ext))) / 2 * self.k_eq * ext**2
                 + (1 + sp.sign(sp.Abs(ext) - sp.Abs(tau_a))) / 2 * self.k_mq * tau_a**2),

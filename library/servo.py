@@ -142,6 +142,8 @@ class PositionServo(Model):
                                      d=self.d)
         if self.load_measure == "external":
             connect(self.load_torque, self.friction.tau_ext)
+        if "unpowered" in self.friction_terms:
+            connect(self.enable, self.friction.enable)
         self.rotor = Inertia(J=self.armature)
         self.sensor = AngleSensor()
         self._chain("bus", self.bus_p, (self.driver.bus_p,))

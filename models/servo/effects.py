@@ -4,7 +4,8 @@ The candidates span the chain, firmware to sensor. Each is one library component
 :class:`~acausal.library.servo.PositionServo` (or a friction term, or a baseline parameter freed from its neutral
 value), with one parameter that sets its size:
 
-* friction (:class:`~acausal.library.friction.GearFriction` terms): ``stribeck``, ``load``, ``backdrive``;
+* friction (:class:`~acausal.library.friction.GearFriction` terms): ``stribeck``, ``load``, ``backdrive``,
+  ``unpowered_friction``;
 * firmware (:mod:`acausal.library.firmware`): ``goal_rate_limit``, ``goal_accel_limit``, ``error_deadband``,
   ``error_dependent_gain``, ``gain_error``, ``duty_limit``, ``punch``, ``loop_delay``;
 * electrics: ``supply_sag`` (a resistance between the logged supply voltage and the bridge),
@@ -89,6 +90,11 @@ EFFECTS = {e.id: e for e in [
     Effect(id="backdrive", slot="friction", component="backdrive", parameter="servo.friction.k_b",
            unit="1", zero=0.0, typical=0.2, bounds=(0.0, 2.0), scale=0.1,
            doc="more load friction while the load drives the gear (BAM M4's direction dependence)"),
+    Effect(id="unpowered_friction", slot="friction", component="unpowered", parameter="servo.friction.tau_u",
+           unit="N.m", zero=0.0, typical=0.02, bounds=(0.0, 1.0), scale=0.01,
+           doc="more Coulomb friction while the torque is off and the load back-drives the train (BAM fits "
+               "torque-off phases apart; the rotor's cogging, a mesh loaded by the rotor's own inertia; typical 0.02 N "
+               "m, the XL330's powered Kc)"),
     Effect(id="goal_rate_limit", slot="goal", component=F + "GoalRateLimit", parameter="servo.goal_rate_limit.t_v",
            unit="s/rad", zero=0.0, typical=0.19, bounds=(0.0, 2.0), scale=0.1,
            doc="the firmware moves its internal goal no faster than 1/t_v (Feetech STS3215: 3400 steps/s = 5.2 rad/s, "

@@ -277,6 +277,18 @@ def test_a_bridge_that_brakes_with_the_torque_off_is_named_from_the_falls(tmp_pa
     assert v["heldout"]["extended"] < 0.6 * v["heldout"]["baseline"]
 
 
+@pytest.mark.slow
+def test_friction_while_the_torque_is_off_is_named_apart_from_the_powered_friction(tmp_path):
+    """0.05 N m more Coulomb friction while the torque is off (the load back-drives the train): the falls of
+    lift_and_drop show it against the powered phases' friction and the brake; named, size recovered."""
+    from acausal.models.servo import virtual
+    v = _diagnose(tmp_path, {"unpowered_friction": 0.05}, "--candidates",
+                  "unpowered_friction,torque_off_brake,backdrive,stribeck", "--max-effects", "1", gains=(150, 300, 600),
+                  trajectories=virtual.TRAJECTORIES, duration=3.0)
+    assert v["cause"] == "unpowered_friction", v["candidates"]
+    _recovered(v, "unpowered_friction", 0.05)
+
+
 # ------------------------------------------------------------------------------------------------ check
 def test_check_says_what_the_set_can_show(capsys):
     """`acausal check` on the XL330 set: its gains and trajectories, the torque-off segments of lift_and_drop,
