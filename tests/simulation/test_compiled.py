@@ -398,7 +398,9 @@ def test_a_failed_idas_initialisation_is_retried_from_the_consistent_start(monke
 def test_events_of_the_paper_actuator_on_the_compiled_path_match_the_scipy_path():
     """The replay of the paper's actuator (brake chopper, rectifier diode, two gear stages with modes) at
     8 mm / 2 s: at the start the diode leaves an exact zero (a crossing that changes no mode) and the chopper
-    crosses later in the same output interval; every one of the 34 switches must come at the scipy path's time."""
+    crosses later in the same output interval; every one of the 34 switches must come at the scipy path's time.
+    The reference is BDF at rtol 1e-11: at rtol 1e-9 BDF finds a grazing touch of the chopper at 1.081 s (a falling,
+    rising, falling triple at one time) that tighter runs on both paths do not."""
     from acausal.models.ankle import protocol
     from acausal.models.ankle.presets import preset
     from acausal.models.ankle.registry import spec
@@ -407,7 +409,8 @@ def test_events_of_the_paper_actuator_on_the_compiled_path_match_the_scipy_path(
     params.update({"stride_time": 2.0, "P_nominal": 0.008})
     inputs = spec("replay").condition_inputs(dict(zip(cm.param_names, cm.param_vector(params))))
     kw = dict(t_start=-0.5, params=params, inputs=inputs, n_points=251, rtol=1e-9, atol=1e-11)
-    ref, fast = cm.simulate(2.0, method="BDF", **kw), cm.simulate(2.0, method="CVODES", **kw)
+    ref = cm.simulate(2.0, method="BDF", **{**kw, "rtol": 1e-11, "atol": 1e-13})
+    fast = cm.simulate(2.0, method="CVODES", **kw)
     assert fast.solver.startswith(("CVODES", "IDAS")) and len(ref.events) == 34
     assert [e[1:] for e in fast.events] == [e[1:] for e in ref.events]
     assert np.allclose([e[0] for e in fast.events], [e[0] for e in ref.events], atol=1e-6)

@@ -28,8 +28,11 @@ def test_every_candidate_is_the_baseline_at_zero_and_moves_the_arm_at_its_typica
     the play's stiff flanks are the only differences), and its typical size changes the replay of a real log
     (on a log that reaches the limit, for the hard limits)."""
     # sin_sin at kp 200; sin_time_square (goal up to 11 rad/s) for the rate limit, at kp 400 (duty saturated) for
-    # the duty limit
-    rec, special = _xl330(5), {"goal_rate_limit": _xl330(6), "duty_limit": _xl330(10)}
+    # the duty limit; lift_and_drop at kp 100 (the torque off for 4 s) for what acts only with the torque off
+    drop = _xl330(0)
+    assert drop.meta["trajectory_name"] == "lift_and_drop"
+    rec, special = _xl330(5), {"goal_rate_limit": _xl330(6), "duty_limit": _xl330(10), "unpowered_friction": drop,
+                               "torque_off_brake": drop}
     base = {r.name: replay(replay_job(model_key(()), r, {}))[0] for r in (rec, *special.values())}
     step = 2 * np.pi / 4096
     for e in fx.EFFECTS.values():
