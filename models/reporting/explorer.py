@@ -180,7 +180,8 @@ GLOSSARY = [
 ]
 #: the energy chain's boxes and the points between them (the diagram of the introduction)
 _BOXES = [("power supply", "lab supply"), ("motor driver", "EPOS2 70/10"), ("motor", "winding"),
-          ("rotor and gears", "86:1 x 10:1"), ("MACCEPA linkage", "and spring"), ("ankle joint", "moves along the gait")]
+          ("rotor and gears", "86:1 x 10:1"), ("MACCEPA linkage", "and spring"),
+          ("ankle joint", "moves along the gait")]
 _POINTS = ["1 source", "2 driver output", "3 motor (k i w)", "4 moment arm (link)", "5 joint (output)"]
 _LOSSES = ["driver loss", "motor loss", "gearing loss", "output loss"]
 
