@@ -123,7 +123,8 @@ INTRO_FIGURES = [
     ("fig13_tracking.png", "Fig. 13: the moment arm's planned and actual angle at 18 mm precompression, 1.2 and "
      "3 s/stride, in closed loop. The paper: at 1.2 s/stride the motor cannot follow in push-off."),
     ("fig14_calibration.png", "Fig. 14: the motor current of the paper's simple model (Eq. 4) against a virtual "
-     "bench recording (simulated, not measured), before and after calibration."),
+     "bench recording (simulated, not measured), before and after calibrating R, J, b as the paper did, and with a "
+     "mesh efficiency calibrated beside them."),
 ]
 #: the presets the page names: (name, what it is)
 PRESETS = [
