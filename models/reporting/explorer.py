@@ -11,9 +11,18 @@ the stride (``power_traces.csv``); the loss and efficiency maps of Figs. 9-12 an
 paper's claims about each figure; the design maps of Figs. 16-17 (spring stiffness x precompression, a Sankey per
 design); Table 1 with each cell's deviation from the paper; the claims table. A CSV the run did not write (a
 partial run) leaves its part out and the page says which file is missing.
+
+The paper's page opens with an introduction for a reader new to the paper (:func:`introduction`, static HTML written
+here): what the paper measured, the energy chain and its five measurement points as an inline SVG, the presets and
+which one reproduces the paper, a headline counted from ``claims.csv`` (how many claims hold with each preset, how many
+of those were fitted targets and how many predictions), what the claims table's *fit* column means, Figs. 7, 13 and 14
+(the run's PNGs, embedded as data URIs so the page stays one offline file), a link to ``report.md`` and a glossary of
+the page's words.
 """
 from __future__ import annotations
 
+import base64
+import html
 import sys
 from pathlib import Path
 
@@ -73,7 +82,8 @@ def paper_page(out_dir, path=None) -> Path:
     returns its path. A ModelError when plotly is missing (naming the install command)."""
     data = paper_data(out_dir)
     path = Path(out_dir) / "index.html" if path is None else path
-    text = page("CYBERLEGs ankle actuator: the energy-chain explorer", PAPER_BODY, PAPER_JS, data, "acausal paper")
+    body = PAPER_BODY.replace(INTRO_SLOT, introduction(out_dir, data["tables"].get("claims")))
+    text = page("CYBERLEGs ankle actuator: the energy-chain explorer", body, PAPER_JS, data, "acausal paper")
     return write_page(path, text, "acausal paper")
 
 
@@ -100,6 +110,184 @@ def compare_page(out_dir, rows, no_series_link=(), path=None) -> Path:
     path = out_dir / "index.html" if path is None else path
     text = page("acausal compare: energy chains side by side", COMPARE_BODY, COMPARE_JS, data, "acausal compare")
     return write_page(path, text, "acausal compare --html")
+
+
+# ---------------------------------------------------------------------------------------------- the introduction
+
+#: where :func:`introduction` goes in :data:`PAPER_BODY`
+INTRO_SLOT = "<!-- introduction -->"
+#: the figures the introduction shows: (PNG in the run's folder, caption)
+INTRO_FIGURES = [
+    ("fig07_direct_drive.png", "Fig. 7: the power the actuator and the bench's output motor draw from the supply "
+     "over one stride (8 mm, 3 s/stride). The paper: the output motor's peak about 1.4 times the actuator's."),
+    ("fig13_tracking.png", "Fig. 13: the moment arm's planned and actual angle at 18 mm precompression, 1.2 and "
+     "3 s/stride, in closed loop. The paper: at 1.2 s/stride the motor cannot follow in push-off."),
+    ("fig14_calibration.png", "Fig. 14: the motor current of the paper's simple model (Eq. 4) against a virtual "
+     "bench recording (simulated, not measured), before and after calibrating R, J, b as the paper did, and with a "
+     "mesh efficiency calibrated beside them."),
+]
+#: the presets the page names: (name, what it is)
+PRESETS = [
+    ("paper_fit", "the headline and the one that reproduces the paper: the library's components (driver, motor, "
+     "lossy gears, frictional MACCEPA linkage) with the parameters the paper does not publish inferred from numbers "
+     "it does publish. The claims whose numbers were targets of that inference are marked <i>fit</i> in the claims "
+     "table; every other number is a prediction."),
+    ("library", "the a-priori parameter set: datasheet motor, catalogue gear efficiency, lossless linkage, the "
+     "driver draw the paper measured; nothing fitted to the paper. Shown beside <code>paper_fit</code> to show what "
+     "the inference changes."),
+    ("paper_optimized_total_arm_side", "the paper's own model, its Eq. 4 (ideal gears and driver) with Table 2's "
+     "optimized parameters: the design maps (Figs. 16-17) show it beside <code>paper_fit</code>."),
+]
+#: the glossary: (word as the page shows it, meaning)
+GLOSSARY = [
+    ("source", "the electrical power the driver takes from the supply (measurement point 1)."),
+    ("driver output", "the electrical power the motor driver delivers to the motor's terminals (point 2)."),
+    ("motor (k i w)", "the mechanical power at the motor shaft: torque constant k x current i x speed w, as the paper "
+     "computes it from the motor current (its Eq. 6; point 3)."),
+    ("moment arm (link)", "the mechanical power at the moment arm, after the gears (point 4)."),
+    ("joint (output)", "the mechanical power delivered to the ankle joint, after the MACCEPA linkage and its spring "
+     "(point 5)."),
+    ("stage loss, loss [% of previous]", "the energy lost between two neighbouring points, as a share of the energy "
+     "at the earlier one (driver, motor, rotor and gearing, output loss)."),
+    ("efficiency", "the energy at a point over the source's, per stride; the overall efficiency is the joint's."),
+    ("J/stride", "energy per stride in joules: the power integrated over one stride."),
+    ("stride time", "the duration of one walking cycle [s/stride]; shorter is faster walking."),
+    ("precompression (P)", "how far the MACCEPA's spring is compressed before the arm moves [mm]: higher is a "
+     "stiffer joint."),
+    ("preset", "a named set of parameter values on top of the components' defaults (see above)."),
+    ("bench, closed_loop", "the simulation of the paper's test bench: the joint moved along the gait, the moment arm "
+     "under a position controller within the driver's voltage, so it can lag where the motor is too slow."),
+    ("replay", "the simulation with the joint and arm angles prescribed exactly (the paper's Simulink approach): it "
+     "gives the current and voltage the plan requires."),
+    ("duty, required duty, duty limit", "the fraction of the supply voltage the driver applies; the driver can apply "
+     "at most 0.9 of it. Where the replay requires more, the motor cannot follow the plan (x or hatched cells)."),
+    ("balance residual", "what the energy balance leaves over (source - losses - output - stored change) as a "
+     "fraction of the source: a check of the simulation, near zero."),
+    ("tracking error", "the difference between the planned and the actual moment-arm angle in closed loop."),
+    ("Sankey diagram", "the energy chain drawn as flows: the width of each band is the energy per stride."),
+    ("claim, holds", "one statement of the paper, checked on this run's CSV files; <i>holds</i> says whether the "
+     "simulation agrees within the tolerance the claim is read with (the last column)."),
+    ("fit", "yes: the claim's numbers were targets of the inference of <code>paper_fit</code>, so that it holds is "
+     "partly by construction; no: a prediction the inference did not see."),
+    ("Eq. 4", "the paper's simple actuator model: a DC motor behind ideal gears, driven from an ideal voltage."),
+    ("virtual bench recording", "a recording simulated with the full component chain and realistic sensors, standing "
+     "in for the paper's bench data, which are not public."),
+    ("design map, k, N/mm", "the efficiency over spring stiffness k (in N/mm) x precompression (Figs. 16-17)."),
+    ("copper loss", "the winding's R i^2 heat: the motor's loss in the model."),
+    ("Table 1 condition", "8 mm precompression, 2 s/stride: the experiment of the paper's Table 1 and Fig. 8, marked "
+     "red on the maps."),
+    ("pt (points)", "percentage points: the difference of two percentages (Table 1's deviations)."),
+    ("rms", "root mean square: the typical size of a quantity that changes sign over the stride."),
+]
+#: the energy chain's boxes and the points between them (the diagram of the introduction)
+_BOXES = [("power supply", "lab supply"), ("motor driver", "EPOS2 70/10"), ("motor", "winding"),
+          ("rotor and gears", "86:1 x 10:1"), ("MACCEPA linkage", "and spring"),
+          ("ankle joint", "moves along the gait")]
+_POINTS = ["1 source", "2 driver output", "3 motor (k i w)", "4 moment arm (link)", "5 joint (output)"]
+_LOSSES = ["driver loss", "motor loss", "gearing loss", "output loss"]
+
+
+def chain_svg() -> str:
+    """The energy chain as an inline SVG: six boxes, the five measurement points between them, each stage's loss
+    below it (electrical points blue, mechanical ones green)."""
+    bw, gap, h = 150, 48, 150
+    w = 12 + len(_BOXES) * bw + (len(_BOXES) - 1) * gap
+    out = [f'<svg id="chain-diagram" viewBox="0 0 {w} {h}" width="100%" style="max-width:{w}px" role="img" '
+           'aria-label="the energy chain from the power supply to the ankle joint with its five measurement points">',
+           '<defs><marker id="arrow" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="7" markerHeight="7" '
+           'orient="auto-start-reverse"><path d="M0,0 L10,5 L0,10 z" fill="#555"/></marker></defs>']
+    for i, (name, detail) in enumerate(_BOXES):
+        x = 6 + i * (bw + gap)
+        out.append(f'<rect x="{x}" y="30" width="{bw}" height="44" rx="6" fill="#eef2f7" stroke="#4a78b5"/>')
+        out.append(f'<text x="{x + bw / 2}" y="49" text-anchor="middle" font-size="12">{html.escape(name)}</text>')
+        out.append(f'<text x="{x + bw / 2}" y="66" text-anchor="middle" font-size="10.5" fill="#555">'
+                   f'{html.escape(detail)}</text>')
+        if i < len(_POINTS):
+            x0, x1 = x + bw, x + bw + gap
+            colour = "#2b6cb0" if i < 2 else "#2f855a"
+            out.append(f'<line x1="{x0}" y1="52" x2="{x1 - 2}" y2="52" stroke="#555" marker-end="url(#arrow)"/>')
+            out.append(f'<circle cx="{(x0 + x1) / 2}" cy="52" r="6" fill="{colour}"/>')
+            out.append(f'<text x="{(x0 + x1) / 2}" y="18" text-anchor="middle" font-size="11" fill="{colour}">'
+                       f'{html.escape(_POINTS[i])}</text>')
+        if 0 < i < len(_POINTS):
+            out.append(f'<line x1="{x + bw / 2}" y1="74" x2="{x + bw / 2}" y2="108" stroke="#d0613c" '
+                       'stroke-dasharray="3,2" marker-end="url(#arrow)"/>')
+            out.append(f'<text x="{x + bw / 2}" y="124" text-anchor="middle" font-size="11" fill="#d0613c">'
+                       f'{html.escape(_LOSSES[i - 1])}</text>')
+    out.append(f'<text x="6" y="{h - 6}" font-size="10" fill="#555">blue points: electrical power; green points: '
+               'mechanical power; each stage between two points loses the energy shown below it (as heat; the '
+               'supply takes nothing back)</text></svg>')
+    return "".join(out)
+
+
+def headline(claims: dict | None) -> list[dict]:
+    """Per preset of ``claims.csv`` (columns as :func:`~acausal.results.html.read_csv` gives them; None when the run
+    wrote none): how many claims it has, how many hold, how many of those were fitted targets (``used_in_fit``) and
+    how many predictions, how many were not checked."""
+    if not claims:
+        return []
+    d = claims["data"]
+    rows = [{c: d[c][i] for c in claims["columns"]} for i in range(len(d[claims["columns"][0]]))]
+    out = []
+    for preset in dict.fromkeys(r["preset"] for r in rows):
+        mine = [r for r in rows if r["preset"] == preset]
+        held = [r for r in mine if r["holds"] == "yes"]
+        out.append(dict(preset=preset, claims=len(mine), hold=len(held),
+                        fitted=sum(r["used_in_fit"] == "yes" for r in held),
+                        predictions=sum(r["used_in_fit"] != "yes" for r in held),
+                        unchecked=sum(r["holds"] == "not checked" for r in mine)))
+    return out
+
+
+def _image(path: Path) -> str:
+    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+
+
+def introduction(out_dir, claims: dict | None) -> str:
+    """The page's introduction (HTML): the paper, the energy chain (:func:`chain_svg`), the presets, the headline
+    (:func:`headline`, from ``claims.csv``), the *fit* column, Figs. 7, 13 and 14, report.md and the glossary."""
+    out_dir = Path(out_dir)
+    L = ['<h2>What this page shows</h2>',
+         '<p>The paper (<i>energetics of the CYBERLEGs ankle prosthesis\'s MACCEPA actuator</i>, section 4) put the '
+         'actuator on a test bench that moved its ankle joint along a healthy gait and measured where the electrical '
+         'energy of a stride goes: how much the motor driver, the motor, the gears and the linkage each lose on the '
+         'way to the joint, over six spring precompressions and six walking speeds. This page shows the same '
+         'measurements in simulation, from this run\'s CSV files.</p>',
+         '<h3>The energy chain and its five measurement points</h3>', chain_svg()]
+    L += ['<h3>Presets: which parameters</h3><ul>']
+    L += [f'<li><code>{name}</code>: {text}</li>' for name, text in PRESETS]
+    L += ['</ul>']
+    heads = headline(claims)
+    if heads:
+        L += ['<h3>Headline (<code>claims.csv</code>)</h3>', '<ul id="headline">']
+        for h in heads:
+            L.append(f'<li data-preset="{html.escape(str(h["preset"]))}"><b>{html.escape(str(h["preset"]))}</b>: '
+                     f'<b><span class="hold">{h["hold"]}</span> of <span class="claims">{h["claims"]}</span> '
+                     f'claims hold</b>; <span class="fitted">{h["fitted"]}</span> of them fitted targets, '
+                     f'<span class="predictions">{h["predictions"]}</span> predictions'
+                     + (f'; <span class="unchecked">{h["unchecked"]}</span> not checked on this run'
+                        if h["unchecked"] else '') + '.</li>')
+        L += ['</ul>', '<p class="note">The claims table (at the end of the page) has a <b>fit</b> column: <i>yes</i> '
+              'means the claim\'s numbers were among the targets the <code>paper_fit</code> parameters were '
+              'inferred from, so that it holds is partly by construction; <i>no</i> means a prediction. A claim that '
+              'does not hold says by how much and what in the model works against it.</p>']
+    else:
+        L += ['<p class="note">Not in this run: <code>claims.csv</code> (no headline).</p>']
+    L += ['<h3>Three of the paper\'s figures</h3>',
+          '<p class="note">Every figure of the paper, with the text that says which of the paper\'s trends the model '
+          'shows and why not where it does not, is in the report: <a href="report.md">report.md</a>.</p>',
+          '<div class="row">']
+    for name, text in INTRO_FIGURES:
+        path = out_dir / name
+        if path.exists():
+            L.append(f'<div class="col"><figure style="margin:0"><img src="{_image(path)}" alt="{html.escape(name)}" '
+                     f'style="width:100%"><figcaption class="note">{html.escape(text)}</figcaption></figure></div>')
+        else:
+            L.append(f'<div class="col"><p class="note">Not in this run: <code>{html.escape(name)}</code>.</p></div>')
+    L += ['</div>', '<h3>Glossary</h3>', '<dl id="glossary">']
+    L += [f'<dt><b>{html.escape(word)}</b></dt><dd>{text}</dd>' for word, text in GLOSSARY]
+    L += ['</dl>', '<h2>The explorer</h2>']
+    return "\n".join(L)
 
 
 # ---------------------------------------------------------------------------------------------- the pages' scripts
@@ -131,7 +319,9 @@ const missing = f => `<p class="note">Not in this run: <code>${f}</code>.</p>`;
 PAPER_BODY = """<h1>CYBERLEGs ankle actuator: where the energy of a stride goes</h1>
 <p class="note">The results of <code>acausal paper</code> on one page. Every number is read from the CSV files of this
 run (named under each part). Move the sliders or click a map cell to pick a bench condition; hover for values with
-units; drag to zoom, double-click to reset.</p>
+units; drag to zoom, double-click to reset. The full report, every table and figure next to the paper:
+<a href="report.md">report.md</a>.</p>
+<!-- introduction -->
 <div class="controls"><label>stride time <input type="range" id="stride-time"><span class="value"
 id="stride-time-value"></span></label><label>precompression <input type="range" id="precompression"><span
 class="value" id="precompression-value"></span></label><span id="condition-note" class="note"></span></div>

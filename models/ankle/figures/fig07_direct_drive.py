@@ -22,6 +22,7 @@ from acausal.models.ankle.paper import BESIDE, HEADLINE, comparison, pick  # noq
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns, write_csv  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
+from acausal.models.ankle.figures.trends import phase_of, push_off_span, verdict  # noqa: E402
 
 P, T = 0.008, 3.0
 #: (label, registered model, the paper's energy per stride in PAPER) of each drive; C9 reads the first two
@@ -70,7 +71,9 @@ def main(out_dir: Path, results=None) -> dict:
     ax.set_xlim(0, 1e3 * T)
     ax.set_title(f"Fig. 7: source power over one stride, {1e3 * P:g} mm precompression, {T:g} s/stride\n"
                  f"simulated output-motor peak = {peak_ratio:.2f} x actuator peak "
-                 f"(paper: about {PAPER['fig7_peak_ratio']:.1f} x)", fontsize=10)
+                 f"(paper: about {PAPER['fig7_peak_ratio']:.1f} x"
+                 + ("" if (peak_ratio > 1) == (PAPER["fig7_peak_ratio"] > 1) else ": the order is reversed")
+                 + ")", fontsize=10)
     ax.legend(loc="upper left", fontsize=9)
     ax.grid(alpha=0.3)
     axt.axis("off")
@@ -88,14 +91,7 @@ def main(out_dir: Path, results=None) -> dict:
                    "joint work [J]"],
                   [[r["drive"], f"{r['peak_source_power_W']:.0f}", f"{r['energy_per_stride_J']:.1f}",
                     _paper(r), f"{r['output_energy_J']:.1f}"] for r in rows])
-    md += ("\n\nThe paper's direct drive was the bench's output motor: it holds the joint on the gait angle while "
-           "the actuator pushes, so it is back-driven at push-off (its joint work is the actuator's with the sign "
-           f"turned) and its non-regenerative supply keeps none of it. With the actuator's own drive train (a "
-           f"guess) it needs {dd.peak_power['source']:.0f} W at peak and {dd.energy['source']:.1f} J per stride "
-           f"against the actuator's {act.peak_power['source']:.0f} W and {act.energy['source']:.1f} J (paper: "
-           "peak 40 % higher, energy about the same), so the paper's output drive train was not the actuator's. "
-           f"A forward direct drive (the design alternative) needs {fwd.peak_power['source']:.0f} W and "
-           f"{fwd.energy['source']:.1f} J: the series spring stores and returns energy and cuts the peak.")
+    md += "\n\n" + caption(act, dd, fwd)
     comps = [comparison("Fig. 7 peak source power, bench output motor / actuator", peak_ratio,
                         PAPER["fig7_peak_ratio"], "", "direct_drive", fmt=".2f",
                         note="The output motor's drive train is guessed as the actuator's: with it the motor that "
@@ -108,6 +104,51 @@ def main(out_dir: Path, results=None) -> dict:
                         PAPER["fig7_energy_direct"] / PAPER["fig7_energy_actuator"], "", "direct_drive", fmt=".2f")]
     return dict(title="Fig. 7: actuator against the bench's output motor and a direct drive (8 mm, 3 s/stride)", figures=[png],
                 csv=[curves_csv, summary_csv], markdown=md, comparisons=comps)
+
+
+def _peak(r) -> tuple:
+    """(peak source power [W], its time as a fraction of the stride) of one drive's result."""
+    p = np.asarray(r.power["source"])
+    k = int(np.argmax(p))
+    return float(p[k]), float((r.time[k] - r.time[0]) / (r.time[-1] - r.time[0]))
+
+
+def caption(act, dd, fwd) -> str:
+    """The figure's text: the order of the peaks against the paper's (4.1: the output motor's peak about 1.4 x
+    the actuator's, for about the same energy), for the bench's output motor and for the forward direct drive,
+    each computed from the three results (``act``: the actuator, ``dd``: the bench's output motor, ``fwd``: the
+    forward direct drive)."""
+    span = push_off_span(act.time, act.power["output"])
+    (pa, ta), (pd, td), (pf, tf) = _peak(act), _peak(dd), _peak(fwd)
+    ratio, ratio_f = pd / pa, pf / pa
+    t_peak = act.time[int(np.argmax(act.power["source"]))]
+    at_push = {k: float(np.interp(t_peak, dd.time, dd.power[k])) for k in ("source", "driver")}
+    where = lambda tt: f"{100 * tt:.0f} % of the stride, {phase_of(tt, span)}"  # noqa: E731
+    paper = f"the output motor's peak source power about {PAPER['fig7_peak_ratio']:.1f} x the actuator's"
+    lines = [verdict(
+        "Fig. 7", "order of the peaks, bench output motor against actuator", ratio > 1.0, paper,
+        f"the bench output motor peaks at {pd:.0f} W ({where(td)}), {ratio:.2f} x the actuator's {pa:.0f} W "
+        f"({where(ta)})" + ("" if ratio > 1.0 else ": the order is reversed"),
+        "" if ratio > 1.0 else
+        "the output motor holds the joint on the gait angle while the actuator pushes it, so at push-off, where "
+        "the actuator's peak is, it is back-driven and absorbs the joint's work; with the actuator's own drive "
+        "train as the guess for it (860:1 gears, the same motor and driver) its winding loses less there than it "
+        f"generates (driver output {at_push['driver']:.0f} W at the actuator's peak), and its supply, which takes "
+        f"nothing back, draws {at_push['source']:.0f} W (the driver's own consumption). Its own peak comes where it "
+        "drives the joint itself. The paper's output drive train is not published; one with a higher winding "
+        "resistance or a less efficient gear would draw more at push-off")]
+    lines.append(verdict(
+        "Fig. 7", "order of the peaks, forward direct drive against actuator", ratio_f > 1.0,
+        "a drive without the series spring needs the higher power peak (section 1: the spring amplifies power)",
+        f"the forward direct drive (the same drive train delivering the gait's torque and power to the joint "
+        f"without the spring) peaks at {pf:.0f} W ({where(tf)}), {ratio_f:.2f} x the actuator's",
+        "" if ratio_f > 1.0 else "the forward direct drive's peak is below the actuator's"))
+    lines.append(f"Energy per stride: actuator {act.energy['source']:.1f} J, bench output motor "
+                 f"{dd.energy['source']:.1f} J, forward direct drive {fwd.energy['source']:.1f} J (paper: "
+                 f"{PAPER['fig7_energy_actuator']:.0f} and {PAPER['fig7_energy_direct']:.0f} J, about the same). "
+                 "The bench output motor's joint work is the actuator's with the sign turned: its "
+                 "non-regenerative supply keeps none of what it absorbs.")
+    return "\n\n".join(lines)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,10 @@ from acausal.models.ankle.paper import BENCH, HEADLINE, comparison, pick  # noqa
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.reporting.tables import md_table, write_columns  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
+from acausal.models.ankle.figures.trends import verdict  # noqa: E402
+
+#: the loading phase where the paper sees the motor's losses (4.2.2: "between 200 and 1000 ms") [s]
+LOADING = (0.2, 1.0)
 
 P, T = 0.008, 2.0
 LABELS = {"source": "source (driver input)", "driver": "driver output (motor terminals)", "motor": "motor (k i w)",
@@ -63,6 +67,7 @@ def main(out_dir: Path, results=None) -> dict:
            "the shaft sensor behind the rotor, let alone the link (the paper sees such motor-power peaks at about "
            "100 and 1300 ms and notes they hardly reach the link power). The source power never goes negative: "
            "the rectifier does not regenerate.")
+    md += "\n\n" + caption(r)
     comps = [comparison("Fig. 8 most negative driver output power", float(power["driver"][k_min]),
                         PAPER["fig8_driver_min_power"], "W", ["geometry", "motor"],
                         note="The negative peak is the motor braking the returning moment arm (spring energy and "
@@ -70,6 +75,36 @@ def main(out_dir: Path, results=None) -> dict:
                              "established here. Either way the source stays near 0 W, as measured.")]
     return dict(title="Fig. 8: power along the chain (8 mm, 2 s/stride)", figures=[png], csv=[csv_path],
                 markdown=md, comparisons=comps)
+
+
+def _energy(t, p, a=None, b=None) -> float:
+    t, p = np.asarray(t, float), np.asarray(p, float)
+    sel = np.ones_like(t, bool) if a is None else (t >= a) & (t <= b)
+    t, p = t[sel], p[sel]
+    return float(np.sum(0.5 * np.diff(t) * (p[1:] + p[:-1])))
+
+
+def caption(r) -> str:
+    """The verdicts of Fig. 8 (4.2.1: the driver's output dips to about -50 W while the source stays near 0 W;
+    4.2.2: the motor's losses occur mainly in the loading phase, 200-1000 ms), from the bench result ``r``."""
+    t = np.asarray(r.time) - r.time[0]
+    p = r.power
+    lo_d, lo_s = float(np.min(p["driver"])), round(float(np.min(p["source"])), 2) + 0.0
+    dip = -65.0 <= lo_d <= -35.0 and lo_s > -1.0
+    loss = np.asarray(p["driver"]) - np.asarray(p["motor"])
+    share = _energy(t, loss, *LOADING) / _energy(t, loss)
+    return "\n\n".join([
+        verdict("Fig. 8", "the power returned to the driver", dip,
+                "the driver's output dips to about -50 W while the source stays near 0 W (no regeneration)",
+                f"driver output down to {lo_d:.1f} W, source down to {lo_s:.2f} W (read as: -35 to -65 W, above "
+                "-1 W, claim C10)", "" if dip else "the arm returns less power here than on the paper's bench"),
+        verdict("Fig. 8", "where the motor loses its energy", share > 0.5,
+                f"mainly in the loading phase, {1e3 * LOADING[0]:.0f}-{1e3 * LOADING[1]:.0f} ms, where the torque "
+                "rises at a low motor speed",
+                f"{100 * share:.0f} % of the motor's loss per stride falls in {1e3 * LOADING[0]:.0f}-"
+                f"{1e3 * LOADING[1]:.0f} ms ({100 * (LOADING[1] - LOADING[0]) / r.condition.stride_time:.0f} % of "
+                "the stride)",
+                "" if share > 0.5 else "the winding's loss follows the current, which is spread over the stride")])
 
 
 if __name__ == "__main__":
