@@ -266,7 +266,7 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     bad = infeasible(results)
 
     L = ["# CYBERLEGs ankle actuator: the paper's results in simulation", ""]
-    L += ["Reproduces section 4 of *cyberlegs-maccepa-energetics* (Table 1, Figs. 7-13, 15, Table 2) with "
+    L += ["Reproduces section 4 of *cyberlegs-maccepa-energetics* (Table 1, Figs. 7-17, Table 2) with "
           "`acausal.models.ankle.actuator` on the embedded healthy-gait data (Winter 1991), in two ways. What the "
           f"paper measured on its bench (Table 1, Figs. 8-12, 15) is simulated as the bench ran it ({BENCH}): the "
           "joint moved along the gait, the actuator's position controller tracking the planned moment-arm angle "
