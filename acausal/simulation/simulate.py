@@ -37,9 +37,11 @@ from ..results.trust import balance_limit, balance_scale, check, check_mode, int
 #: what the trust check's own runs (:func:`acausal.results.trust.energy_balance`'s tighter ones) may spend together at
 #: most: integrator steps (a legitimate run 10^4 times tighter takes a few times the steps of the run checked; a
 #: chattering switch, 75 times more already at 100 times tighter) and seconds of wall time. Spent, the check says
-#: it could not conclude (a warning) instead of running on.
+#: it could not conclude (a warning) instead of running on. The steps decide (the same on every machine: a
+#: chattering thermostat spends them in 3 s); the seconds are a safety net for a run whose steps are slow, set far
+#: above what the steps take, so that a slower machine does not turn a verdict into a warning
 RETRY_STEPS = 1_000_000
-RETRY_SECONDS = 5.0
+RETRY_SECONDS = 60.0
 
 __all__ = ["simulate", "check_tolerances", "initialize", "MAX_STEPS", "MAX_STEPS_EXPLICIT", "METHODS"]
 
