@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from ..reporting.tables import md_table, pct, write_csv
-from .claims import evaluate as evaluate_claims
-from .fit_record import fitted_claims, markdown as inference_markdown
+from .claims import (DRIVER_TOL, FRAGILE, IN_NAME_ONLY, NOT_TESTABLE, TARGET, TESTABLE, declared_targets,
+                     evaluate as evaluate_claims)
+from .fit_record import NEAR_BOUND, bounds_markdown, fitted_claims, markdown as inference_markdown, near_bounds
 from .presets import MOTOR_DATASHEET, paper_fit_record
 from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
@@ -289,6 +290,10 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
               f"{m}: {n:g} strides" for m, n in sorted({(r.condition.model, r.condition.strides) for r in results}))
           + "), so the bus and, in closed loop, the controller have settled.", ""]
     record = paper_fit_record()
+    claims = evaluate_claims(out_dir, HEADLINE, fitted_claims(record))
+    beside = evaluate_claims(out_dir, BESIDE)
+    write_csv(out_dir / "claims.csv", claims + beside)
+    L += fair_bar(claims, record)
     L += [f"## Inferred parameters (`{HEADLINE}`)", "",
           f"What the paper does not publish, inferred from the numbers of claims {inferred_from(record)} by "
           "weighted least squares over the protocol (`acausal.models.ankle.inference`; rerun with `acausal infer "
@@ -344,9 +349,6 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     L += ["## Summary of the comparison", "",
           f"{len(comps)} numbers compared with the paper; {n_diff} differ by more than 25 % (each with the "
           f"assumption that drives it, above).", ""]
-    claims = evaluate_claims(out_dir, HEADLINE, fitted_claims(record))
-    beside = evaluate_claims(out_dir, BESIDE)
-    write_csv(out_dir / "claims.csv", claims + beside)
     held = sum(c["holds"] == "yes" for c in claims)
     held_beside = sum(c["holds"] == "yes" for c in beside)
     unchecked = sum(c["holds"] == "not checked" for c in claims)
@@ -356,7 +358,8 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           + (f", {unchecked} not checked on this run" if unchecked else "")
           + f"; {held_beside} of {len(beside)} with the a-priori `{BESIDE}`. *fit*: the claim's numbers are "
           f"targets of the inference; every other claim is a prediction. A claim that does not hold says by how "
-          "much; no parameter leaves its documented range to make one hold.", "",
+          "much; no parameter leaves its documented range to make one hold. Which of them are testable predictions, "
+          "their margins and the fragile ones: the first section, *Calibration set and the bar*.", "",
           md_table(["id", "claim", "paper", f"`{HEADLINE}`", "holds", "fit", f"`{BESIDE}`", "holds",
                     "how it is read; what opposes it"],
                    [[c["id"], c["statement"], c["paper"], c["simulated"], f"**{c['holds']}**", c["used_in_fit"],
@@ -374,6 +377,60 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     path = out_dir / "report.md"
     path.write_text("\n".join(L) + "\n")
     return path
+
+
+def headline(claims: list[dict]) -> str:
+    """"N of M testable predictions hold" over the claims rows of one preset (:func:`~acausal.models.ankle.claims.
+    evaluate`), and whether that is at least half; the fragile ones among them named."""
+    testable = [c for c in claims if c["role"] == TESTABLE]
+    held = [c for c in testable if c["holds"] == "yes"]
+    fragile = [c["id"] for c in held if c["fragile"] == "yes"]
+    half = "at least half" if 2 * len(held) >= len(testable) else "fewer than half"
+    return (f"**{len(held)} of {len(testable)} testable predictions hold** ({half}"
+            + (f"; fragile: {', '.join(fragile)}" if fragile else "") + ")")
+
+
+def fair_bar(claims: list[dict], record: dict) -> list[str]:
+    """The report's first section: the calibration set (each claim's class with the paper's sentence that decides
+    it), the value, the margin to the tightest of its limits and "fragile"; the headline; the fitted values near a
+    bound of their range and the identifiability of each."""
+    by_role = {role: [c["id"] for c in claims if c["role"] == role]
+               for role in (TARGET, TESTABLE, IN_NAME_ONLY, NOT_TESTABLE)}
+    targets_held = sum(c["holds"] == "yes" for c in claims if c["role"] == TARGET)
+    fitted, declared = fitted_claims(record), declared_targets()
+    agree = ("The record's targets (`paper_fit.json`: `targets`, and `tolerance_trials` for C8) are the declared ones."
+             if fitted == declared else
+             f"**The record's targets ({', '.join(sorted(fitted))}) are not the declared ones "
+             f"({', '.join(sorted(declared))})**: the fit is of another calibration set.")
+    L = [f"## Calibration set and the bar (`{HEADLINE}`)", "",
+         f"{headline(claims)} with `{HEADLINE}`; {targets_held} of {len(by_role[TARGET])} targets hold (they were "
+         f"fitted, so that they hold says the fit reached them, not that the model predicts them); "
+         f"{len(by_role[IN_NAME_ONLY])} prediction in name only ({', '.join(by_role[IN_NAME_ONLY])}), "
+         f"{len(by_role[NOT_TESTABLE])} not testable from the published text ({', '.join(by_role[NOT_TESTABLE])}).", "",
+         "Each claim's class is declared in `acausal.models.ankle.claims` (`CALIBRATION`), with the paper's sentence "
+         "that decides it: a *target* is fitted (`acausal.models.ankle.targets`); a *testable prediction* depends only "
+         "on what the paper publishes; a claim is *not testable from the published text* where it rests on what the "
+         "paper does not publish. " + agree
+         + (f" The record: {record['calibration_set']}." if record.get("calibration_set") else ""), "",
+         f"*margin*: the tightest of the claim's limits (its reading in `claims.py`), with the fraction of that "
+         f"limit's tolerance to spare (a band's half width; a bound the paper states without a tolerance, its own "
+         f"size; C3's bowl depth against the {100 * DRIVER_TOL:g} points C2 reads the driver loss with, C12's rise "
+         f"against the mean efficiency at 1.2 s; C5 states a direction and has none); *fragile*: it holds with less "
+         f"than {100 * FRAGILE:g} % of that tolerance to spare.", "",
+         md_table(["id", "class", "the paper's sentence that decides it", "why", "value", "holds", "margin",
+                   "fragile"],
+                  [[c["id"], c["role"], f"\"{c['quote']}\"", c["why"], c["simulated"], f"**{c['holds']}**",
+                    c["margin"], "**fragile**" if c["fragile"] == "yes" else c["fragile"]] for c in claims]), ""]
+    near = near_bounds(record)
+    unreasoned = [b["parameter"] for b in near if not b["reason"]]
+    listed = ", ".join(f"`{b['parameter']}` at {100 * b['place']:.1f} % ({b['bound']}"
+                       + ("" if b["reason"] else ": **on a bound, no reason**") + ")" for b in near)
+    L += [f"Fitted values within {100 * NEAR_BOUND:g} % of a bound of their range: " + (listed or "none")
+          + (f"; {len(near) - len(unreasoned)} with a physical reason in the record (`bound_reason`)" if near else "")
+          + ". No range was widened to move one. Each fitted value, its place in its range and whether the "
+          "numbers identify it (sd: linearised, from the weighted Jacobian; identified: sd below a quarter of the "
+          "range and not on a bound):", "", bounds_markdown(record), ""]
+    return L
 
 
 def power_trace_rows(results) -> list[dict]:
