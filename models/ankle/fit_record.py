@@ -63,6 +63,47 @@ def write_tables(record: dict, out_dir: Path) -> Path:
     return path
 
 
+#: a fitted value closer than this fraction of its range to a bound needs a physical reason (``bound_reason``)
+NEAR_BOUND = 0.05
+
+
+def place(u: dict) -> float:
+    """Where an unknown's value lies in its range: 0 at the lower bound, 1 at the upper."""
+    return (u["value"] - u["lo"]) / (u["hi"] - u["lo"])
+
+
+def near_bounds(record: dict) -> list[dict]:
+    """The unknowns within :data:`NEAR_BOUND` of a bound of their range: parameter, place in the range, which
+    bound, and the record's physical reason for it (``bound_reason``; "" where the record gives none)."""
+    out = []
+    for u in record["unknowns"]:
+        f = place(u)
+        if f < NEAR_BOUND or f > 1 - NEAR_BOUND:
+            out.append(dict(parameter=u["parameter"], place=f, bound="lower" if f < 0.5 else "upper",
+                            reason=u.get("bound_reason", "")))
+    return out
+
+
+def bounds_markdown(record: dict) -> str:
+    """Every fitted value: its place in its range, whether it is within :data:`NEAR_BOUND` of a bound and the reason
+    the record gives (else flagged "on a bound, no reason"), and its identifiability (``identified``, ``sd``)."""
+    from ..reporting.tables import md_table
+
+    near = {b["parameter"]: b for b in near_bounds(record)}
+
+    def said(u):
+        b = near.get(u["parameter"])
+        if b is None:
+            return "no"
+        return f"{b['bound']}: " + (b["reason"] if b["reason"] else "**on a bound, no reason**")
+
+    rows = [[f"`{u['parameter']}`", f"{u['value']:.4g}", f"{100 * place(u):.1f} %", said(u),
+             "yes" if u["identified"] else "**no**", f"{u['sd']:.2g} ({100 * u['sd'] / (u['hi'] - u['lo']):.0f} % "
+             "of the range)"] for u in record["unknowns"]]
+    return md_table(["parameter", "value", "place in its range", f"within {100 * NEAR_BOUND:g} % of a bound",
+                     "identified", "sd"], rows)
+
+
 def fitted_claims(record: dict) -> frozenset:
     """The ids of the claims an inference record was fitted to (its targets' claims, and C8 when it chose the
     planner's tolerance for it)."""

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from ..reporting.tables import md_table, pct, write_csv
-from .claims import evaluate as evaluate_claims
-from .fit_record import fitted_claims, markdown as inference_markdown
+from .claims import (C11_GAIN, DRIVER_TOL, FRAGILE, IN_NAME_ONLY, NOT_TESTABLE, TARGET, TESTABLE, declared_targets,
+                     evaluate as evaluate_claims)
+from .fit_record import NEAR_BOUND, bounds_markdown, fitted_claims, markdown as inference_markdown, near_bounds
 from .presets import MOTOR_DATASHEET, paper_fit_record
 from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
@@ -289,6 +290,10 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
               f"{m}: {n:g} strides" for m, n in sorted({(r.condition.model, r.condition.strides) for r in results}))
           + "), so the bus and, in closed loop, the controller have settled.", ""]
     record = paper_fit_record()
+    claims = evaluate_claims(out_dir, HEADLINE, fitted_claims(record))
+    beside = evaluate_claims(out_dir, BESIDE)
+    write_csv(out_dir / "claims.csv", claims + beside)
+    L += fair_bar(claims, record)
     L += [f"## Inferred parameters (`{HEADLINE}`)", "",
           f"What the paper does not publish, inferred from the numbers of claims {inferred_from(record)} by "
           "weighted least squares over the protocol (`acausal.models.ankle.inference`; rerun with `acausal infer "
@@ -344,9 +349,6 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     L += ["## Summary of the comparison", "",
           f"{len(comps)} numbers compared with the paper; {n_diff} differ by more than 25 % (each with the "
           f"assumption that drives it, above).", ""]
-    claims = evaluate_claims(out_dir, HEADLINE, fitted_claims(record))
-    beside = evaluate_claims(out_dir, BESIDE)
-    write_csv(out_dir / "claims.csv", claims + beside)
     held = sum(c["holds"] == "yes" for c in claims)
     held_beside = sum(c["holds"] == "yes" for c in beside)
     unchecked = sum(c["holds"] == "not checked" for c in claims)
@@ -356,14 +358,19 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
           + (f", {unchecked} not checked on this run" if unchecked else "")
           + f"; {held_beside} of {len(beside)} with the a-priori `{BESIDE}`. *fit*: the claim's numbers are "
           f"targets of the inference; every other claim is a prediction. A claim that does not hold says by how "
-          "much; no parameter leaves its documented range to make one hold.", "",
+          "much; no parameter leaves its documented range to make one hold. Which of them are testable predictions, "
+          "their margins and the fragile ones: the first section, *Calibration set and the bar*.", "",
           md_table(["id", "claim", "paper", f"`{HEADLINE}`", "holds", "fit", f"`{BESIDE}`", "holds",
                     "how it is read; what opposes it"],
                    [[c["id"], c["statement"], c["paper"], c["simulated"], f"**{c['holds']}**", c["used_in_fit"],
                      b["simulated"], b["holds"], c["note"]] for c, b in zip(claims, beside)]), ""]
+    if not quick:
+        L += c11_markdown(c11_readings(out_dir))
     L += ["## Files", "", "- [`protocol.csv`](protocol.csv): one row per simulated condition (energies at the "
           "five points, stage losses, peak powers, efficiency, balance residual, tracking error, required duty).",
           "- [`claims.csv`](claims.csv): the paper's claims, the simulated value and whether each holds."]
+    L += ["- [`c11_readings.csv`](c11_readings.csv): C11's optimum under each reading of the efficiency."] \
+        if not quick else []
     L += ["- [`power_traces.csv`](power_traces.csv): power at the five points over the evaluated stride, per bench "
           "condition of both presets."] if traces else []
     from ..reporting.explorer import write_index  # the page reads the CSVs written above
@@ -374,6 +381,155 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
     path = out_dir / "report.md"
     path.write_text("\n".join(L) + "\n")
     return path
+
+
+def headline(claims: list[dict]) -> str:
+    """"N of M testable predictions hold" over the claims rows of one preset (:func:`~acausal.models.ankle.claims.
+    evaluate`), and whether that is at least half; the fragile ones among them named."""
+    testable = [c for c in claims if c["role"] == TESTABLE]
+    held = [c for c in testable if c["holds"] == "yes"]
+    fragile = [c["id"] for c in held if c["fragile"] == "yes"]
+    half = "at least half" if 2 * len(held) >= len(testable) else "fewer than half"
+    return (f"**{len(held)} of {len(testable)} testable predictions hold** ({half}"
+            + (f"; fragile: {', '.join(fragile)}" if fragile else "") + ")")
+
+
+def fair_bar(claims: list[dict], record: dict) -> list[str]:
+    """The report's first section: the calibration set (each claim's class with the paper's sentence that decides
+    it), the value, the margin to the tightest of its limits and "fragile"; the headline; the fitted values near a
+    bound of their range and the identifiability of each."""
+    by_role = {role: [c["id"] for c in claims if c["role"] == role]
+               for role in (TARGET, TESTABLE, IN_NAME_ONLY, NOT_TESTABLE)}
+    targets_held = sum(c["holds"] == "yes" for c in claims if c["role"] == TARGET)
+    fitted, declared = fitted_claims(record), declared_targets()
+    agree = ("The record's targets (`paper_fit.json`: `targets`, and `tolerance_trials` for C8) are the declared ones."
+             if fitted == declared else
+             f"**The record's targets ({', '.join(sorted(fitted))}) are not the declared ones "
+             f"({', '.join(sorted(declared))})**: the fit is of another calibration set.")
+    L = [f"## Calibration set and the bar (`{HEADLINE}`)", "",
+         f"{headline(claims)} with `{HEADLINE}`; {targets_held} of {len(by_role[TARGET])} targets hold (they were "
+         f"fitted, so that they hold says the fit reached them, not that the model predicts them); "
+         f"{len(by_role[IN_NAME_ONLY])} prediction in name only ({', '.join(by_role[IN_NAME_ONLY])}), "
+         f"{len(by_role[NOT_TESTABLE])} not testable from the published text ({', '.join(by_role[NOT_TESTABLE])}).", "",
+         "Each claim's class is declared in `acausal.models.ankle.claims` (`CALIBRATION`), with the paper's sentence "
+         "that decides it: a *target* is fitted (`acausal.models.ankle.targets`); a *testable prediction* depends only "
+         "on what the paper publishes; a claim is *not testable from the published text* where it rests on what the "
+         "paper does not publish. " + agree
+         + (f" The record: {record['calibration_set']}." if record.get("calibration_set") else ""), "",
+         f"*margin*: the tightest of the claim's limits (its reading in `claims.py`), with the fraction of that "
+         f"limit's tolerance to spare (a band's half width; a bound the paper states without a tolerance, its own "
+         f"size; C3's bowl depth against the {100 * DRIVER_TOL:g} points C2 reads the driver loss with, C12's rise "
+         f"against the mean efficiency at 1.2 s; C5 states a direction and has none); *fragile*: it holds with less "
+         f"than {100 * FRAGILE:g} % of that tolerance to spare.", "",
+         md_table(["id", "class", "the paper's sentence that decides it", "why", "value", "holds", "margin",
+                   "fragile"],
+                  [[c["id"], c["role"], f"\"{c['quote']}\"", c["why"], c["simulated"], f"**{c['holds']}**",
+                    c["margin"], "**fragile**" if c["fragile"] == "yes" else c["fragile"]] for c in claims]), ""]
+    near = near_bounds(record)
+    unreasoned = [b["parameter"] for b in near if not b["reason"]]
+    listed = ", ".join(f"`{b['parameter']}` at {100 * b['place']:.1f} % ({b['bound']}"
+                       + ("" if b["reason"] else ": **on a bound, no reason**") + ")" for b in near)
+    L += [f"Fitted values within {100 * NEAR_BOUND:g} % of a bound of their range: " + (listed or "none")
+          + (f"; {len(near) - len(unreasoned)} with a physical reason in the record (`bound_reason`)" if near else "")
+          + ". No range was widened to move one. Each fitted value, its place in its range and whether the "
+          "numbers identify it (sd: linearised, from the weighted Jacobian; identified: sd below a quarter of the "
+          "range and not on a bound):", "", bounds_markdown(record), ""]
+    return L
+
+
+#: C11 (4.4, Fig. 16) at 1.2 s/stride, the design it compares with [N/m, m] and the inertia that stands for none
+#: on the motor shaft (motor.J overridden; the gearhead's own input inertia is kept) [kg m2]
+C11_STRIDE, C11_DESIGN, NO_INERTIA = 1.2, (130e3, 0.007), 1e-9
+#: the rectifier's burnt power: what the motor sends back and a regenerating supply would take (E_source less it is
+#: the integral of the driver's bus power)
+BURNT = "rect.loss_power"
+
+
+def returned_energy(ks, Ps, stride_time: float, preset_name: str = HEADLINE, overrides: dict | None = None):
+    """Energy per stride [J] the non-regenerative rectifier burns in each design (NaN where infeasible), planned
+    and replayed as :func:`acausal.models.bench.design.evaluate_designs` does its designs."""
+    from ..bench import design
+    given, values = design.design_params(preset_name, overrides)
+    d = design.plan_designs(ks, Ps, stride_time, values)
+    out = np.full(len(d.k), np.nan)
+    if not d.feasible.any():
+        return out
+    sim, T = design.chain_model(), stride_time
+    pb = sim.param_batch([{**given, "stride_time": T, "link.k": k, "P_nominal": P}
+                          for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
+    vals = sim.evaluate(d.t, params=pb, names=[BURNT], inputs={
+        "ankle.phi_ref": design.PeriodicSplineBatch(d.t, d.theta[:, None], T, "gait angle"),
+        "arm_target.signal": design.PeriodicSplineBatch(d.t, d.phi.T, T, "planned moment-arm angles")})
+    out[d.feasible] = np.mean(vals[BURNT], axis=-1) * T
+    return out
+
+
+def c11_row(dmap, key: str, reading: str, reference: tuple = C11_DESIGN, note: str = "") -> dict:
+    """One reading of C11 on a design map: its grid optimum among the designs the motor can follow, the value at
+    ``reference`` (k [N/m], P [m]) and the gain, and whether the optimum is C11's (softer than the reference, at
+    least :data:`C11_GAIN` above it)."""
+    k, P, best = dmap.optimum(key)
+    at = dmap.at(*reference, key)
+    edge = [name for name, v, axis in (("k", k, dmap.k), ("P", P, dmap.P)) if v in (axis.min(), axis.max())]
+    return dict(reading=reading, optimum_kNpm=k / 1e3, optimum_P_mm=P * 1e3, efficiency=best,
+                reference_kNpm=reference[0] / 1e3, reference_P_mm=reference[1] * 1e3, efficiency_at_reference=at,
+                gain_points=100 * (best - at), lower_stiffness=k < reference[0],
+                as_c11=bool(k < reference[0] and best - at >= C11_GAIN), on_grid_edge=", ".join(edge), note=note)
+
+
+def c11_readings(out_dir: Path, preset_name: str = HEADLINE) -> list[dict]:
+    """C11 under the readings the paper's text leaves open (4.4 does not say which efficiency Fig. 16 maps), on
+    the chain of ``preset_name`` at 1.2 s/stride over the design grid of :mod:`acausal.models.bench.design` (grid
+    optima, not refined): the chain's own E_output / E_source; the same with a regenerating supply; the motor's
+    own efficiency E_motor / E_driver; without inertia on the motor shaft; and the chain's efficiency measured from
+    the model's own peak-power optimum (``design_optima.csv``) instead of the paper's 130 N/mm, 7 mm. Writes
+    ``c11_readings.csv``."""
+    from ..bench import design
+    from .claims import read_csv
+    T = C11_STRIDE
+    m = design.efficiency_map(T, preset_name, executor="serial")
+    K, P = np.meshgrid(m.k, m.P, indexing="ij")
+    v = m.values
+    burnt = returned_energy(K.ravel(), P.ravel(), T, preset_name).reshape(K.shape)
+    v["regenerating"] = v["E_output_J"] / (v["E_source_J"] - burnt)
+    v["motor"] = v["E_motor_J"] / v["E_driver_J"]
+    inertia_free = design.efficiency_map(T, preset_name, overrides={"motor.J": NO_INERTIA}, executor="serial")
+    rows = [c11_row(m, "efficiency", "the chain's E_output / E_source (as C11 is checked)"),
+            c11_row(m, "regenerating", "a regenerating supply: E_output / (E_source - what the rectifier burns)"),
+            c11_row(m, "motor", "the motor's own efficiency, E_motor / E_driver"),
+            c11_row(inertia_free, "efficiency", f"without inertia on the motor shaft (motor.J = {NO_INERTIA:g} kg m2)")]
+    peak = next((r for r in read_csv(Path(out_dir) / "design_optima.csv") if r["preset"] == preset_name
+                 and math.isclose(r["stride_time_s"], T) and not r.get("variant")), None) \
+        if (Path(out_dir) / "design_optima.csv").exists() else None
+    if peak is not None:
+        rows.append(c11_row(m, "efficiency", "the chain's, from the model's own peak-power optimum",
+                            (1e3 * peak["peak_power_optimum_kNpm"], 1e-3 * peak["peak_power_optimum_P_mm"]),
+                            "the paper's design criterion (minimum peak moment-arm power, exact plan) on this model"))
+    write_csv(Path(out_dir) / "c11_readings.csv", rows)
+    return rows
+
+
+def c11_markdown(rows: list[dict]) -> list[str]:
+    """The report's C11 section: the table of readings and the verdict read from it."""
+    from ..bench import design
+    c11 = [r for r in rows if r["as_c11"]]
+    lower = [r["reading"] for r in rows if r["lower_stiffness"]]
+    verdict = ("**reproduced** under " + "; ".join(r["reading"] for r in c11) if c11 else
+               f"**not reproduced**: under no reading is the optimum softer than the reference design and at least "
+               f"{100 * C11_GAIN:g} points above it")
+    return ["## C11 under the readings the paper leaves open", "",
+            f"Section 4.4 does not say which efficiency Fig. 16 maps. C11 at {C11_STRIDE:g} s/stride on the "
+            f"`{HEADLINE}` chain, read several ways (grid {design.K_GRID[0] / 1e3:g}-{design.K_GRID[-1] / 1e3:g} "
+            f"N/mm x {design.P_GRID[0] * 1e3:g}-{design.P_GRID[-1] * 1e3:g} mm, {design.K_GRID.size} x "
+            f"{design.P_GRID.size} designs, grid optima among the designs the motor can follow, not refined; "
+            "`c11_readings.csv`): C11 is " + verdict + "."
+            + (f" The optimum is softer than the reference under: {'; '.join(lower)}." if lower else ""), "",
+            md_table(["reading", "optimum", "efficiency", "reference design", "efficiency there", "gain",
+                      "optimum on the grid's edge"],
+                     [[r["reading"], f"{r['optimum_kNpm']:.0f} N/mm, {r['optimum_P_mm']:.0f} mm",
+                       f"{100 * r['efficiency']:.1f} %", f"{r['reference_kNpm']:.0f} N/mm, {r['reference_P_mm']:.0f} mm",
+                       f"{100 * r['efficiency_at_reference']:.1f} %", f"{r['gain_points']:+.1f} points",
+                       r["on_grid_edge"] or "no"] for r in rows]), ""]
 
 
 def power_trace_rows(results) -> list[dict]:
