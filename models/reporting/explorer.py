@@ -220,10 +220,15 @@ def chain_svg() -> str:
     return "".join(out)
 
 
+#: the classes of the claims (``claims.csv``'s ``role``: acausal.models.ankle.claims' calibration set)
+TARGET, TESTABLE, IN_NAME_ONLY = "target", "testable prediction", "prediction in name only"
+
+
 def headline(claims: dict | None) -> list[dict]:
     """Per preset of ``claims.csv`` (columns as :func:`~acausal.results.html.read_csv` gives them; None when the run
-    wrote none): how many claims it has, how many hold, how many of those were fitted targets (``used_in_fit``) and
-    how many predictions, how many were not checked."""
+    wrote none): how many claims it has, how many hold, how many of those were fitted targets (``used_in_fit``),
+    how many of the testable predictions (``role``) hold of how many, how many predictions in name only hold, and
+    how many were not checked."""
     if not claims:
         return []
     d = claims["data"]
@@ -232,9 +237,11 @@ def headline(claims: dict | None) -> list[dict]:
     for preset in dict.fromkeys(r["preset"] for r in rows):
         mine = [r for r in rows if r["preset"] == preset]
         held = [r for r in mine if r["holds"] == "yes"]
+        testable = [r for r in mine if r.get("role") == TESTABLE]
         out.append(dict(preset=preset, claims=len(mine), hold=len(held),
                         fitted=sum(r["used_in_fit"] == "yes" for r in held),
-                        predictions=sum(r["used_in_fit"] != "yes" for r in held),
+                        testable=len(testable), testable_hold=sum(r["holds"] == "yes" for r in testable),
+                        in_name_only=sum(r.get("role") == IN_NAME_ONLY for r in held),
                         unchecked=sum(r["holds"] == "not checked" for r in mine)))
     return out
 
@@ -263,14 +270,20 @@ def introduction(out_dir, claims: dict | None) -> str:
         for h in heads:
             L.append(f'<li data-preset="{html.escape(str(h["preset"]))}"><b>{html.escape(str(h["preset"]))}</b>: '
                      f'<b><span class="hold">{h["hold"]}</span> of <span class="claims">{h["claims"]}</span> '
-                     f'claims hold</b>; <span class="fitted">{h["fitted"]}</span> of them fitted targets, '
-                     f'<span class="predictions">{h["predictions"]}</span> predictions'
+                     f'claims hold</b>; <span class="fitted">{h["fitted"]}</span> of them fitted targets; '
+                     f'<b><span class="testable-hold">{h["testable_hold"]}</span> of <span class="testable">'
+                     f'{h["testable"]}</span> testable predictions hold</b>'
+                     + (f'; <span class="in-name-only">{h["in_name_only"]}</span> a prediction in name only'
+                        if h["in_name_only"] else '')
                      + (f'; <span class="unchecked">{h["unchecked"]}</span> not checked on this run'
                         if h["unchecked"] else '') + '.</li>')
         L += ['</ul>', '<p class="note">The claims table (at the end of the page) has a <b>fit</b> column: <i>yes</i> '
               'means the claim\'s numbers were among the targets the <code>paper_fit</code> parameters were '
-              'inferred from, so that it holds is partly by construction; <i>no</i> means a prediction. A claim that '
-              'does not hold says by how much and what in the model works against it.</p>']
+              'inferred from, so that it holds is partly by construction; <i>no</i> means it was not fitted. Of those, '
+              'a <i>testable prediction</i> depends only on what the paper publishes; a <i>prediction in name only</i> '
+              'follows from the targets; the rest the published text does not allow to test (the report quotes the '
+              'sentence that decides each). A claim that does not hold says by how much and what in the model works '
+              'against it.</p>']
     else:
         L += ['<p class="note">Not in this run: <code>claims.csv</code> (no headline).</p>']
     L += ['<h3>Three of the paper\'s figures</h3>',

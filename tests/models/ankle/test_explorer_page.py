@@ -63,8 +63,9 @@ def test_headline_counts_the_claims_of_claims_csv(run):
         mine = [r for r in rows if r["preset"] == preset]
         held = [r for r in mine if r["holds"] == "yes"]
         fitted = sum(r["used_in_fit"] == "yes" for r in held)
-        sentence = (f"{preset}: {len(held)} of {len(mine)} claims hold; {fitted} of them fitted targets, "
-                    f"{len(held) - fitted} predictions")
+        testable = [r for r in mine if r["role"] == "testable prediction"]
+        sentence = (f"{preset}: {len(held)} of {len(mine)} claims hold; {fitted} of them fitted targets; "
+                    f"{sum(r['holds'] == 'yes' for r in testable)} of {len(testable)} testable predictions hold")
         assert sentence in text, (sentence, re.findall(rf"{preset}: [^.]*\.", text))
         unchecked = sum(r["holds"] == "not checked" for r in mine)
         assert (f"{unchecked} not checked on this run" in text) == (unchecked > 0)
