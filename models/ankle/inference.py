@@ -55,6 +55,9 @@ class Unknown:
     start: float
     unit: str
     source: str
+    #: why a fit may end at a bound of this range and the value still be physical (empty: it may not; the report
+    #: flags a value within 5 % of a bound without one)
+    bound_reason: str = ""
 
 
 UNKNOWNS = (
@@ -74,7 +77,11 @@ UNKNOWNS = (
     Unknown("motor.J", 3.33e-6, 1.6e-5 - 0.7e-7, 3.33e-6, "kg.m2",
             "inertia on the motor shaft besides the gearhead's 0.7e-7 at its input: the datasheet rotor (3.33e-6) up "
             "to the paper's estimate of the whole actuator's (Table 2 'estimated total', 1.6e-5); at the upper end the "
-            "bench's driver output dips to about -60 W at 8 mm, 2 s/stride (C10)"),
+            "bench's driver output dips to about -60 W at 8 mm, 2 s/stride (C10)",
+            bound_reason="C10's dip pulls it up (the driver output's negative peak is the kinetic energy the rotor "
+                         "returns): the upper bound is the paper's own estimate of the whole actuator's inertia (Table "
+                         "2 'estimated total' 1.6e-5 kg m2, less the gearhead's 0.7e-7), so a value there is that "
+                         "estimate; no source gives more"),
     Unknown("driver.P_q", 10.0, 15.0, 12.5, "W", "the driver's constant consumption, measured 10-15 W (paper 4.2.1)"),
     Unknown("driver.R_on", 0.02, 0.15, 0.05, "Ohm",
             "conduction resistance of the driver's H-bridge: two MOSFETs in series, 10-75 mOhm each for a 70 V, "
@@ -85,7 +92,11 @@ UNKNOWNS = (
     Unknown("controller.k_ff", 0.0, 1.0, 1.0, "1",
             "the bench controller's velocity and acceleration feed-forward, as a fraction of what the unloaded motor "
             "needs (1: the motor's own back-EMF, friction and inertia, AnkleActuator.add_controller; 0: none); an "
-            "EPOS2's feed-forward gains are its user's tuning, done near 8 mm on the paper's bench (4.2.1)"),
+            "EPOS2's feed-forward gains are its user's tuning, done near 8 mm on the paper's bench (4.2.1)",
+            bound_reason="C7's worst case (over 50 % output loss) needs the arm to lag where the motor cannot "
+                         "follow, which the bench controller does only with little feed-forward (feed_forward_trials: "
+                         "the worst output loss against k_ff); the lower bound, 0, is a position controller without "
+                         "feed-forward, a setting of the EPOS2 user's tuning"),
 )
 
 #: the planner's torque tolerance (N m) tried for C8, smallest first (paper 4.1: torque about 10 % of its 100 N m
@@ -181,7 +192,8 @@ class Fit:
     def rows(self) -> list[dict]:
         """One row per unknown (value, range, sd, identified, source)."""
         return [dict(parameter=u.name, value=self.values[u.name], unit=u.unit, lo=u.lo, hi=u.hi, start=u.start,
-                     sd=self.sd[u.name], identified=self.identified[u.name], source=u.source)
+                     sd=self.sd[u.name], identified=self.identified[u.name], source=u.source,
+                     **({"bound_reason": u.bound_reason} if u.bound_reason else {}))
                 for u in self.unknowns]
 
     def target_rows(self) -> list[dict]:
@@ -327,6 +339,12 @@ def feed_forward_trials(values: dict, executor=None, fractions=FEED_FORWARDS) ->
 FIRST_TOLERANCE = 3.0
 
 
+#: what a record's targets are (written into every record; the history of the shipped one is in its own note)
+CALIBRATION_SET = ("declared in acausal.models.ankle.claims (CALIBRATION: each claim a target, a testable prediction, a "
+                   "prediction in name only or not testable from the published text, with the paper's sentence that "
+                   "decides it); this record's targets and tolerance_trials are the fit of the declared targets")
+
+
 def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, start: dict | None = None) -> dict:
     """The whole inference: fit at :data:`FIRST_TOLERANCE`, choose the planner's torque tolerance for C8 on the
     fitted values and, if it differs from the one fitted with, refit with it and choose again on the refitted values
@@ -352,4 +370,5 @@ def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, s
     record["feed_forward_trials"] = feed_forward_trials(final.values, executor)
     record["first_pass"] = first.to_json()
     record["started_from"] = "given values" if start else "a priori"
+    record["calibration_set"] = CALIBRATION_SET
     return record

@@ -56,3 +56,14 @@ def test_the_reports_first_section_lists_every_claim_with_its_class_and_sentence
     c10 = next(line for line in table if line.startswith("| C10 |"))
     assert C.CALIBRATION["C10"][1] in c10 and "**fragile**" in c10
     assert "testable predictions hold" in text and "are the declared ones" in text
+
+
+def test_a_bound_reason_has_one_home_the_unknowns_declaration_which_the_inference_writes_into_its_record():
+    """The reasons a fitted value may sit at a bound are declared with the unknowns (``inference.UNKNOWNS``); the
+    record carries what the inference wrote from them, so a rerun of ``acausal infer`` keeps them."""
+    from acausal.models.ankle.inference import CALIBRATION_SET, UNKNOWNS
+    from acausal.models.ankle.presets import paper_fit_record
+    record = paper_fit_record()
+    declared = {u.name: u.bound_reason for u in UNKNOWNS}
+    assert {u["parameter"]: u.get("bound_reason", "") for u in record["unknowns"]} == declared
+    assert record["calibration_set"].startswith(CALIBRATION_SET)
