@@ -577,7 +577,7 @@ def evaluate(out_dir, preset: str = "library", fitted: frozenset = frozenset()) 
         holds = None if limits is None else all(x.ok for x in limits)
         why = f"against it: {c.opposes}" if holds is False and c.opposes else ""
         worst = tightest(limits or [])
-        spare = "" if worst is None or worst.spare is None else f"{worst.spare:.4f}"
+        spare = "nan" if worst is None or worst.spare is None else f"{worst.spare:.4f}"  # a missing number
         fragile = ("" if holds is not True or worst is None or worst.spare is None
                    else "yes" if worst.spare < FRAGILE else "no")
         rows.append(dict(id=c.id, statement=f"[{c.section}] {c.statement}", paper=c.paper, simulated=simulated,
