@@ -51,11 +51,11 @@ class ExportError(ModelError):
 MAX_EVENTS_NAME = "max_events"
 MAX_EVENTS = inspect.signature(simulate).parameters["max_events"].default
 
-#: the Newton iteration's rules, from runtime.newton (its tolerance and iteration limit, its line search); the
-#: residual it accepts after its last iteration is a literal there
+#: the Newton iteration's rules, from runtime.newton (its tolerance and iteration limit, its line search, the
+#: residual it accepts after its last iteration)
 _NEWTON = inspect.signature(runtime.newton).parameters
 NEWTON_TOL, NEWTON_MAXITER = float(_NEWTON["tol"].default), int(_NEWTON["maxiter"].default)
-NEWTON_ACCEPT = 1e-8
+NEWTON_ACCEPT = runtime.ACCEPTED_RESIDUAL
 NEWTON_MAX = 16  # tear variables of one block at most in the C runtime (its arrays are fixed in size)
 
 

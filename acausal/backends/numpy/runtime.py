@@ -14,6 +14,7 @@ import numpy as np
 from ...errors import SimulationError
 
 LINE_SEARCH_HALVINGS = 10  # the damped Newton step is halved at most this often (down to 2**-10 of the full step)
+ACCEPTED_RESIDUAL = 1e-8  # a residual below this after the last iteration is accepted (the step test not met)
 
 
 def rows(values, length: int) -> np.ndarray:
@@ -147,7 +148,7 @@ def newton(fun, guesses, args, label, tol: float = 1e-12, maxiter: int = 60, t=N
     is not finite) has its step halved, at most :data:`LINE_SEARCH_HALVINGS` times, while the others keep theirs
     (the common case, every full step good, costs one evaluation per iteration as plain Newton does). A sample
     converges when its step is below ``tol`` relative to ``1 + |y|``; converged samples are not damped. After
-    ``maxiter`` iterations a residual below 1e-8 is accepted.
+    ``maxiter`` iterations a residual below :data:`ACCEPTED_RESIDUAL` is accepted.
 
     ``label`` (a :class:`Block` or a description) and ``t`` (the time, s, broadcasting with the samples; None
     when unknown) name the block and the time in the :class:`SimulationError` raised when the iteration does not
@@ -215,7 +216,7 @@ def _newton_point(fun, guesses, args, label, tol, maxiter, t, split=None) -> lis
             if not np.isfinite(nr_new):
                 raise _newton_error(_NOT_FINITE, label, t, y, r, True)
         y, r, nr = y_new, r_new, nr_new
-    if nr < 1e-8:
+    if nr < ACCEPTED_RESIDUAL:
         return y
     raise _newton_error(f"did not converge in {maxiter} iterations (residual {nr:.3g})", label, t, y, r, True)
 
@@ -262,10 +263,10 @@ def _newton_samples(fun, guesses, args, label, tol, maxiter, t, split=None) -> l
                 raise _newton_error(_NOT_FINITE, label, t, y, r_arr, ~np.isfinite(nr_new))
         y, r_arr, nr = y_new, r_new, nr_new
     worst = float(np.max(np.abs(r_arr))) if r_arr.size else 0.0
-    if worst < 1e-8:
+    if worst < ACCEPTED_RESIDUAL:
         return y
     raise _newton_error(f"did not converge in {maxiter} iterations (residual {worst:.3g})", label, t, y, r_arr,
-                        np.max(np.abs(r_arr), axis=0) >= 1e-8)
+                        np.max(np.abs(r_arr), axis=0) >= ACCEPTED_RESIDUAL)
 
 
 def _residual(r, m, shape):
