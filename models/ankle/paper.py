@@ -440,28 +440,24 @@ def fair_bar(claims: list[dict], record: dict) -> list[str]:
 #: C11 (4.4, Fig. 16) at 1.2 s/stride, the design it compares with [N/m, m] and the inertia that stands for none
 #: on the motor shaft (motor.J overridden; the gearhead's own input inertia is kept) [kg m2]
 C11_STRIDE, C11_DESIGN, NO_INERTIA = 1.2, (130e3, 0.007), 1e-9
-#: the rectifier's burnt power: what the motor sends back and a regenerating supply would take (E_source less it is
-#: the integral of the driver's bus power)
-BURNT = "rect.loss_power"
-
-
-def returned_energy(ks, Ps, stride_time: float, preset_name: str = HEADLINE, overrides: dict | None = None):
-    """Energy per stride [J] the non-regenerative rectifier burns in each design (NaN where infeasible), planned
-    and replayed as :func:`acausal.models.bench.design.evaluate_designs` does its designs."""
+def _design_map(out_dir: Path, preset_name: str, stride_time: float):
+    """The design map of ``preset_name`` at ``stride_time`` as the run's Figs. 16-17 wrote it (``design_maps.csv``),
+    else computed (:func:`acausal.models.bench.design.efficiency_map`)."""
     from ..bench import design
-    given, values = design.design_params(preset_name, overrides)
-    d = design.plan_designs(ks, Ps, stride_time, values)
-    out = np.full(len(d.k), np.nan)
-    if not d.feasible.any():
-        return out
-    sim, T = design.chain_model(), stride_time
-    pb = sim.param_batch([{**given, "stride_time": T, "link.k": k, "P_nominal": P}
-                          for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
-    vals = sim.evaluate(d.t, params=pb, names=[BURNT], inputs={
-        "ankle.phi_ref": design.PeriodicSplineBatch(d.t, d.theta[:, None], T, "gait angle"),
-        "arm_target.signal": design.PeriodicSplineBatch(d.t, d.phi.T, T, "planned moment-arm angles")})
-    out[d.feasible] = np.mean(vals[BURNT], axis=-1) * T
-    return out
+    from .claims import read_csv
+    path = Path(out_dir) / "design_maps.csv"
+    rows = [r for r in read_csv(path) if r["preset"] == preset_name and math.isclose(r["stride_time_s"], stride_time)] \
+        if path.exists() else []
+    if not rows or "E_rectifier_J" not in rows[0]:
+        return design.efficiency_map(stride_time, preset_name, executor="serial")
+    ks, Ps = sorted({r["k_Npm"] for r in rows}), sorted({r["P_m"] for r in rows})
+    keys = [k for k in rows[0] if k not in ("preset", "body_mass_kg", "stride_time_s", "k_Npm", "P_m")]
+    values = {k: np.full((len(ks), len(Ps)), np.nan) for k in keys}
+    for r in rows:
+        a, b = ks.index(r["k_Npm"]), Ps.index(r["P_m"])
+        for k in keys:
+            values[k][a, b] = r[k]
+    return design.DesignMap(stride_time, np.array(ks), np.array(Ps), values, preset_name)
 
 
 def c11_row(dmap, key: str, reading: str, reference: tuple = C11_DESIGN, note: str = "") -> dict:
@@ -487,11 +483,9 @@ def c11_readings(out_dir: Path, preset_name: str = HEADLINE) -> list[dict]:
     from ..bench import design
     from .claims import read_csv
     T = C11_STRIDE
-    m = design.efficiency_map(T, preset_name, executor="serial")
-    K, P = np.meshgrid(m.k, m.P, indexing="ij")
+    m = _design_map(out_dir, preset_name, T)
     v = m.values
-    burnt = returned_energy(K.ravel(), P.ravel(), T, preset_name).reshape(K.shape)
-    v["regenerating"] = v["E_output_J"] / (v["E_source_J"] - burnt)
+    v["regenerating"] = v["E_output_J"] / (v["E_source_J"] - v["E_rectifier_J"])
     v["motor"] = v["E_motor_J"] / v["E_driver_J"]
     inertia_free = design.efficiency_map(T, preset_name, overrides={"motor.J": NO_INERTIA}, executor="serial")
     rows = [c11_row(m, "efficiency", "the chain's E_output / E_source (as C11 is checked)"),
@@ -527,7 +521,8 @@ def c11_markdown(rows: list[dict]) -> list[str]:
             md_table(["reading", "optimum", "efficiency", "reference design", "efficiency there", "gain",
                       "optimum on the grid's edge"],
                      [[r["reading"], f"{r['optimum_kNpm']:.0f} N/mm, {r['optimum_P_mm']:.0f} mm",
-                       f"{100 * r['efficiency']:.1f} %", f"{r['reference_kNpm']:.0f} N/mm, {r['reference_P_mm']:.0f} mm",
+                       f"{100 * r['efficiency']:.1f} %",
+                       f"{r['reference_kNpm']:.0f} N/mm, {r['reference_P_mm']:.0f} mm",
                        f"{100 * r['efficiency_at_reference']:.1f} %", f"{r['gain_points']:+.1f} points",
                        r["on_grid_edge"] or "no"] for r in rows]), ""]
 
@@ -564,6 +559,20 @@ def points_table(r: StrideResult) -> list[dict]:
 
 # ---------------------------------------------------------------------------------------------- plotting
 
+def grid_axes(ax, Ps, Ts) -> None:
+    """The axes of a (precompression x stride time) map: one tick per condition, in mm and s/stride."""
+    ax.set_xticks(range(len(Ts)), [f"{T:g}" for T in Ts])
+    ax.set_yticks(range(len(Ps)), [f"{1e3 * P:g}" for P in Ps])
+    ax.set_xlabel("stride time [s/stride]")
+    ax.set_ylabel("precompression P [mm]")
+
+
+def on_dark(im, v) -> bool:
+    """Whether value ``v``'s cell of image ``im`` is dark (its luminance below half: white text reads there)."""
+    rgb = im.cmap(im.norm(v))[:3]
+    return 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] < 0.5
+
+
 def heatmap(ax, results, value, label: str, cmap: str = "viridis", fmt: str = "{:.1f}", mark=None,
             vmin=None, vmax=None, duty: dict | None = None):
     """Values over precompression (rows) x stride time (columns), one annotated cell per condition; conditions
@@ -575,10 +584,7 @@ def heatmap(ax, results, value, label: str, cmap: str = "viridis", fmt: str = "{
     Ps, Ts, grid = as_grid(results, value)
     _, _, duty = as_grid(results, lambda r, required=duty: duty_of(r, required))
     im = ax.imshow(grid, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax)
-    ax.set_xticks(range(len(Ts)), [f"{T:g}" for T in Ts])
-    ax.set_yticks(range(len(Ps)), [f"{1e3 * P:g}" for P in Ps])
-    ax.set_xlabel("stride time [s/stride]")
-    ax.set_ylabel("precompression P [mm]")
+    grid_axes(ax, Ps, Ts)
     for i in range(len(Ps)):
         for j in range(len(Ts)):
             v = grid[i, j]
@@ -588,11 +594,9 @@ def heatmap(ax, results, value, label: str, cmap: str = "viridis", fmt: str = "{
             if hatched:
                 ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="///", edgecolor="0.45",
                                        lw=0.0))
-            rgb = im.cmap(im.norm(v))[:3]
-            dark = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] < 0.5
             box = dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8) if hatched else None
             ax.text(j, i, fmt.format(round(float(v), 6) + 0.0), ha="center", va="center", fontsize=8,
-                    color="white" if dark and not hatched else "black", bbox=box)
+                    color="white" if on_dark(im, v) and not hatched else "black", bbox=box)
     handles = [Patch(facecolor="none", edgecolor="0.45", hatch="///",
                      label=f"motor cannot follow at 48 V\n(replay needs duty > {D_MAX})")]
     if mark is not None:

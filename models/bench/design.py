@@ -41,6 +41,9 @@ from ..ankle.protocol import D_MAX, POINTS
 
 N_STRIDE = 400  # samples per stride
 COPPER = "motor.loss_power"  # the winding's R i^2 [W]: the map's copper loss per stride, E_copper_J
+#: what the non-regenerative rectifier burns [W] (the motor's returned energy, which a regenerating supply would take
+#: back: E_source less it is the driver's bus energy): the map's E_rectifier_J
+RECTIFIER = "rect.loss_power"
 K_GRID = np.linspace(40e3, 280e3, 25)  # N/m (10 N/mm steps)
 P_GRID = np.linspace(0.001, 0.018, 18)  # m
 
@@ -123,13 +126,15 @@ def plan_designs(ks, Ps, stride_time: float, values: dict, n: int = N_STRIDE) ->
 
 def evaluate_designs(ks, Ps, stride_time: float, preset_name: str = "paper_fit", overrides: dict | None = None,
                      n: int = N_STRIDE) -> dict:
-    """Energy per stride at the measurement points, efficiency, peak powers and the largest duty of every
+    """Energy per stride at the measurement points (and what the rectifier burns, ``E_rectifier_J``), efficiency,
+    peak powers and the largest duty of every
     design (arrays over designs; NaN where infeasible) with a preset's parameters and ``overrides``."""
     given, values = design_params(preset_name, overrides)
     d = plan_designs(ks, Ps, stride_time, values, n)
     B = len(d.k)
     out = {key: np.full(B, np.nan) for key in
-           ["efficiency", "peak_link_W", "peak_motor_W", "max_duty", "E_copper_J"] + [f"E_{p}_J" for p in POINTS]}
+           ["efficiency", "peak_link_W", "peak_motor_W", "max_duty", "E_copper_J", "E_rectifier_J"]
+           + [f"E_{p}_J" for p in POINTS]}
     out.update(k=d.k, P=d.P, feasible=d.feasible)
     if not d.feasible.any():
         return out
@@ -140,7 +145,7 @@ def evaluate_designs(ks, Ps, stride_time: float, preset_name: str = "paper_fit",
     base = {**given, "stride_time": T}
     pb = sim.param_batch([{**base, "link.k": k, "P_nominal": P} for k, P in zip(d.k[d.feasible], d.P[d.feasible])])
     points = dict(zip(POINTS, sim.accounts.sensors))  # the model's power sensors, in chain order
-    vals = sim.evaluate(d.t, params=pb, names=list(points.values()) + ["driver.d", COPPER],
+    vals = sim.evaluate(d.t, params=pb, names=list(points.values()) + ["driver.d", COPPER, RECTIFIER],
                         inputs={"ankle.phi_ref": theta, "arm_target.signal": phi})
     E = {p: np.mean(vals[v], axis=-1) * T for p, v in points.items()}  # periodic: the rectangle rule
     f = d.feasible
@@ -151,6 +156,7 @@ def evaluate_designs(ks, Ps, stride_time: float, preset_name: str = "paper_fit",
     out["peak_motor_W"][f] = np.max(np.abs(vals[points["motor"]]), axis=-1)
     out["max_duty"][f] = np.max(np.abs(vals["driver.d"]), axis=-1)
     out["E_copper_J"][f] = np.mean(vals[COPPER], axis=-1) * T
+    out["E_rectifier_J"][f] = np.mean(vals[RECTIFIER], axis=-1) * T
     return out
 
 

@@ -44,8 +44,8 @@ def test_the_regenerated_energy_is_part_of_the_chains_losses():
     E_output in every feasible design; NaN where the linkage cannot serve the gait."""
     from acausal.models.bench import design
     ks, Ps = np.array([60e3, 130e3, 1e3]), np.array([0.004, 0.007, 0.001])
-    burnt = paper.returned_energy(ks, Ps, 1.2)
     e = design.evaluate_designs(ks, Ps, 1.2)
+    burnt = e["E_rectifier_J"]
     assert np.isnan(burnt[2]) and not e["feasible"][2]
     lost = e["E_source_J"][:2] - e["E_output_J"][:2]
     assert np.all(burnt[:2] > 0) and np.all(burnt[:2] < lost), (burnt, lost)
