@@ -20,8 +20,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from acausal.models.ankle.paper import (BENCH, HEADLINE, comparison, followed, grid, grid_rows,  # noqa: E402
-                                        heatmap, pick, required_duty)
+from acausal.models.ankle.paper import (BENCH, HEADLINE, comparison, followed, grid, grid_axes,  # noqa: E402
+                                        grid_rows, heatmap, on_dark, pick, required_duty)
 from acausal.models.ankle.published import PAPER  # noqa: E402
 from acausal.models.bench import design  # noqa: E402
 from acausal.models.reporting.tables import md_table, pct, write_csv  # noqa: E402
@@ -102,17 +102,12 @@ def optimized_model(Ps, Ts) -> dict:
 def _panel_b(ax, eq4: dict, Ps, Ts):
     z = np.array([[100 * eq4["efficiency"][(P, T)] for T in Ts] for P in Ps])
     im = ax.imshow(z, origin="lower", aspect="auto", cmap="viridis")
-    ax.set_xticks(range(len(Ts)), [f"{T:g}" for T in Ts])
-    ax.set_yticks(range(len(Ps)), [f"{1e3 * P:g}" for P in Ps])
-    ax.set_xlabel("stride time [s/stride]")
-    ax.set_ylabel("precompression P [mm]")
+    grid_axes(ax, Ps, Ts)
     for i in range(len(Ps)):
         for j in range(len(Ts)):
             if np.isfinite(z[i, j]):
-                rgb = im.cmap(im.norm(z[i, j]))[:3]
-                dark = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] < 0.5
                 ax.text(j, i, f"{z[i, j]:.1f}", ha="center", va="center", fontsize=8,
-                        color="white" if dark else "black")
+                        color="white" if on_dark(im, z[i, j]) else "black")
     ax.figure.colorbar(im, ax=ax).set_label("overall efficiency, joint work / source energy [%]")
     ax.set_title(f"(b) the paper's optimized model, simulated: Eq. 4, Table 2's optimized total ({PAPER_EQ4}),\n"
                  f"k = {eq4['k'] / 1e3:g} N/mm, along the planned trajectory; ideal voltage (no duty limit)",
