@@ -29,9 +29,10 @@ def _rows(cal, tag: dict) -> tuple:
 
 
 def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | None = None,
-                preset: str | None = None, others: dict | None = None) -> dict:
+                preset: str | None = None, others: dict | None = None, draw: bool = True) -> dict:
     """Write ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv`` and ``fig14_calibration.png``
     (+ its CSV) into ``out_dir``; returns the example-output dictionary (title, figures, csv, markdown).
+    ``draw=False``: the figure's CSV only (a caller that draws its own Fig. 14).
     ``preset``: the preset of the recordings' truth (a virtual bench of the component chain), written as a first
     column of every row. ``others``: further calibrations by the preset of their recordings' truth, whose rows
     follow in the three tables (the figure and the report's tables show the first)."""
@@ -50,7 +51,7 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
     t2 = table2(cal)
     t2_csv = write_csv(out / "table2_calibrated.csv", t2_rows)
     ba = rmse_before_after(exps, cal, cal.signals)
-    fig_png, fig_csv = _fig14(out, cal, exps, figure_recording, tag)
+    fig_png, fig_csv = _fig14(out, cal, exps, figure_recording, tag, draw)
 
     md = [f"Data: {data_label}. {len(exps)} recordings; every third stride held out; fitted on "
           f"{', '.join(cal.signals)} (noise-scaled, robust soft-L1 loss); {cal.nfev} model evaluations; "
@@ -70,18 +71,28 @@ def fit_outputs(out_dir, cal, exps, data_label: str, figure_recording: str | Non
     for name, other in (others or {}).items():
         md += ["", f"The same calibration on recordings of the `{name}` chain (rows `preset` = {name} in the "
                "tables): " + ", ".join(f"`{n}` = {other.values[n]:.4g}" for n in other.names) + "."]
-    return dict(title="Calibration (paper section 4.3, Table 2, Fig. 14)", figures=[fig_png],
+    return dict(title="Calibration (paper section 4.3, Table 2, Fig. 14)", figures=[fig_png] if fig_png else [],
                 csv=[values_csv, rmse_csv, t2_csv, fig_csv], markdown="\n".join(md), comparisons=[],
                 before_after=ba)
 
 
-def _fig14(out: Path, cal, exps, name, tag: dict):
-    e = next((x for x in exps if x.name == name), None) or max(exps, key=lambda x: x.info["meta"]["stride_time_s"])
+def figure_recording_of(exps, name: str | None = None):
+    """The experiment Fig. 14 shows: the one called ``name``, else the longest stride time's."""
+    return next((x for x in exps if x.name == name), None) or max(exps, key=lambda x: x.info["meta"]["stride_time_s"])
+
+
+def _fig14(out: Path, cal, exps, name, tag: dict, draw: bool = True):
+    e = figure_recording_of(exps, name)
     before = e.predict({n: START[n] for n in cal.names if n in START})["motor_current_A"]
     after = e.predict(cal.values)["motor_current_A"]
     meas = e.measured["motor_current_A"]
     T = e.info["meta"]["stride_time_s"]
     show = e.t <= e.t[0] + 2 * T
+    csv = write_csv(out / "fig14_calibration.csv", [dict(tag, time_s=a, measured_A=b, before_A=c, after_A=d)
+                                                    for a, b, c, d in zip(e.t[show], meas[show], before[show],
+                                                                          after[show])])
+    if not draw:
+        return None, csv
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     for ax, sim, label in ((axes[0], before, "before calibration (motor datasheet)"),
                            (axes[1], after, "after calibration")):
@@ -96,7 +107,4 @@ def _fig14(out: Path, cal, exps, name, tag: dict):
     png = save_figure(fig, out / "fig14_calibration.png",
                       shows="model: AnkleActuator.eq4 (replay of the recordings"
                             + (f" of the {tag['preset']} chain" if tag else "") + "), datasheet start vs calibrated")
-    csv = write_csv(out / "fig14_calibration.csv", [dict(tag, time_s=a, measured_A=b, before_A=c, after_A=d)
-                                                    for a, b, c, d in zip(e.t[show], meas[show], before[show],
-                                                                          after[show])])
     return png, csv

@@ -14,7 +14,7 @@ each preset). With ``data=FOLDER`` it calibrates on recordings in that folder in
 
 Writes ``calibration.csv``, ``calibration_rmse.csv``, ``table2_calibrated.csv``, ``fig14_calibration.png`` (+ CSV),
 each row with the preset of the recordings' truth (``preset``) when they come from a virtual bench of the chain.
-On virtual-bench recordings the figure is drawn here (:func:`draw`, over the one ``fit_outputs`` writes), so that its
+On virtual-bench recordings the figure is drawn here (:func:`draw`; ``fit_outputs`` writes its CSV only), so that its
 legend calls the recording what it is (a simulated recording, not a measurement) and marks the peaks the caption
 compares; the CSV's column ``measured_A`` keeps ``fit_outputs``'s name (for virtual data: the recorded current).
 Run: ``python -m acausal.models.ankle.figures.fig14_calibration`` (into ``results/``).
@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 
 from acausal.models.bench import calibration  # noqa: E402
 from acausal.models.bench.virtual import BenchCondition, run_bench, truth_body_mass  # noqa: E402
-from acausal.models.bench.fit_report import fit_outputs  # noqa: E402
+from acausal.models.bench.fit_report import figure_recording_of, fit_outputs  # noqa: E402
 from acausal.models.ankle.figures.trends import verdict  # noqa: E402
 from acausal.models.reporting.figures import save_figure  # noqa: E402
 from acausal.models.reporting.tables import write_columns  # noqa: E402
@@ -74,7 +74,7 @@ def main(out_dir: Path, results=None, data=None, seed: int = 2014, executor=None
     else:
         label, chain = f"recordings in `{data}`", None
     cal, exps = calibration.fit(data, "R,J,b")
-    out = fit_outputs(out_dir, cal, exps, label, preset=chain, others=others)
+    out = fit_outputs(out_dir, cal, exps, label, preset=chain, others=others, draw=not chain)
     out["calibrated"] = dict(cal.values)
     if chain:  # virtual-bench recordings: the figure says so, the caption compares the fit with the paper's
         mesh = calibration.fit(data, MESH_PARAMS, effects=(MESH_EFFECT,))
@@ -87,18 +87,13 @@ def main(out_dir: Path, results=None, data=None, seed: int = 2014, executor=None
     return out
 
 
-def _recording(exps):
-    """The recording Fig. 14 shows: the longest stride time's (as ``fit_outputs`` picks it)."""
-    return max(exps, key=lambda x: x.info["meta"]["stride_time_s"])
-
-
 def draw(out_dir: Path, cal, exps, chain: str, mesh=None) -> dict:
     """Fig. 14 on virtual-bench recordings of the ``chain`` preset: the recorded motor current against Eq. 4's before
     (datasheet) and after calibration of R, J, b, and, with ``mesh`` (the ``(Calibration, experiments)`` of
-    :data:`MESH_PARAMS`), after calibration with a mesh efficiency; first two strides of :func:`_recording`, each
-    panel's peaks in its legend. Writes ``fig14_mesh_efficiency.csv`` (the curves of every panel) and returns the
+    :data:`MESH_PARAMS`), after calibration with a mesh efficiency; first two strides of the recording
+    ``figure_recording_of`` picks, each panel's peaks in its legend. Writes ``fig14_mesh_efficiency.csv`` (the curves of every panel) and returns the
     paths and the numbers the caption reads (peaks, held-out RMSE, the mesh calibration's values)."""
-    e = _recording(exps)
+    e = figure_recording_of(exps)
     rec = e.measured["motor_current_A"]
     T = e.info["meta"]["stride_time_s"]
     show = e.t <= e.t[0] + 2 * T
