@@ -13,7 +13,6 @@ Fig. 7 drives (:func:`results`, about 30 s on two cores); Fig. 14 records and ca
 """
 from __future__ import annotations
 
-import csv
 import math
 import re
 from pathlib import Path
@@ -21,21 +20,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from acausal.models.ankle.claims import read_csv
 from acausal.models.ankle.figures.trends import push_off_span, verdict, verdicts
 
 #: each test runs simulations or shares their fixture: out of the quick lane
 slow = pytest.mark.slow
 
 
-def read(path: Path) -> list[dict]:
-    """A CSV's rows, numbers as floats."""
-    def value(v):
-        try:
-            return float(v)
-        except ValueError:
-            return v
-    with Path(path).open(newline="") as f:
-        return [{k: value(v) for k, v in r.items()} for r in csv.DictReader(f)]
 
 
 def said(markdown: str, figure: str, trend_start: str) -> bool:
@@ -89,7 +80,7 @@ def run(name: str, out: Path, results=None, **kw) -> dict:
 @slow
 def test_fig7_peak_order_reversed_for_the_output_motor_and_kept_for_the_direct_drive(results, tmp_path):
     out = run("fig07_direct_drive", tmp_path, results)
-    rows = {r["drive"]: r for r in read(tmp_path / "fig07_summary.csv") if r["preset"] == "paper_fit"}
+    rows = {r["drive"]: r for r in read_csv(tmp_path / "fig07_summary.csv") if r["preset"] == "paper_fit"}
     act = rows["MACCEPA actuator"]["peak_source_power_W"]
     ratio = rows["bench output motor"]["peak_source_power_W"] / act
     forward = rows["forward direct drive"]["peak_source_power_W"] / act
@@ -109,7 +100,7 @@ def test_fig7_peak_order_reversed_for_the_output_motor_and_kept_for_the_direct_d
 @slow
 def test_fig8_driver_dip_without_regeneration_and_motor_loss_in_the_loading_phase(results, tmp_path):
     out = run("fig08_power_chain", tmp_path, results)
-    rows = read(tmp_path / "fig08_power_chain.csv")
+    rows = read_csv(tmp_path / "fig08_power_chain.csv")
     t = np.array([r["time_ms"] for r in rows]) / 1e3
     drv, mot, src = (np.array([r[f"P_{k}_W"] for r in rows]) for k in ("driver", "motor", "source"))
     assert drv.min() < -35.0 and src.min() > -1.0
@@ -133,7 +124,7 @@ def losses(results, tmp_path_factory):
 @slow
 def test_fig9_no_bowl_at_low_precompression_and_the_minimum_at_low_precompression(losses):
     out, sec = losses
-    g = grid_of(read(out / "fig09_driver_loss.csv"), "loss_pct_of_previous_point")
+    g = grid_of(read_csv(out / "fig09_driver_loss.csv"), "loss_pct_of_previous_point")
     Ps, Ts = sorted({p for p, _ in g}), sorted({t for _, t in g})
     md = sec["markdown"]
     (P0, T0) = min(g, key=g.get)
@@ -153,7 +144,7 @@ def test_fig9_no_bowl_at_low_precompression_and_the_minimum_at_low_precompressio
 @slow
 def test_fig10_motor_loss_is_u_shaped_along_precompression(losses):
     out, sec = losses
-    g = grid_of(read(out / "fig10_motor_loss.csv"), "loss_pct_of_previous_point")
+    g = grid_of(read_csv(out / "fig10_motor_loss.csv"), "loss_pct_of_previous_point")
     Ps, Ts = sorted({p for p, _ in g}), sorted({t for _, t in g})
     md = sec["markdown"]
     # the paper: grows with precompression; the model: falls from 2 mm first, then grows, at every stride time
@@ -174,8 +165,8 @@ def test_fig10_motor_loss_is_u_shaped_along_precompression(losses):
 @slow
 def test_fig11_12_levels_as_in_the_paper(losses):
     out, sec = losses
-    gear = grid_of(read(out / "fig11_gearing_loss.csv"), "loss_pct_of_previous_point")
-    rows = read(out / "fig12_output_loss.csv")
+    gear = grid_of(read_csv(out / "fig11_gearing_loss.csv"), "loss_pct_of_previous_point")
+    rows = read_csv(out / "fig12_output_loss.csv")
     outp = grid_of(rows, "loss_pct_of_previous_point")
     md = sec["markdown"]
     assert min(gear.values()) >= 50.0 and said(md, "Fig. 11", "the gearing loss's level")
@@ -205,7 +196,7 @@ def test_figs9_12_table_reads_the_cells_the_claims_read(losses, results):
     assert table["Fig. 9"][2] == f"{lo} % - {hi} %"
     worst = re.search(r"worst ([\d.]+) %", got["C7"]).group(1)
     assert table["Fig. 12"][2].endswith(f"- {worst} %")
-    follow = [r for r in read(out / "fig12_output_loss.csv") if r["motor_can_follow"] == "True"]
+    follow = [r for r in read_csv(out / "fig12_output_loss.csv") if r["motor_can_follow"] == "True"]
     assert table["Fig. 12"][3].endswith(f"- {max(r['loss_pct_of_previous_point'] for r in follow):.1f} %")
 
 
@@ -214,7 +205,7 @@ def test_figs9_12_table_reads_the_cells_the_claims_read(losses, results):
 @slow
 def test_fig13_largest_tracking_error_after_push_off(results, tmp_path):
     out = run("fig13_tracking", tmp_path, results)
-    rows = read(tmp_path / "fig13_tracking.csv")
+    rows = read_csv(tmp_path / "fig13_tracking.csv")
     md = out["markdown"]
     rms = {}
     for T in (1.2, 3.0):
@@ -247,7 +238,7 @@ def test_fig14_calibrated_current_misses_the_peak_and_says_simulated(tmp_path, m
     out = fig14.main(tmp_path, beside=())
     assert labels and not any("measured" in s.lower() for s in labels)
     assert any("virtual bench recording (simulated)" in s for s in labels)
-    rows = read(tmp_path / "fig14_mesh_efficiency.csv")
+    rows = read_csv(tmp_path / "fig14_mesh_efficiency.csv")
     rec = max(r["recorded_A"] for r in rows)
     after = max(r["after_A"] for r in rows)
     mesh = max(r["mesh_A"] for r in rows)
@@ -265,8 +256,8 @@ def test_fig14_calibrated_current_misses_the_peak_and_says_simulated(tmp_path, m
 @slow
 def test_fig15_draws_the_optimized_model_beside_the_bench(results, tmp_path):
     out = run("fig15_efficiency", tmp_path, results)
-    a = grid_of(read(tmp_path / "fig15_efficiency.csv"), "efficiency_pct")
-    b = grid_of(read(tmp_path / "fig15b_optimized_model.csv"), "efficiency_pct")
+    a = grid_of(read_csv(tmp_path / "fig15_efficiency.csv"), "efficiency_pct")
+    b = grid_of(read_csv(tmp_path / "fig15b_optimized_model.csv"), "efficiency_pct")
     assert set(a) == set(b) and all(np.isfinite(v) for v in b.values())
     Ps, Ts = sorted({p for p, _ in a}), sorted({t for _, t in a})
     sign = lambda xs: np.sign(round(xs[-1] - xs[0], 4))  # noqa: E731
@@ -287,8 +278,8 @@ def test_fig15_draws_the_optimized_model_beside_the_bench(results, tmp_path):
 def test_fig16_optimum_is_not_at_lower_stiffness_fig17_average_rises(tmp_path):
     out = run("fig16_17_design", tmp_path)
     md = out["markdown"]
-    optima = [r for r in read(tmp_path / "design_optima.csv") if not r["variant"]]
-    maps = read(tmp_path / "design_maps.csv")
+    optima = [r for r in read_csv(tmp_path / "design_optima.csv") if not r["variant"]]
+    maps = read_csv(tmp_path / "design_maps.csv")
     names = {"paper_fit": "`paper_fit` chain", "paper_optimized_total_arm_side": "paper's Eq. 4"}
     for preset, name in names.items():
         o12 = next(r for r in optima if r["preset"] == preset and r["stride_time_s"] == 1.2)
