@@ -15,7 +15,8 @@ partial run) leaves its part out and the page says which file is missing.
 The paper's page opens with an introduction for a reader new to the paper (:func:`introduction`, static HTML written
 here): what the paper measured, the energy chain and its five measurement points as an inline SVG, the presets and
 which one reproduces the paper, a headline counted from ``claims.csv`` (how many claims hold with each preset, how many
-of those were fitted targets and how many predictions), what the claims table's *fit* column means, Figs. 7, 13 and 14
+of those were fitted targets, how many of the testable predictions hold), what the claims table's *fit* column and
+the claims' classes mean, Figs. 7, 13 and 14
 (the run's PNGs, embedded as data URIs so the page stays one offline file), a link to ``report.md`` and a glossary of
 the page's words.
 """
