@@ -77,8 +77,9 @@ def cmd_infer(args) -> int:
 
     check_file_input(args.start_from, "--start-from", "a paper_fit.json that `acausal infer --out DIR` wrote")
     start = presets.paper_fit_record(Path(args.start_from))["preset"] if args.start_from else None
+    inference.targets_without(args.without or ())  # an unknown claim refused before any run
     with process_pool(jobs) as pool:
-        record = inference.infer(executor=pool, progress=progress, start=start)
+        record = inference.infer(executor=pool, progress=progress, start=start, without=args.without or ())
     paths = [fit_record.write(record, out / "paper_fit.json"), fit_record.write_tables(record, out)]
     if args.install:
         paths.append(fit_record.write(record, presets.PAPER_FIT_RECORD))
@@ -375,6 +376,9 @@ def build_parser() -> argparse.ArgumentParser:
     infer.add_argument("--start-from", metavar="RECORD", default=None,
                        help="start from an inference record's values (e.g. the shipped paper_fit.json after a change "
                             "of targets) instead of the a-priori ones")
+    infer.add_argument("--without", action="append", metavar="CLAIM",
+                       help="leave a claim's targets out of the fit (repeatable), to see whether it holds as a "
+                            "prediction, e.g. --without C3")
     infer.add_argument("--jobs", type=whole_number("--jobs"), default=None,
                        help="worker processes (default: all cores)")
     infer.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")

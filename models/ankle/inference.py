@@ -35,7 +35,7 @@ from typing import Callable
 
 import numpy as np
 
-from acausal import SimulationError
+from acausal import ModelError, SimulationError
 from acausal.simulation.sweep import sweep
 
 from .protocol import D_MAX, Condition, compiled, follows_as_in_the_paper, run_condition
@@ -345,24 +345,39 @@ CALIBRATION_SET = ("declared in acausal.models.ankle.claims (CALIBRATION: each c
                    "decides it); this record's targets and tolerance_trials are the fit of the declared targets")
 
 
-def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, start: dict | None = None) -> dict:
+def targets_without(claims=()) -> tuple:
+    """The fit's targets (:data:`~acausal.models.ankle.targets.TARGETS`) less those of ``claims`` (e.g. ``("C3",)``:
+    the fit that tries C3 as a prediction); a claim that is no fitted target is refused, naming the ones there are
+    (C8 is met by the planner's tolerance, chosen after every fit)."""
+    fitted = sorted({t.claim for t in TARGETS}, key=lambda c: int(c[1:]))
+    for c in claims:
+        if c not in fitted:
+            raise ModelError(f"{c} is no target of the fit; its targets are those of {', '.join(fitted)} (C8 is met "
+                             "by the planner's torque tolerance, chosen after every fit)")
+    return tuple(t for t in TARGETS if t.claim not in set(claims))
+
+
+def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, start: dict | None = None,
+          without=()) -> dict:
     """The whole inference: fit at :data:`FIRST_TOLERANCE`, choose the planner's torque tolerance for C8 on the
     fitted values and, if it differs from the one fitted with, refit with it and choose again on the refitted values
     (a refit moves the duties a little), until the tolerance chosen is the one the values were fitted with (at
     most three rounds). ``start``: the values the first pass starts from (default each unknown's a-priori
     ``start``), e.g. an earlier record's preset after a change of targets; its ``torque_tolerance``, if any, is then
-    the first pass's. Returns the JSON record (``started_from``: "a priori" or "given values")."""
-    start = dict(start or {})
-    first = fit(fixed={"torque_tolerance": start.pop("torque_tolerance", FIRST_TOLERANCE)}, start=start or None,
-                executor=executor, progress=progress, max_nfev=max_nfev)
+    the first pass's. ``without``: claims whose targets are left out (:func:`targets_without`), to see whether they
+    hold as predictions. Returns the JSON record (``started_from``: "a priori" or "given values"; ``left_out``: the
+    claims left out)."""
+    start, targets = dict(start or {}), targets_without(without)
+    first = fit(targets=targets, fixed={"torque_tolerance": start.pop("torque_tolerance", FIRST_TOLERANCE)},
+                start=start or None, executor=executor, progress=progress, max_nfev=max_nfev)
     final, tried = first, []
     for _ in range(3):
         tol, trials = choose_tolerance(final.values, executor)
         tried += trials
         if tol == final.values["torque_tolerance"]:
             break  # C8's tolerance, checked on the values fitted with it
-        final = fit(fixed={"torque_tolerance": tol}, start=final.values, executor=executor, progress=progress,
-                    max_nfev=max_nfev)
+        final = fit(targets=targets, fixed={"torque_tolerance": tol}, start=final.values, executor=executor,
+                    progress=progress, max_nfev=max_nfev)
     tol = final.values["torque_tolerance"]
     record = final.to_json()
     record["preset"]["torque_tolerance"] = tol
@@ -371,4 +386,5 @@ def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, s
     record["first_pass"] = first.to_json()
     record["started_from"] = "given values" if start else "a priori"
     record["calibration_set"] = CALIBRATION_SET
+    record["left_out"] = sorted(without, key=lambda c: int(c[1:]))
     return record

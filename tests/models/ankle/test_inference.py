@@ -137,3 +137,20 @@ def test_the_reports_words_on_the_inference_are_written_from_its_record():
     again = paper.assumptions(other)
     assert "inertia" in again["motor"].split(" are datasheet values")[0] and "J = 3.33e-6 kg m2" in again["motor"]
     assert "identified: driver.R_on" in again["driver"]
+
+
+def test_a_claim_left_out_of_the_fit_takes_its_targets_only():
+    kept = inference.targets_without(("C3",))
+    assert {t.claim for t in kept} == {t.claim for t in inference.TARGETS} - {"C3"}
+    assert [t for t in inference.TARGETS if t.claim != "C3"] == list(kept)
+    assert inference.targets_without() == inference.TARGETS
+    for claim in ("C8", "C6", "C99"):  # C8 is the planner's tolerance; C6 is no target
+        with pytest.raises(ModelError, match=rf"{claim} is no target of the fit; its targets are those of C1, C2"):
+            inference.targets_without((claim,))
+
+
+def test_infer_refuses_an_unknown_claim_before_any_run(tmp_path, capsys):
+    from acausal.cli import main
+    assert main(["infer", "--out", str(tmp_path), "--without", "C6", "--jobs", "1"]) == 2
+    assert "C6 is no target of the fit" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
