@@ -21,6 +21,7 @@ import numpy as np
 from ..reporting.tables import md_table, pct, write_csv
 from .claims import (C11_GAIN, DRIVER_TOL, FRAGILE, IN_NAME_ONLY, NOT_TESTABLE, TARGET, TESTABLE, declared_targets,
                      evaluate as evaluate_claims)
+from .figures.trends import verdict_rows
 from .fit_record import NEAR_BOUND, bounds_markdown, fitted_claims, markdown as inference_markdown, near_bounds
 from .presets import MOTOR_DATASHEET, paper_fit_record
 from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
@@ -373,6 +374,11 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
         if not quick else []
     L += ["- [`power_traces.csv`](power_traces.csv): power at the five points over the evaluated stride, per bench "
           "condition of both presets."] if traces else []
+    verdicts = [r for o in outputs for r in verdict_rows(o.get("markdown", ""))]
+    if verdicts:
+        write_csv(out_dir / "figure_verdicts.csv", verdicts)
+        L += ["- [`figure_verdicts.csv`](figure_verdicts.csv): each trend the paper's text states about a figure, "
+              "whether the model shows it and the caption's sentence (what the model gives; why, where it differs)."]
     from ..reporting.explorer import write_index  # the page reads the CSVs written above
     L += [write_index(out_dir)]
     for o in outputs:

@@ -35,7 +35,8 @@ from .sankey import LABELS
 #: the CSV files of ``acausal paper`` the page reads (name -> required); ``protocol.csv`` holds the chain itself
 PAPER_FILES = {"protocol": True, "power_traces": False, "table1": False, "claims": False, "fig09_driver_loss": False,
                "fig10_motor_loss": False, "fig11_gearing_loss": False, "fig12_output_loss": False,
-               "fig15_efficiency": False, "design_maps": False, "design_optima": False}
+               "fig15_efficiency": False, "design_maps": False, "design_optima": False,
+               "figure_verdicts": False}
 #: the maps (CSV stem, figure number, title, value column, Table 1 column and point of the paper's value there)
 MAPS = [("fig09_driver_loss", 9, "driver loss [% of source]", "loss_pct_of_previous_point",
          "paper_loss_vs_previous", "driver"),
@@ -83,7 +84,8 @@ def paper_page(out_dir, path=None) -> Path:
     returns its path. A ModelError when plotly is missing (naming the install command)."""
     data = paper_data(out_dir)
     path = Path(out_dir) / "index.html" if path is None else path
-    body = PAPER_BODY.replace(INTRO_SLOT, introduction(out_dir, data["tables"].get("claims")))
+    body = PAPER_BODY.replace(INTRO_SLOT, introduction(out_dir, data["tables"].get("claims"),
+                                                       data["tables"].get("figure_verdicts")))
     text = page("CYBERLEGs ankle actuator: the energy-chain explorer", body, PAPER_JS, data, "acausal paper")
     return write_page(path, text, "acausal paper")
 
@@ -117,13 +119,13 @@ def compare_page(out_dir, rows, no_series_link=(), path=None) -> Path:
 
 #: where :func:`introduction` goes in :data:`PAPER_BODY`
 INTRO_SLOT = "<!-- introduction -->"
-#: the figures the introduction shows: (PNG in the run's folder, caption)
+#: the figures the introduction shows: (PNG in the run's folder, the figure as its verdicts name it, caption)
 INTRO_FIGURES = [
-    ("fig07_direct_drive.png", "Fig. 7: the power the actuator and the bench's output motor draw from the supply "
+    ("fig07_direct_drive.png", "Fig. 7", "Fig. 7: the power the actuator and the bench's output motor draw from the supply "
      "over one stride (8 mm, 3 s/stride). The paper: the output motor's peak about 1.4 times the actuator's."),
-    ("fig13_tracking.png", "Fig. 13: the moment arm's planned and actual angle at 18 mm precompression, 1.2 and "
+    ("fig13_tracking.png", "Fig. 13", "Fig. 13: the moment arm's planned and actual angle at 18 mm precompression, 1.2 and "
      "3 s/stride, in closed loop. The paper: at 1.2 s/stride the motor cannot follow in push-off."),
-    ("fig14_calibration.png", "Fig. 14: the motor current of the paper's simple model (Eq. 4) against a virtual "
+    ("fig14_calibration.png", "Fig. 14", "Fig. 14: the motor current of the paper's simple model (Eq. 4) against a virtual "
      "bench recording (simulated, not measured), before and after calibrating R, J, b as the paper did, and with a "
      "mesh efficiency calibrated beside them."),
 ]
@@ -232,8 +234,7 @@ def headline(claims: dict | None) -> list[dict]:
     how many were not checked."""
     if not claims:
         return []
-    d = claims["data"]
-    rows = [{c: d[c][i] for c in claims["columns"]} for i in range(len(d[claims["columns"][0]]))]
+    rows = rows_of(claims)
     out = []
     for preset in dict.fromkeys(r["preset"] for r in rows):
         mine = [r for r in rows if r["preset"] == preset]
@@ -251,9 +252,29 @@ def _image(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
-def introduction(out_dir, claims: dict | None) -> str:
+def rows_of(table: dict | None) -> list[dict]:
+    """The rows of a table as :func:`~acausal.results.html.read_csv` gives it (columns); none for None."""
+    if not table:
+        return []
+    d = table["data"]
+    return [{c: d[c][i] for c in table["columns"]} for i in range(len(d[table["columns"][0]]))]
+
+
+def verdicts_html(rows: list[dict], figure: str | None = None) -> str:
+    """The figures' verdicts (``figure_verdicts.csv``'s rows; those of one ``figure``, e.g. ``"Fig. 7"``, when
+    given) as a list: whether the model shows each trend the paper's text states, and the caption's sentence."""
+    mine = [r for r in rows if figure is None or r["figure"] == figure]
+    if not mine:
+        return ""
+    items = [f'<li><b>{"as in the paper" if r["as_in_the_paper"] == "yes" else "differs from the paper"}</b>: '
+             f'{html.escape(str(r["text"]))}</li>' for r in mine]
+    return '<ul class="verdicts">' + "".join(items) + "</ul>"
+
+
+def introduction(out_dir, claims: dict | None, verdicts: dict | None = None) -> str:
     """The page's introduction (HTML): the paper, the energy chain (:func:`chain_svg`), the presets, the headline
-    (:func:`headline`, from ``claims.csv``), the *fit* column, Figs. 7, 13 and 14, report.md and the glossary."""
+    (:func:`headline`, from ``claims.csv``), the *fit* column, Figs. 7, 13 and 14 with their verdicts and every
+    figure's verdict count (``figure_verdicts.csv``), report.md and the glossary."""
     out_dir = Path(out_dir)
     L = ['<h2>What this page shows</h2>',
          '<p>The paper (<i>energetics of the CYBERLEGs ankle prosthesis\'s MACCEPA actuator</i>, section 4) put the '
@@ -287,15 +308,21 @@ def introduction(out_dir, claims: dict | None) -> str:
               'against it.</p>']
     else:
         L += ['<p class="note">Not in this run: <code>claims.csv</code> (no headline).</p>']
+    found = rows_of(verdicts)
+    shown = sum(r["as_in_the_paper"] == "yes" for r in found)
+    count = (f'Of the {len(found)} trends the paper\'s text states about its Figs. 7-17, the model shows '
+             f'<span id="verdicts-as">{shown}</span> as the paper does (<code>figure_verdicts.csv</code>); under each '
+             f'figure below, its verdicts. ' if found else 'Not in this run: <code>figure_verdicts.csv</code>. ')
     L += ['<h3>Three of the paper\'s figures</h3>',
-          '<p class="note">Every figure of the paper, with the text that says which of the paper\'s trends the model '
-          'shows and why not where it does not, is in the report: <a href="report.md">report.md</a>.</p>',
+          f'<p class="note">{count}Every figure, with its caption\'s verdicts (what the model gives and, where it '
+          'differs, why), is in the report: <a href="report.md">report.md</a>.</p>',
           '<div class="row">']
-    for name, text in INTRO_FIGURES:
+    for name, figure, text in INTRO_FIGURES:
         path = out_dir / name
         if path.exists():
             L.append(f'<div class="col"><figure style="margin:0"><img src="{_image(path)}" alt="{html.escape(name)}" '
-                     f'style="width:100%"><figcaption class="note">{html.escape(text)}</figcaption></figure></div>')
+                     f'style="width:100%"><figcaption class="note">{html.escape(text)}</figcaption></figure>'
+                     f'{verdicts_html(found, figure)}</div>')
         else:
             L.append(f'<div class="col"><p class="note">Not in this run: <code>{html.escape(name)}</code>.</p></div>')
     L += ['</div>', '<h3>Glossary</h3>', '<dl id="glossary">']

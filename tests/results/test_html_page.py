@@ -59,12 +59,12 @@ def paper_folder(tmp_path_factory) -> Path:
     """The small run's folder (:func:`_make_small_run`), made once per session and shared by the xdist workers."""
     base = tmp_path_factory.getbasetemp()
     root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
-    out, done = root / "issue40_small_paper_run", root / "issue40_small_paper_run.done"
+    out, done = root / "small_paper_run", root / "small_paper_run.done"
     try:
         import fcntl
     except ImportError:  # no file locks (Windows): each worker makes its own
-        fcntl, out, done = None, base / "issue40_small_paper_run", base / "issue40_small_paper_run.done"
-    with open(root / "issue40_small_paper_run.lock", "w") as lock:
+        fcntl, out, done = None, base / "small_paper_run", base / "small_paper_run.done"
+    with open(root / "small_paper_run.lock", "w") as lock:
         if fcntl:
             fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():

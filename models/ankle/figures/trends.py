@@ -30,6 +30,23 @@ def verdicts(markdown: str) -> dict:
     return {(m.group(1), m.group(2)): m.group(3) == "as in the paper" for m in VERDICT.finditer(markdown)}
 
 
+def verdict_rows(markdown: str) -> list[dict]:
+    """Every verdict sentence of ``markdown`` as a row: ``figure``, ``trend``, ``as_in_the_paper`` ("yes"/"no") and
+    ``text`` (the sentence with what follows it up to the next verdict or the paragraph's end, bold marks removed):
+    the rows of ``figure_verdicts.csv``."""
+    heads = list(VERDICT.finditer(markdown))
+    rows = []
+    for m, nxt in zip(heads, [*heads[1:], None]):
+        end = markdown.find("\n\n", m.start())
+        end = len(markdown) if end < 0 else end
+        if nxt is not None:
+            end = min(end, nxt.start())
+        rows.append(dict(figure=m.group(1), trend=m.group(2),
+                         as_in_the_paper="yes" if m.group(3) == "as in the paper" else "no",
+                         text=" ".join(markdown[m.start():end].replace("**", "").split())))
+    return rows
+
+
 def phase_of(t_frac: float, push_off: tuple) -> str:
     """Where in the stride a time (fraction of the stride from heel strike) lies relative to push-off
     (``(start, end)`` as fractions): ``"before push-off"``, ``"push-off"`` or ``"after push-off (early swing)"``
