@@ -124,3 +124,30 @@ def _without_a_compiler_the_fallback_holds(name, tmp_path):
     assert any(n.startswith("sources/") for n in names) and not any(n.startswith("binaries/") for n in names)
     pytest.skip(f"docs/{name} builds FMU binaries and there is no C compiler here ({why}); the source-only FMU "
                 "it offers instead was written")
+
+
+def _significant(text: str) -> int:
+    digits = text.lower().split("e")[0].replace("-", "").replace(".", "").lstrip("0")
+    return max(len(digits), 1)
+
+
+def test_the_paper_pages_inferred_values_are_the_shipped_records():
+    """docs/paper.md's table of inferred values is typed prose: each value and sd must be the shipped record's,
+    rounded to the digits the page prints (mm on the page for m in the record), so a new record cannot leave it
+    stale."""
+    from acausal.models.ankle.presets import paper_fit_record
+    record = paper_fit_record()
+    rows = {u["parameter"]: u for u in record["unknowns"]}
+    text = (DOCS / "paper.md").read_text()
+    seen = set()
+    for m in re.finditer(r"^\| `([a-z_.A-Z]+)`[^|]*\| ([-0-9.e]+) ?([a-zA-Z ]*?[0-9]?) \| ([-0-9.e]+) ?[a-zA-Z0-9 ]*\|",
+                         text, re.M):
+        name, value, unit, sd = m.groups()
+        if name not in rows:
+            continue
+        scale = 1e-3 if unit.strip() == "mm" else 1.0
+        for printed, actual in ((value, rows[name]["value"]), (sd, rows[name]["sd"])):
+            n = _significant(printed)
+            assert float(f"{actual / scale:.{n}g}") == float(printed), (name, printed, actual)
+        seen.add(name)
+    assert seen == set(rows), set(rows) - seen
