@@ -104,6 +104,24 @@ def bounds_markdown(record: dict) -> str:
                      "identified", "sd"], rows)
 
 
+#: the trial fits shipped beside the record (``acausal infer --without CLAIM``): ``NAME.json``, the trial's record, and
+#: ``NAME_claims.csv``, the claims of ``acausal paper`` run with it as ``paper_fit`` (its rows of that preset)
+TRIALS = Path(__file__).with_name("trials")
+
+
+def trials(folder: Path = TRIALS) -> list[dict]:
+    """The shipped trial fits: each its ``name``, the claims it ``left_out``, where it ``started_from``, its
+    ``cost`` and its ``claims`` (id -> the trial run's claims row)."""
+    from .claims import read_csv
+    out = []
+    for path in sorted(Path(folder).glob("*.json")):
+        record = json.loads(path.read_text())
+        rows = read_csv(path.with_name(f"{path.stem}_claims.csv"))
+        out.append(dict(name=path.stem, left_out=record.get("left_out", []), started_from=record["started_from"],
+                        cost=record["cost"], record=record, claims={r["id"]: r for r in rows}))
+    return out
+
+
 def fitted_claims(record: dict) -> frozenset:
     """The ids of the claims an inference record was fitted to (its targets' claims, and C8 when it chose the
     planner's tolerance for it)."""

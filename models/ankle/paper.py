@@ -22,7 +22,8 @@ from ..reporting.tables import md_table, pct, write_csv
 from .claims import (C11_GAIN, DRIVER_TOL, FRAGILE, IN_NAME_ONLY, NOT_TESTABLE, TARGET, TESTABLE, declared_targets,
                      evaluate as evaluate_claims)
 from .figures.trends import verdict_rows
-from .fit_record import NEAR_BOUND, bounds_markdown, fitted_claims, markdown as inference_markdown, near_bounds
+from .fit_record import (NEAR_BOUND, bounds_markdown, fitted_claims, markdown as inference_markdown, near_bounds,
+                         trials)
 from .presets import MOTOR_DATASHEET, paper_fit_record
 from .protocol import (BENCH, D_MAX, POINTS, PRECOMPRESSIONS, STRIDE_TIMES, Condition, StrideResult, as_grid,
                        run_condition, sweep)
@@ -431,6 +432,7 @@ def fair_bar(claims: list[dict], record: dict) -> list[str]:
                    "fragile"],
                   [[c["id"], c["role"], f"\"{c['quote']}\"", c["why"], c["simulated"], f"**{c['holds']}**",
                     c["margin"], "**fragile**" if c["fragile"] == "yes" else c["fragile"]] for c in claims]), ""]
+    L += trials_markdown(trials())
     near = near_bounds(record)
     unreasoned = [b["parameter"] for b in near if not b["reason"]]
     listed = ", ".join(f"`{b['parameter']}` at {100 * b['place']:.1f} % ({b['bound']}"
@@ -441,6 +443,29 @@ def fair_bar(claims: list[dict], record: dict) -> list[str]:
           "numbers identify it (sd: linearised, from the weighted Jacobian; identified: sd below a quarter of the "
           "range and not on a bound):", "", bounds_markdown(record), ""]
     return L
+
+
+def trials_markdown(tried: list[dict]) -> list[str]:
+    """What the shipped trial fits (:func:`~acausal.models.ankle.fit_record.trials`) say of the calibration set:
+    whether each claim left out of a trial held as a prediction of it, and how the predictions fared there."""
+    if not tried:
+        return []
+    L = ["Tried as predictions (the trial fits shipped in `acausal/models/ankle/trials/`: each an `acausal infer "
+         "--without CLAIM` record, and the claims of `acausal paper` run with it as `paper_fit`):", ""]
+
+    def said(row):
+        return f"{row['id']} **{'holds' if row['holds'] == 'yes' else 'does not hold'}** ({row['margin']})"
+
+    for t in tried:
+        left = [t["claims"][c] for c in t["left_out"]]
+        others = [r for r in t["claims"].values() if r["role"] in (TESTABLE, IN_NAME_ONLY)]
+        failed = [r["id"] for r in left if r["holds"] != "yes"]
+        start = "the a-priori values" if t["started_from"] == "a priori" else t["started_from"]
+        L.append(f"- without {', '.join(t['left_out'])}, started from {start} (cost "
+                 f"{t['cost']:.2f}): " + "; ".join(said(r) for r in left)
+                 + (f", so {', '.join(failed)} stays a target" if failed else ", so it could be a prediction")
+                 + ". The predictions of that fit: " + "; ".join(f"{said(r)}, a {r['role']}" for r in others) + ".")
+    return L + [""]
 
 
 #: C11 (4.4, Fig. 16) at 1.2 s/stride, the design it compares with [N/m, m] and the inertia that stands for none
