@@ -60,6 +60,12 @@ class Unknown:
     bound_reason: str = ""
 
 
+#: why the driver's current-dependent losses may end at the low ends of their ranges (C1, with the paper's 4.2.1)
+DRIVER_LOSS_IS_CONSTANT = ("the driver's loss at Table 1's point (C1: 64.5 - 42 = 22.5 J per 2-s stride, 11.3 W on "
+                           "average) is no more than the constant consumption the paper measures (4.2.1: 'a constant "
+                           "energy consumption in the driver of between 10 and 15 W'), so what the bridge loses with "
+                           "the current is a small rest of it")
+
 UNKNOWNS = (
     Unknown("body_mass", 50.0, 90.0, 60.0, "kg",
             "the subject's mass scales the gait torque (gait data per kg); adult amputee users 50-90 kg; not "
@@ -85,10 +91,14 @@ UNKNOWNS = (
     Unknown("driver.P_q", 10.0, 15.0, 12.5, "W", "the driver's constant consumption, measured 10-15 W (paper 4.2.1)"),
     Unknown("driver.R_on", 0.02, 0.15, 0.05, "Ohm",
             "conduction resistance of the driver's H-bridge: two MOSFETs in series, 10-75 mOhm each for a 70 V, "
-            "10 A bridge (EPOS2 70/10, parameters.md)"),
+            "10 A bridge (EPOS2 70/10, parameters.md)",
+            bound_reason=DRIVER_LOSS_IS_CONSTANT + ": the fit takes the conduction resistance to the low end, two "
+                         "of the best MOSFETs a 70 V, 10 A bridge is built with (10 mOhm each)"),
     Unknown("driver.k_sw", 0.001, 0.01, 0.004, "1",
             "switching loss per |i| v_bus: (rise + fall time) x PWM frequency / 2 = 40-400 ns x 50 kHz / 2 (EPOS2: "
-            "50 kHz PWM, parameters.md)"),
+            "50 kHz PWM, parameters.md)",
+            bound_reason=DRIVER_LOSS_IS_CONSTANT + ": the fit takes the switching loss to the low end, the fastest "
+                         "switching of the range (40 ns at 50 kHz)"),
     Unknown("controller.k_ff", 0.0, 1.0, 1.0, "1",
             "the bench controller's velocity and acceleration feed-forward, as a fraction of what the unloaded motor "
             "needs (1: the motor's own back-EMF, friction and inertia, AnkleActuator.add_controller; 0: none); an "
