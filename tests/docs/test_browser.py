@@ -1,7 +1,8 @@
 """The explorer in a real browser: headless Chromium, driven by selenium, opens the paper's page from disk
 (the small run of ``tests/results/test_html_page.py``), finds no console error, moves the stride-time and precompression
 sliders, and reads the Sankey diagrams' link values back from the drawn figures: they equal the energies of
-``protocol.csv`` for the condition the sliders show. A screenshot goes to the test's temporary folder; the load time
+``protocol.csv`` for the condition the sliders show; the headline it draws counts the claims of ``claims.csv``. A
+screenshot goes to the test's temporary folder; the load time
 is printed (``-s`` shows it), never asserted. A page of ``Result.to_html`` is opened the same way.
 
 Skips, saying why, where selenium, Chromium or its driver is missing (``.ci/run`` installs Debian's ``chromium`` and
@@ -134,3 +135,27 @@ def test_result_page_in_the_browser(browser, tmp_path):
     residual = browser.execute_script("return document.getElementById('residual').textContent")
     assert float(residual) == pytest.approx(res.energy_balance().residual, rel=0.01, abs=1e-12)
     browser.save_screenshot(str(tmp_path / "result_page.png"))
+
+
+def test_explorer_headline_as_drawn_equals_the_claims_csv(browser, tmp_path_factory):
+    """The headline the browser shows (the spans of ``#headline``) counts the claims of ``claims.csv``: per preset,
+    how many hold, how many of them were fitted, how many testable predictions hold of how many."""
+    from selenium.webdriver.common.by import By
+
+    run = paper_folder(tmp_path_factory)
+    open_page(browser, run / "index.html", "explorer (small run)")
+    with (run / "claims.csv").open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    items = browser.find_elements(By.CSS_SELECTOR, "#headline li")
+    assert [li.get_attribute("data-preset") for li in items] == list(dict.fromkeys(r["preset"] for r in rows))
+    for li in items:
+        mine = [r for r in rows if r["preset"] == li.get_attribute("data-preset")]
+        held = [r for r in mine if r["holds"] == "yes"]
+        testable = [r for r in mine if r["role"] == "testable prediction"]
+        drawn = {c: int(li.find_element(By.CLASS_NAME, c).text) for c in ("hold", "claims", "fitted", "testable-hold",
+                                                                            "testable")}
+        assert drawn == {"hold": len(held), "claims": len(mine),
+                         "fitted": sum(r["used_in_fit"] == "yes" for r in held),
+                         "testable-hold": sum(r["holds"] == "yes" for r in testable), "testable": len(testable)}
+        assert li.is_displayed()
+    assert not severe(browser), severe(browser)
