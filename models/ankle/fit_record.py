@@ -4,6 +4,7 @@ fitted to. Readers of a record need nothing of the fit itself.
 """
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -111,12 +112,12 @@ TRIALS = Path(__file__).with_name("trials")
 
 def trials(folder: Path = TRIALS) -> list[dict]:
     """The shipped trial fits: each its ``name``, the claims it ``left_out``, where it ``started_from``, its
-    ``cost`` and its ``claims`` (id -> the trial run's claims row)."""
-    from .claims import read_csv
+    ``cost`` and its ``claims`` (id -> the trial run's claims row, as text)."""
     out = []
     for path in sorted(Path(folder).glob("*.json")):
         record = json.loads(path.read_text())
-        rows = read_csv(path.with_name(f"{path.stem}_claims.csv"))
+        with path.with_name(f"{path.stem}_claims.csv").open(newline="") as f:
+            rows = list(csv.DictReader(f))
         out.append(dict(name=path.stem, left_out=record.get("left_out", []), started_from=record["started_from"],
                         cost=record["cost"], record=record, claims={r["id"]: r for r in rows}))
     return out

@@ -21,7 +21,6 @@ import numpy as np
 from ..reporting.tables import md_table, pct, write_csv
 from .claims import (C11_GAIN, DRIVER_TOL, FRAGILE, IN_NAME_ONLY, NOT_TESTABLE, TARGET, TESTABLE, declared_targets,
                      evaluate as evaluate_claims)
-from .figures.trends import verdict_rows
 from .fit_record import (NEAR_BOUND, bounds_markdown, fitted_claims, markdown as inference_markdown, near_bounds,
                          trials)
 from .presets import MOTOR_DATASHEET, paper_fit_record
@@ -375,7 +374,7 @@ def write_report(out_dir: Path, results: list[StrideResult], outputs: list[dict]
         if not quick else []
     L += ["- [`power_traces.csv`](power_traces.csv): power at the five points over the evaluated stride, per bench "
           "condition of both presets."] if traces else []
-    verdicts = [r for o in outputs for r in verdict_rows(o.get("markdown", ""))]
+    verdicts = [r for o in outputs for r in o.get("verdicts", [])]  # each section's (figures.run_section)
     if verdicts:
         write_csv(out_dir / "figure_verdicts.csv", verdicts)
         L += ["- [`figure_verdicts.csv`](figure_verdicts.csv): each trend the paper's text states about a figure, "

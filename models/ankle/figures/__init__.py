@@ -30,9 +30,12 @@ def run_section(name: str, out_dir: str, results=None) -> dict:
     """Section ``name``'s ``main`` in this process, and the parts of its output the report reads (a module-level
     function returning plain data, so a process pool can run it). Without ``results`` the section simulates on its
     own (``executor="serial"``: it already runs in a worker of the pool, beside the sweep); with them it plots the
-    protocol's results."""
+    protocol's results. ``verdicts``: the rows of its caption's verdict sentences (:func:`.trends.verdict_rows`)."""
     from pathlib import Path
+
+    from .trends import verdict_rows
 
     main = section(name).main
     out = main(Path(out_dir), executor="serial") if results is None else main(Path(out_dir), results)
-    return {k: out[k] for k in ("title", "markdown", "figures", "csv", "comparisons") if k in out}
+    return {**{k: out[k] for k in ("title", "markdown", "figures", "csv", "comparisons") if k in out},
+            "verdicts": verdict_rows(out.get("markdown", ""))}
