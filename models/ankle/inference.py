@@ -25,7 +25,9 @@ deviation exceeds a quarter of its range, or that sits on a bound, is reported a
 ``acausal infer --out DIR`` runs it and writes (:mod:`acausal.models.ankle.fit_record`) ``paper_fit.json`` (the
 preset with ranges, sources, standard deviations, the targets met, the condition of the fit); ``--install`` also
 replaces the shipped one
-(:data:`acausal.models.ankle.presets.PAPER_FIT_RECORD`) that the ``paper_fit`` preset reads.
+(:data:`acausal.models.ankle.presets.PAPER_FIT_RECORD`) that the ``paper_fit`` preset reads. ``--without CLAIM``
+leaves a claim's targets out (:func:`targets_without`) to try it as a prediction; such trials are shipped beside the
+record (:func:`acausal.models.ankle.fit_record.trials`) and the report says what they found.
 """
 from __future__ import annotations
 
