@@ -513,7 +513,8 @@ CALIBRATION = {
            "as they are never below 50%.",
            "not a target of this record, but no independent test: the fit started from a record that had C6 as a "
            "target, so the values began where that fit put them (a fit from the a-priori values that never had it, "
-           "the trial without_C3, ends next to them and C6 holds there as well); its floor sits next to C1's targets (Table 1's "
+           "the trial without_C3, ends next to them and C6 holds there as well); its floor sits next to C1's targets "
+           "(Table 1's "
            f"gearing loss at 8 mm, 2 s/stride, 1 - {_E['link']:g}/{_E['motor']:g} = {100 * _GEARING_T1:.1f} %, is "
            f"{100 * (_GEARING_T1 - PAPER['fig11_gearing_loss_min']):.1f} points above it) and its corner rises with "
            "the arm's lag, which C7's worst case (> 50 %) sets through the feed-forward (the record's "

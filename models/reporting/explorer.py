@@ -121,11 +121,11 @@ def compare_page(out_dir, rows, no_series_link=(), path=None) -> Path:
 INTRO_SLOT = "<!-- introduction -->"
 #: the figures the introduction shows: (PNG in the run's folder, the figure as its verdicts name it, caption)
 INTRO_FIGURES = [
-    ("fig07_direct_drive.png", "Fig. 7", "Fig. 7: the power the actuator and the bench's output motor draw from the supply "
+    ("fig07_direct_drive.png", "Fig. 7", "the power the actuator and the bench's output motor draw from the supply "
      "over one stride (8 mm, 3 s/stride). The paper: the output motor's peak about 1.4 times the actuator's."),
-    ("fig13_tracking.png", "Fig. 13", "Fig. 13: the moment arm's planned and actual angle at 18 mm precompression, 1.2 and "
+    ("fig13_tracking.png", "Fig. 13", "the moment arm's planned and actual angle at 18 mm precompression, 1.2 and "
      "3 s/stride, in closed loop. The paper: at 1.2 s/stride the motor cannot follow in push-off."),
-    ("fig14_calibration.png", "Fig. 14", "Fig. 14: the motor current of the paper's simple model (Eq. 4) against a virtual "
+    ("fig14_calibration.png", "Fig. 14", "the motor current of the paper's simple model (Eq. 4) against a virtual "
      "bench recording (simulated, not measured), before and after calibrating R, J, b as the paper did, and with a "
      "mesh efficiency calibrated beside them."),
 ]
@@ -321,7 +321,7 @@ def introduction(out_dir, claims: dict | None, verdicts: dict | None = None) -> 
         path = out_dir / name
         if path.exists():
             L.append(f'<div class="col"><figure style="margin:0"><img src="{_image(path)}" alt="{html.escape(name)}" '
-                     f'style="width:100%"><figcaption class="note">{html.escape(text)}</figcaption></figure>'
+                     f'style="width:100%"><figcaption class="note">{html.escape(f"{figure}: {text}")}</figcaption></figure>'
                      f'{verdicts_html(found, figure)}</div>')
         else:
             L.append(f'<div class="col"><p class="note">Not in this run: <code>{html.escape(name)}</code>.</p></div>')
