@@ -40,6 +40,7 @@ import numpy as np
 from acausal import ModelError, SimulationError
 from acausal.simulation.sweep import sweep
 
+from .published import PAPER
 from .protocol import D_MAX, Condition, compiled, follows_as_in_the_paper, run_condition
 from .targets import (GRID, PLAN_GRID, TARGETS, WHOLE_GRID, driver_loss, grid_extreme, grid_mean, in_corner,
                       stage_loss)
@@ -63,10 +64,12 @@ class Unknown:
 
 
 #: why the driver's current-dependent losses may end at the low ends of their ranges (C1, with the paper's 4.2.1)
-DRIVER_LOSS_IS_CONSTANT = ("the driver's loss at Table 1's point (C1: 64.5 - 42 = 22.5 J per 2-s stride, 11.3 W on "
-                           "average) is no more than the constant consumption the paper measures (4.2.1: 'a constant "
-                           "energy consumption in the driver of between 10 and 15 W'), so what the bridge loses with "
-                           "the current is a small rest of it")
+_T1 = PAPER["table1_energy"]
+DRIVER_LOSS_IS_CONSTANT = (f"the driver's loss at Table 1's point (C1: {_T1['source']:g} - {_T1['driver']:g} = "
+                           f"{_T1['source'] - _T1['driver']:g} J per 2-s stride, "
+                           f"{(_T1['source'] - _T1['driver']) / 2.0:g} W on average) is no more than the constant "
+                           "consumption the paper measures (4.2.1: 'a constant energy consumption in the driver of "
+                           "between 10 and 15 W'), so what the bridge loses with the current is a small rest of it")
 
 UNKNOWNS = (
     Unknown("body_mass", 50.0, 90.0, 60.0, "kg",
@@ -357,6 +360,14 @@ CALIBRATION_SET = ("declared in acausal.models.ankle.claims (CALIBRATION: each c
                    "decides it); this record's targets and tolerance_trials are the fit of the declared targets")
 
 
+def calibration_set(left_out=()) -> str:
+    """What a record's targets are: the declared ones (:data:`CALIBRATION_SET`), or, for a trial, those less the
+    targets of the claims ``left_out``."""
+    if not left_out:
+        return CALIBRATION_SET
+    return CALIBRATION_SET + f" less those of {', '.join(left_out)} (a trial: acausal infer --without)"
+
+
 def targets_without(claims=()) -> tuple:
     """The fit's targets (:data:`~acausal.models.ankle.targets.TARGETS`) less those of ``claims`` (e.g. ``("C3",)``:
     the fit that tries C3 as a prediction); a claim that is no fitted target is refused, naming the ones there are
@@ -397,6 +408,6 @@ def infer(executor=None, progress: Callable | None = None, max_nfev: int = 15, s
     record["feed_forward_trials"] = feed_forward_trials(final.values, executor)
     record["first_pass"] = first.to_json()
     record["started_from"] = "given values" if start else "a priori"
-    record["calibration_set"] = CALIBRATION_SET
     record["left_out"] = sorted(without, key=lambda c: int(c[1:]))
+    record["calibration_set"] = calibration_set(record["left_out"])
     return record

@@ -92,12 +92,15 @@ def test_c8_holds_as_the_protocols_reading_says_and_is_fragile_near_the_duty_lim
 
 def test_each_shipped_trial_is_a_fit_without_the_claims_it_left_out():
     from acausal.models.ankle.fit_record import trials
+    from acausal.models.ankle.inference import calibration_set
     tried = trials()
     assert [t["name"] for t in tried] == ["without_C3"]
     for t in tried:
         assert t["left_out"] and not set(t["left_out"]) & fitted_claims(t["record"])
         assert set(t["claims"]) == set(C.CALIBRATION)
         assert all(t["claims"][c]["used_in_fit"] == "no" for c in t["left_out"])
+        assert t["record"]["calibration_set"] == calibration_set(t["left_out"])  # it says it is a trial
+        assert all(c in t["record"]["calibration_set"] for c in t["left_out"])
     c3 = tried[0]
     assert c3["started_from"] == "a priori" and c3["claims"]["C3"]["holds"] == "no"
 
