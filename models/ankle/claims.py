@@ -453,10 +453,12 @@ OPPOSES = {
     "C4": "the energy burnt in the non-regenerative front end grows with precompression at short strides and the "
           "joint work falls, so the grid's minimum sits at low precompression; the paper puts its optimum near 11 mm "
           "down to the driver's tuning near 8 mm (4.2.1), which the model's controller does not depend on",
-    "C5": "at 2 mm the MACCEPA is soft (T ~ alpha^3): a tight planner band moves the arm far and fast there (more "
-          "current for its inertia), the fitted band takes the slowest path and the motor runs slower than at 5 mm "
-          "(a lower efficiency, as the paper explains it): either way the motor loss falls from 2 to 5 mm before it "
-          "grows",
+    "C5": "the model follows the paper's own explanation (the lower the mean motor speed, the higher the motor loss; "
+          "Fig. 10's caption ranks them over the grid), but its mean motor speed along precompression is highest at "
+          "5 mm, not at 2 mm: at 2 mm the MACCEPA is soft (T ~ alpha^3) and the fitted planner band takes a higher, "
+          "shorter arm path (a tight band moves the arm far and fast there and draws more current instead), so the "
+          "motor loss falls from 2 to 5 mm before it grows; with the motor's inertia at the datasheet rotor's, "
+          "instead of the inferred, it falls as well",
     "C6": "the gearing loss's corner (high precompression, short strides) comes from the arm lagging where the "
           "motor cannot follow; the feed-forward that brings the output loss's mean to 20 % (C7) also cuts that "
           "lag (inference record: feed_forward_trials)",

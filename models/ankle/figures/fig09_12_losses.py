@@ -98,7 +98,9 @@ def main(out_dir: Path, results=None) -> dict:
         figures.append(png)
         csvs.append(write_csv(out_dir / f"{stem}.csv",
                               grid_rows(bench, {"loss_pct_of_previous_point": lambda r, k=key: 100 * r.loss_fraction[k],
-                                                "loss_J": lambda r, k=key: r.energy[_prev(k)] - r.energy[k]},
+                                                "loss_J": lambda r, k=key: r.energy[_prev(k)] - r.energy[k],
+                                                **({"mean_motor_speed_radps": lambda r: r.mean_motor_speed}
+                                                   if key == "motor" else {})},
                                         duty)))
         a = [r.loss_fraction[key] for r in bench]
         f = [r.loss_fraction[key] for r in feasible]
@@ -162,6 +164,45 @@ def _rms(r, name: str = "motor.i") -> float:
     t, x = np.asarray(r.traces["time"]), np.asarray(r.traces[name])
     sel = t >= t[-1] - r.condition.stride_time - 1e-9
     return float(np.sqrt(np.mean(x[sel] ** 2)))
+
+
+def _arm_path(r) -> tuple:
+    """The planned moment-arm angle of a bench result over its evaluated stride: (smallest, largest, travel) in
+    degrees, the travel being the path's total variation (how far the arm moves per stride)."""
+    a = np.degrees(np.asarray(r.traces["arm_ref.y.value"]))
+    return float(a.min()), float(a.max()), float(np.sum(np.abs(np.diff(a))))
+
+
+def _motor_speed_reason(bench, mot: dict, Ps: list, Ts: list) -> str:
+    """Why Fig. 10's motor loss does not grow from the lowest precompression on: the paper's own mechanism (a lower
+    average motor velocity, a lower motor efficiency) read on the model, the mean |w| of each cell against its
+    loss, and where the mean speed is highest along precompression, with the planned arm path that sets it."""
+    from scipy.stats import spearmanr
+    spd = _cells(bench, lambda r: r.mean_motor_speed)
+    rho = float(spearmanr([mot[c] for c in mot], [spd[c] for c in mot])[0])
+    P0, P1 = Ps[0], Ps[1]
+    both = [T for T in Ts if mot[(P1, T)] < mot[(P0, T)] and spd[(P1, T)] > spd[(P0, T)]]
+    fastest = {T: max(_along(spd, T, "P"), key=lambda xv: xv[1])[0] for T in Ts}
+    L = [f"the model's motor loss is the winding's R i^2 alone; over the {len(mot)} cells it ranks "
+         + ("opposite to" if rho < 0 else "with") + f" the mean motor speed |w| (Spearman {rho:.2f}), "
+         + ("as the paper's explanation has it (a lower average motor velocity, a lower efficiency)" if rho < 0 else
+            "against the paper's explanation (a lower average motor velocity, a lower efficiency)")]
+    if both:
+        T = min(both, key=lambda T: abs(T - 2.0))
+        L.append(f"but along precompression the mean motor speed is highest at "
+                 + "; ".join(f"{P:g} mm ({_s([t for t in Ts if fastest[t] == P])})"
+                             for P in sorted(set(fastest.values())))
+                 + f", and from {P0:g} to {P1:g} mm it rises while the loss falls at {len(both)} of {len(Ts)} "
+                 f"stride times ({spd[(P0, T)]:.0f} to {spd[(P1, T)]:.0f} rad/s, {pct(mot[(P0, T)])} to "
+                 f"{pct(mot[(P1, T)])} at {T:g} s/stride)")
+        r0, r1 = (next((r for r in bench if math.isclose(1e3 * r.condition.P, P) and
+                        math.isclose(r.condition.stride_time, T) and "arm_ref.y.value" in r.traces), None)
+                  for P in (P0, P1))
+        if r0 is not None and r1 is not None:
+            (lo0, hi0, tr0), (lo1, hi1, tr1) = _arm_path(r0), _arm_path(r1)
+            L.append(f"the planned arm path spans {lo0:.1f}-{hi0:.1f} deg at {P0:g} mm against {lo1:.1f}-{hi1:.1f} "
+                     f"deg at {P1:g} mm, {tr0:.1f} against {tr1:.1f} deg of travel per stride")
+    return "; ".join(L)
 
 
 def caption(bench, duty: dict) -> str:
@@ -236,13 +277,7 @@ def caption(bench, duty: dict) -> str:
             f"{P:g} mm ({_s([T for T in Ts if lowest[T] == P])})" for P in sorted(set(lowest[T] for T in u)))
          + f", then grows ({len(u)} of {len(Ts)} stride times)" if u else "it is lowest at the lowest precompression")
         + (f"; not monotone at {_s(other_P)}" if other_P else ""),
-        "" if ok_P else "the model's motor loss is the winding's R i^2 alone, so over precompression it follows "
-        "the rms current"
-        + (f", which is higher at {Ps[0]:g} mm ({cur[(Ps[0], u[0])]:.2f} A at {u[0]:g} s/stride) than at "
-           f"{lowest[u[0]]:g} mm ({cur[(lowest[u[0]], u[0])]:.2f} A)" if cur and u else "")
-        + "; the paper explains its trend by a lower motor speed (a lower efficiency) at higher precompression, "
-        "which the model's copper loss does not follow at the low end; what raises the current at the lowest "
-        "precompression is not isolated here"))
+        "" if ok_P else _motor_speed_reason(bench, mot, Ps, Ts)))
 
     # Figs. 11-12: the levels and the corner
     gear = _cells(bench, lambda r: r.loss_fraction["link"])

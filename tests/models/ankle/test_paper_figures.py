@@ -163,6 +163,27 @@ def test_fig10_motor_loss_is_u_shaped_along_precompression(losses):
 
 
 @slow
+def test_fig10_caption_reads_the_papers_mechanism_on_the_csv(losses):
+    """Fig. 10's reason is the paper's own mechanism (a lower average motor velocity, a lower motor efficiency) read
+    on the model: the rank correlation of loss and mean motor speed, and where along precompression the speed is
+    highest, each as the figure's CSV gives them."""
+    from scipy.stats import spearmanr
+    out, sec = losses
+    rows = read_csv(out / "fig10_motor_loss.csv")
+    loss, speed = grid_of(rows, "loss_pct_of_previous_point"), grid_of(rows, "mean_motor_speed_radps")
+    Ps, Ts = sorted({p for p, _ in loss}), sorted({t for _, t in loss})
+    rho = spearmanr([loss[c] for c in loss], [speed[c] for c in loss])[0]
+    assert rho < -0.5  # the slower the motor, the larger its loss, as the paper explains it
+    fastest = {T: max(Ps, key=lambda P: speed[(P, T)]) for T in Ts}
+    assert set(fastest.values()) == {Ps[1]}  # but not at the lowest precompression: one step above it
+    why = next(p for p in sec["markdown"].split("\n\n") if p.startswith("**Fig. 10, the motor loss along prec"))
+    assert f"Spearman {rho:.2f}" in why and "as the paper's explanation has it" in why
+    assert f"mean motor speed is highest at {Ps[1]:g} mm ({', '.join(f'{T:g}' for T in Ts)} s)" in why
+    assert f"from {Ps[0]:g} to {Ps[1]:g} mm it rises while the loss falls at {len(Ts)} of {len(Ts)}" in why
+    assert "planned arm path spans" in why and "not isolated" not in why
+
+
+@slow
 def test_fig11_12_levels_as_in_the_paper(losses):
     out, sec = losses
     gear = grid_of(read_csv(out / "fig11_gearing_loss.csv"), "loss_pct_of_previous_point")
