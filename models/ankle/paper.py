@@ -470,6 +470,8 @@ def trials_markdown(tried: list[dict]) -> list[str]:
 #: C11 (4.4, Fig. 16) at 1.2 s/stride, the design it compares with [N/m, m] and the inertia that stands for none
 #: on the motor shaft (motor.J overridden; the gearhead's own input inertia is kept) [kg m2]
 C11_STRIDE, C11_DESIGN, NO_INERTIA = 1.2, (130e3, 0.007), 1e-9
+
+
 def _design_map(out_dir: Path, preset_name: str, stride_time: float):
     """The design map of ``preset_name`` at ``stride_time`` as the run's Figs. 16-17 wrote it (``design_maps.csv``),
     else computed (:func:`acausal.models.bench.design.efficiency_map`)."""
@@ -490,45 +492,62 @@ def _design_map(out_dir: Path, preset_name: str, stride_time: float):
     return design.DesignMap(stride_time, np.array(ks), np.array(Ps), values, preset_name)
 
 
-def c11_row(dmap, key: str, reading: str, reference: tuple = C11_DESIGN, note: str = "") -> dict:
-    """One reading of C11 on a design map: its grid optimum among the designs the motor can follow, the value at
-    ``reference`` (k [N/m], P [m]) and the gain, and whether the optimum is C11's (softer than the reference, at
-    least :data:`C11_GAIN` above it)."""
+#: the efficiencies C11 is read with (the paper's 4.4 does not say which Fig. 16 maps), each from the energies of a
+#: design map or of :func:`~acausal.models.bench.design.evaluate_designs`: key -> (what it is, how it is computed)
+C11_EFFICIENCIES = {
+    "efficiency": ("the chain's E_output / E_source", lambda v: v["E_output_J"] / v["E_source_J"]),
+    "regenerating": ("a regenerating supply: E_output / (E_source - what the rectifier burns)",
+                     lambda v: v["E_output_J"] / (v["E_source_J"] - v["E_rectifier_J"])),
+    "motor": ("the motor's own efficiency, E_motor / E_driver", lambda v: v["E_motor_J"] / v["E_driver_J"]),
+}
+
+
+def c11_row(dmap, key: str, reading: str, reference: tuple = C11_DESIGN, note: str = "",
+            refined: tuple | None = None) -> dict:
+    """One reading of C11 on a design map: its grid optimum among the designs the motor can follow, the refined
+    optimum ``refined`` (k [N/m], P [m], value; from :func:`~acausal.models.bench.design.refine`, None: the grid's),
+    the value at ``reference`` (k [N/m], P [m]) and the gain of the refined optimum, and whether it is C11's (softer
+    than the reference, at least :data:`C11_GAIN` above it)."""
     k, P, best = dmap.optimum(key)
+    kr, Pr, br = refined if refined is not None else (k, P, best)
     at = dmap.at(*reference, key)
     edge = [name for name, v, axis in (("k", k, dmap.k), ("P", P, dmap.P)) if v in (axis.min(), axis.max())]
-    return dict(reading=reading, optimum_kNpm=k / 1e3, optimum_P_mm=P * 1e3, efficiency=best,
+    return dict(reading=reading, grid_optimum_kNpm=k / 1e3, grid_optimum_P_mm=P * 1e3, grid_efficiency=best,
+                optimum_kNpm=kr / 1e3, optimum_P_mm=Pr * 1e3, efficiency=br,
                 reference_kNpm=reference[0] / 1e3, reference_P_mm=reference[1] * 1e3, efficiency_at_reference=at,
-                gain_points=100 * (best - at), lower_stiffness=k < reference[0],
-                as_c11=bool(k < reference[0] and best - at >= C11_GAIN), on_grid_edge=", ".join(edge), note=note)
+                gain_points=100 * (br - at), lower_stiffness=kr < reference[0],
+                as_c11=bool(kr < reference[0] and br - at >= C11_GAIN), on_grid_edge=", ".join(edge), note=note)
 
 
 def c11_readings(out_dir: Path, preset_name: str = HEADLINE) -> list[dict]:
     """C11 under the readings the paper's text leaves open (4.4 does not say which efficiency Fig. 16 maps), on
-    the chain of ``preset_name`` at 1.2 s/stride over the design grid of :mod:`acausal.models.bench.design` (grid
-    optima, not refined): the chain's own E_output / E_source; the same with a regenerating supply; the motor's
-    own efficiency E_motor / E_driver; without inertia on the motor shaft; and the chain's efficiency measured from
-    the model's own peak-power optimum (``design_optima.csv``) instead of the paper's 130 N/mm, 7 mm. Writes
+    the chain of ``preset_name`` at 1.2 s/stride over the design grid of :mod:`acausal.models.bench.design`, each
+    optimum refined from the grid's (:func:`~acausal.models.bench.design.refine`): the efficiencies of
+    :data:`C11_EFFICIENCIES`; the chain's without inertia on the motor shaft; and the chain's measured from the
+    model's own peak-power optimum (``design_optima.csv``) instead of the paper's 130 N/mm, 7 mm. Writes
     ``c11_readings.csv``."""
     from ..bench import design
     from .claims import read_csv
     T = C11_STRIDE
     m = _design_map(out_dir, preset_name, T)
-    v = m.values
-    v["regenerating"] = v["E_output_J"] / (v["E_source_J"] - v["E_rectifier_J"])
-    v["motor"] = v["E_motor_J"] / v["E_driver_J"]
+    for key, (_, value) in C11_EFFICIENCIES.items():
+        m.values[key] = value(m.values)
+
+    def row(dmap, key, reading, reference=C11_DESIGN, note=""):
+        return c11_row(dmap, key, reading, reference, note,
+                       refined=design.refine(dmap, key=key, value=C11_EFFICIENCIES[key][1]))
+
+    rows = [row(m, key, label + (" (as C11 is checked)" if key == "efficiency" else ""))
+            for key, (label, _) in C11_EFFICIENCIES.items()]
     inertia_free = design.efficiency_map(T, preset_name, overrides={"motor.J": NO_INERTIA}, executor="serial")
-    rows = [c11_row(m, "efficiency", "the chain's E_output / E_source (as C11 is checked)"),
-            c11_row(m, "regenerating", "a regenerating supply: E_output / (E_source - what the rectifier burns)"),
-            c11_row(m, "motor", "the motor's own efficiency, E_motor / E_driver"),
-            c11_row(inertia_free, "efficiency", f"without inertia on the motor shaft (motor.J = {NO_INERTIA:g} kg m2)")]
+    rows.append(row(inertia_free, "efficiency", f"without inertia on the motor shaft (motor.J = {NO_INERTIA:g} kg m2)"))
     peak = next((r for r in read_csv(Path(out_dir) / "design_optima.csv") if r["preset"] == preset_name
                  and math.isclose(r["stride_time_s"], T) and not r.get("variant")), None) \
         if (Path(out_dir) / "design_optima.csv").exists() else None
     if peak is not None:
-        rows.append(c11_row(m, "efficiency", "the chain's, from the model's own peak-power optimum",
-                            (1e3 * peak["peak_power_optimum_kNpm"], 1e-3 * peak["peak_power_optimum_P_mm"]),
-                            "the paper's design criterion (minimum peak moment-arm power, exact plan) on this model"))
+        rows.append(row(m, "efficiency", "the chain's, from the model's own peak-power optimum",
+                        (1e3 * peak["peak_power_optimum_kNpm"], 1e-3 * peak["peak_power_optimum_P_mm"]),
+                        "the paper's design criterion (minimum peak moment-arm power, exact plan) on this model"))
     write_csv(Path(out_dir) / "c11_readings.csv", rows)
     return rows
 
@@ -545,12 +564,13 @@ def c11_markdown(rows: list[dict]) -> list[str]:
             f"Section 4.4 does not say which efficiency Fig. 16 maps. C11 at {C11_STRIDE:g} s/stride on the "
             f"`{HEADLINE}` chain, read several ways (grid {design.K_GRID[0] / 1e3:g}-{design.K_GRID[-1] / 1e3:g} "
             f"N/mm x {design.P_GRID[0] * 1e3:g}-{design.P_GRID[-1] * 1e3:g} mm, {design.K_GRID.size} x "
-            f"{design.P_GRID.size} designs, grid optima among the designs the motor can follow, not refined; "
-            "`c11_readings.csv`): C11 is " + verdict + "."
+            f"{design.P_GRID.size} designs; each optimum among the designs the motor can follow, refined from the "
+            "grid's by Nelder-Mead on the model; `c11_readings.csv`): C11 is " + verdict + "."
             + (f" The optimum is softer than the reference under: {'; '.join(lower)}." if lower else ""), "",
-            md_table(["reading", "optimum", "efficiency", "reference design", "efficiency there", "gain",
-                      "optimum on the grid's edge"],
-                     [[r["reading"], f"{r['optimum_kNpm']:.0f} N/mm, {r['optimum_P_mm']:.0f} mm",
+            md_table(["reading", "grid optimum", "refined optimum", "efficiency", "reference design",
+                      "efficiency there", "gain", "grid optimum on the grid's edge"],
+                     [[r["reading"], f"{r['grid_optimum_kNpm']:.0f} N/mm, {r['grid_optimum_P_mm']:.0f} mm",
+                       f"{r['optimum_kNpm']:.0f} N/mm, {r['optimum_P_mm']:.1f} mm",
                        f"{100 * r['efficiency']:.1f} %",
                        f"{r['reference_kNpm']:.0f} N/mm, {r['reference_P_mm']:.0f} mm",
                        f"{100 * r['efficiency_at_reference']:.1f} %", f"{r['gain_points']:+.1f} points",

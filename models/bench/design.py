@@ -212,22 +212,25 @@ def efficiency_map(stride_time: float, preset_name: str = "paper_fit", overrides
                      duty_limited)
 
 
-def refine(dmap: DesignMap, overrides: dict | None = None) -> tuple:
-    """Continuous optimum of the efficiency among designs the motor can follow, started at the grid optimum
-    (bounded Nelder-Mead in mm and N/mm), with the map's preset and overrides unless ``overrides`` are given."""
+def refine(dmap: DesignMap, overrides: dict | None = None, key: str = "efficiency", value=None) -> tuple:
+    """Continuous optimum of ``key`` (default the efficiency) among designs the motor can follow, started at the
+    map's grid optimum of ``key`` (bounded Nelder-Mead in mm and N/mm), with the map's preset and overrides unless
+    ``overrides`` are given. ``value`` computes ``key`` from :func:`evaluate_designs`' output where it is no column
+    of it (a reading derived from the energies); default: the column ``key``."""
     overrides = dmap.overrides if overrides is None else overrides
-    k0, P0, _ = dmap.optimum()
+    value = value or (lambda v: v[key])
+    k0, P0, _ = dmap.optimum(key)
     if not np.isfinite(k0):
         return math.nan, math.nan, math.nan
     lo = np.array([dmap.k.min() / 1e3, dmap.P.min() * 1e3])
     hi = np.array([dmap.k.max() / 1e3, dmap.P.max() * 1e3])
 
-    def neg_eff(z):
+    def neg(z):
         r = evaluate_designs(np.array([z[0] * 1e3]), np.array([z[1] * 1e-3]), dmap.stride_time, dmap.preset,
                              overrides)
-        e = r["efficiency"][0]
+        e = value(r)[0]
         return -e if np.isfinite(e) and (r["max_duty"][0] <= D_MAX or not dmap.duty_limited) else 1.0
 
-    sol = minimize(neg_eff, [k0 / 1e3, P0 * 1e3], method="Nelder-Mead", bounds=list(zip(lo, hi)),
+    sol = minimize(neg, [k0 / 1e3, P0 * 1e3], method="Nelder-Mead", bounds=list(zip(lo, hi)),
                    options={"xatol": 0.1, "fatol": 1e-5, "maxiter": 200})
     return float(sol.x[0] * 1e3), float(sol.x[1] * 1e-3), float(-sol.fun)

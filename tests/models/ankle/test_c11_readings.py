@@ -49,3 +49,33 @@ def test_the_regenerated_energy_is_part_of_the_chains_losses():
     assert np.isnan(burnt[2]) and not e["feasible"][2]
     lost = e["E_source_J"][:2] - e["E_output_J"][:2]
     assert np.all(burnt[:2] > 0) and np.all(burnt[:2] < lost), (burnt, lost)
+
+
+def test_the_verdict_and_gain_are_the_refined_optimums_and_the_grids_is_kept_beside_it():
+    m = _map(lambda k, P: 0.15 + (0.05 if (k, P) == (60e3, 0.007) else 0.0))
+    grid_only = paper.c11_row(m, "efficiency", "r")
+    refined = paper.c11_row(m, "efficiency", "r", refined=(55e3, 0.0065, 0.15 + 0.10))
+    assert math.isclose(grid_only["gain_points"], 5.0) and grid_only["as_c11"] == (0.05 >= C11_GAIN)
+    assert (refined["grid_optimum_kNpm"], refined["grid_optimum_P_mm"]) == (60.0, 7.0)
+    assert math.isclose(refined["grid_efficiency"], 0.20) and math.isclose(refined["efficiency"], 0.25)
+    assert (refined["optimum_kNpm"], refined["optimum_P_mm"]) == (55.0, 6.5)
+    assert math.isclose(refined["gain_points"], 10.0) and refined["as_c11"]
+
+
+def test_refine_optimises_a_reading_derived_from_the_energies():
+    """The regenerating reading is no column of evaluate_designs: refine computes it from the energies at every
+    step, starts from its own grid optimum and ends no worse, within the grid's neighbourhood."""
+    from acausal.models.bench import design
+    ks, Ps = np.array([100e3, 150e3, 200e3]), np.array([0.003, 0.005, 0.007])
+    K, P = np.meshgrid(ks, Ps, indexing="ij")
+    e = design.evaluate_designs(K.ravel(), P.ravel(), 1.2)
+    values = {k: np.asarray(v).reshape(K.shape) for k, v in e.items() if np.ndim(v) == 1 and len(v) == K.size}
+    label, value = paper.C11_EFFICIENCIES["regenerating"]
+    values["regenerating"] = value(values)
+    m = DesignMap(1.2, ks, Ps, values)
+    k0, P0, best = m.optimum("regenerating")
+    k, P, refined = design.refine(m, key="regenerating", value=value)
+    assert refined >= best and abs(k - k0) <= 50e3 and abs(P - P0) <= 0.002, (k0, P0, best, k, P, refined)
+    again = design.evaluate_designs(np.array([k]), np.array([P]), 1.2)
+    assert math.isclose(value(again)[0], refined, rel_tol=1e-9)
+    assert refined != m.optimum("efficiency")[2]
