@@ -115,7 +115,7 @@ def test_every_protocol_csv_row_says_its_preset(out):
     for stem in calibration:
         assert (out / f"{stem}.csv").exists(), stem
     for stem in [*FIGURES, *TABLES, *calibration, "claims", "design_maps", "design_optima", "fig09_driver_loss",
-                 "fig15_efficiency"]:
+                 "fig15_efficiency", "fig17_linkage_friction"]:
         path = out / f"{stem}.csv"
         if not path.exists():
             continue

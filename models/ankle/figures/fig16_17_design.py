@@ -8,9 +8,11 @@ linkage losses included; :func:`acausal.models.bench.design.chain_model`), and t
 figures, Eq. 4 as it calibrated it (Table 2's optimized total, arm side: ``presets.PAPER_EQ4``, the same chain with
 ideal gears and driver). Every design is planned with the preset's body mass and torque tolerance, all designs of a
 map in one vectorised evaluation. The fitted chain's 1.2 s optimum is also computed at 60 kg (the body mass is not
-published). The copper loss per stride at three designs is reported (claim C11's reason).
+published). The copper loss per stride at three designs is reported (claim C11's reason), and the fitted chain's
+best precompression per stiffness at both stride times with and without the linkage's friction (Fig. 17's reason).
 
-Writes ``fig16_efficiency_1.2s.png``, ``fig17_efficiency_2.0s.png``, ``design_maps.csv``, ``design_optima.csv``.
+Writes ``fig16_efficiency_1.2s.png``, ``fig17_efficiency_2.0s.png``, ``design_maps.csv``, ``design_optima.csv``,
+``fig17_linkage_friction.csv``.
 Run: ``python -m acausal.models.ankle.figures.fig16_17_design`` (into ``results/``).
 """
 from __future__ import annotations
@@ -39,6 +41,35 @@ COPPER_DESIGNS = ((130e3, 0.007), (60e3, 0.007), (60e3, 0.004))
 OTHER_MASS = 60.0
 #: the parameters the planned arm trajectory reads besides the spring (models/ankle/planning.py)
 PLANNING = ("body_mass", "torque_tolerance", "arm_limit")
+#: the linkage without its friction (Fig. 17's reason: what keeps the chain's best precompression in place)
+FRICTIONLESS = {"link.r_f": 0.0}
+#: the designs (k [N/m], P [m]) the linkage's friction loss per stride is read at (Fig. 17's reason)
+FRICTION_DESIGNS = ((130e3, 0.007), (130e3, 0.013))
+
+
+def best_precompression(m) -> np.ndarray:
+    """The precompression [m] of the best efficiency per stiffness of map ``m`` among its finite designs (NaN where
+    a stiffness has none)."""
+    e = m.values["efficiency"]
+    ok = np.isfinite(e).any(axis=1)
+    return np.where(ok, m.P[np.argmax(np.where(np.isfinite(e), e, -np.inf), axis=1)], np.nan)
+
+
+def moved_up(ba, bb) -> tuple[int, int]:
+    """How many stiffnesses have their best precompression higher in ``bb`` (2 s) than in ``ba`` (1.2 s), of how
+    many have one in both (:func:`best_precompression` of each map)."""
+    both = np.isfinite(ba) & np.isfinite(bb)
+    return int(np.sum(bb[both] > ba[both])), int(both.sum())
+
+
+def friction_rows(runs: dict, frictionless: dict) -> list[dict]:
+    """Per stiffness, the fitted chain's best precompression at 1.2 and 2 s/stride with the linkage's friction
+    (``runs``) and without (``frictionless``: stride time -> map)."""
+    best = {(T, f): best_precompression(m) for T in (1.2, 2.0)
+            for f, m in ((False, runs[(HEADLINE, T)]), (True, frictionless[T]))}
+    return [dict(preset=HEADLINE, k_kNpm=k / 1e3, **{f"best_P_mm_{T:g}s" + ("_frictionless" if f else ""): 1e3 * float(best[(T, f)][i])
+                                   for f in (False, True) for T in (1.2, 2.0)})
+            for i, k in enumerate(runs[(HEADLINE, 1.2)].k)]
 
 
 def _optimum_row(m, peak, label_mass, variant: str = "") -> dict:
@@ -70,6 +101,7 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
     peak_of = {m: design.efficiency_map(1.2, HEADLINE, overrides={"body_mass": m, "torque_tolerance": 0.0},
                                         executor=executor).optimum("peak_link_W", maximise=False, duty_limited=False)
                for m in (plan["body_mass"], OTHER_MASS)}
+    frictionless = {T: design.efficiency_map(T, HEADLINE, overrides=FRICTIONLESS, executor=executor) for T in (1.2, 2.0)}
     rows, opt_rows = [], []
     for preset in (HEADLINE, PAPER_EQ4):
         for T in (1.2, 2.0):
@@ -84,6 +116,8 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
     figures = [_plot(out_dir, [runs[(HEADLINE, T)], runs[(PAPER_EQ4, T)]], opt_rows, T) for T in (1.2, 2.0)]
     maps_csv = write_csv(out_dir / "design_maps.csv", rows)
     opt_csv = write_csv(out_dir / "design_optima.csv", opt_rows)
+    friction = friction_rows(runs, frictionless)
+    friction_csv = write_csv(out_dir / "fig17_linkage_friction.csv", friction)
     name = {HEADLINE: f"`{HEADLINE}` chain", PAPER_EQ4: "paper's Eq. 4"}
     m12 = runs[(HEADLINE, 1.2)]
     md = [f"Models: the paper's actuator with the `{HEADLINE}` preset (the chain of every other figure: gear, driver "
@@ -112,9 +146,9 @@ def main(out_dir: Path, results=None, executor=None) -> dict:
                    [[name[r["preset"]], *[f"{r[f'E_copper_J_{k / 1e3:g}Npmm_{P * 1e3:g}mm']:.1f} J"
                                           for k, P in COPPER_DESIGNS]]
                     for r in opt_rows if r["stride_time_s"] == 1.2 and not r["variant"]]),
-          "", caption(runs, opt_rows, name)]
+          "", caption(runs, opt_rows, name, friction)]
     return dict(title="Efficiency-optimal design (paper section 4.4, Figs. 16-17)", figures=figures,
-                csv=[maps_csv, opt_csv], markdown="\n".join(md), comparisons=[], optima=opt_rows)
+                csv=[maps_csv, opt_csv, friction_csv], markdown="\n".join(md), comparisons=[], optima=opt_rows)
 
 
 #: the stiffnesses [N/m] the caption reads the efficiency at, along the paper design's precompression
@@ -127,20 +161,32 @@ def _mean_and_best(a, b) -> tuple:
     have one in both)."""
     ea, eb = a.values["efficiency"], b.values["efficiency"]
     both = np.isfinite(ea) & np.isfinite(eb)
-    later = total = 0
-    for i in range(len(a.k)):
-        ra, rb = np.isfinite(ea[i]), np.isfinite(eb[i])
-        if ra.any() and rb.any():
-            total += 1
-            later += bool(a.P[np.nanargmax(np.where(ra, ea[i], -np.inf))]
-                          < b.P[np.nanargmax(np.where(rb, eb[i], -np.inf))])
-    return float(np.mean(ea[both])), float(np.mean(eb[both])), int(both.sum()), later, total
+    return (float(np.mean(ea[both])), float(np.mean(eb[both])), int(both.sum()),
+            *moved_up(best_precompression(a), best_precompression(b)))
 
 
-def caption(runs: dict, opt_rows: list, name: dict) -> str:
+def _friction_reason(runs: dict, friction: list) -> str:
+    """Why the fitted chain's best precompression stays in place at 2 s/stride, read on ``friction``
+    (:func:`friction_rows`) and the maps' linkage loss (E_link - E_output) at :data:`FRICTION_DESIGNS`."""
+    later, nk = moved_up(*(np.array([r[f"best_P_mm_{T:g}s_frictionless"] for r in friction]) for T in (1.2, 2.0)))
+    if not later:
+        return ("what keeps this model's best precompression in place at 2 s is not isolated here (not the linkage's "
+                "friction: without it, too, no stiffness has its best precompression higher at 2 s)")
+    loss = "; ".join(f"{T:g} s: " + ", ".join(
+        f"{runs[(HEADLINE, T)].at(k, P, 'E_link_J') - runs[(HEADLINE, T)].at(k, P, 'E_output_J'):.2f} J at "
+        f"{P * 1e3:g} mm" for k, P in FRICTION_DESIGNS) for T in (1.2, 2.0))
+    return (f"the linkage's friction (its torque r_f times the spring's force, Coulomb) costs about the same per "
+            f"stride at either stride time and more at a higher precompression (link to output at "
+            f"{FRICTION_DESIGNS[0][0] / 1e3:g} N/mm, {loss}): without it (link.r_f = 0) {later} of {nk} stiffnesses "
+            "have their best precompression higher at 2 s, as on the paper's Eq. 4, which has no linkage friction "
+            "(fig17_linkage_friction.csv)")
+
+
+def caption(runs: dict, opt_rows: list, name: dict, friction: list | None = None) -> str:
     """The verdicts of Figs. 16-17 for each model (4.4: at 1.2 s/stride a much higher efficiency at lower
     stiffness than the design, about 15 % -> 25 %; at 2 s/stride a higher average efficiency over the same range,
-    and for some stiffnesses a higher best precompression), from the maps and their optima."""
+    and for some stiffnesses a higher best precompression), from the maps and their optima; ``friction``
+    (:func:`friction_rows`) gives the fitted chain's reason where its best precompression stays in place."""
     K0, P0 = PAPER_DESIGN
     L = []
     for preset in (HEADLINE, PAPER_EQ4):
@@ -178,8 +224,8 @@ def caption(runs: dict, opt_rows: list, name: dict) -> str:
             "for some stiffnesses a higher precompression is worthwhile at 2 s/stride",
             f"{later} of {nk} stiffnesses have their best precompression higher at 2 s; the 2 s optimum is at "
             f"{r2['refined_kNpm']:.0f} N/mm, {r2['refined_P_mm']:.1f} mm ({100 * r2['refined_efficiency']:.1f} %)",
-            "" if later > 0 else "what keeps this model's best precompression in place at 2 s is not isolated here; "
-            "the paper's Eq. 4, without the chain's driver, gear and linkage losses, shows the shift"))
+            "" if later > 0 else _friction_reason(runs, friction) if preset == HEADLINE and friction
+            else "what keeps this model's best precompression in place at 2 s is not isolated here"))
     return "\n\n".join(L)
 
 

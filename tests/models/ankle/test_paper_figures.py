@@ -320,3 +320,24 @@ def test_fig16_optimum_is_not_at_lower_stiffness_fig17_average_rises(tmp_path):
     # the best precompression moves up at 2 s on the paper's Eq. 4, not on the fitted chain
     assert said(md, "Fig. 17", "the best precompression at 2 s, paper's Eq. 4")
     assert not said(md, "Fig. 17", "the best precompression at 2 s, `paper_fit` chain")
+    # ... and the caption's reason is the linkage's friction, read on its CSV: without it the best precompression
+    # moves up at 2 s for some stiffnesses; with it for none; its loss per stride grows with P, alike at both times
+    friction = read_csv(tmp_path / "fig17_linkage_friction.csv")
+    later = sum(r["best_P_mm_2s_frictionless"] > r["best_P_mm_1.2s_frictionless"] for r in friction)
+    assert later > 0 and not any(r["best_P_mm_2s"] > r["best_P_mm_1.2s"] for r in friction)
+    assert f"without it (link.r_f = 0) {later} of {len(friction)} stiffnesses" in md
+    link = {(r["stride_time_s"], round(r["P_m"] * 1e3)): r["E_link_J"] - r["E_output_J"] for r in maps
+            if r["preset"] == "paper_fit" and round(r["k_Npm"]) == 130e3 and round(r["P_m"] * 1e3) in (7, 13)}
+    assert link[(1.2, 13)] > link[(1.2, 7)] > 0
+    assert all(math.isclose(link[(1.2, P)], link[(2.0, P)], rel_tol=0.02) for P in (7, 13)), link
+
+
+def test_the_best_precompression_per_stiffness_is_read_among_finite_designs():
+    from acausal.models.ankle.figures.fig16_17_design import best_precompression, moved_up
+    from acausal.models.bench.design import DesignMap
+    ks, Ps = np.array([60e3, 130e3, 200e3]), np.array([0.004, 0.007, 0.010])
+    a = DesignMap(1.2, ks, Ps, {"efficiency": np.array([[0.1, 0.3, 0.2], [0.3, 0.2, 0.1], [np.nan] * 3])})
+    b = DesignMap(2.0, ks, Ps, {"efficiency": np.array([[0.1, 0.2, 0.3], [0.3, 0.2, np.nan], [0.2, 0.1, 0.1]])})
+    ba, bb = best_precompression(a), best_precompression(b)
+    assert np.allclose(ba[:2], [0.007, 0.004]) and np.isnan(ba[2]) and np.allclose(bb, [0.010, 0.004, 0.004])
+    assert moved_up(ba, bb) == (1, 2)
