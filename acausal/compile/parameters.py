@@ -10,6 +10,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
+from ..model.declarations import beyond
 from ..model.symbols import par_symbol
 
 
@@ -55,7 +56,8 @@ def bound_message(flat, name: str, binding) -> str:
 
 def check_parameter(info, v) -> bool:
     """Check one parameter value (a number, or an array of values for a batch of runs) for finiteness and
-    against the parameter's bounds; True when it is an array of values. Numbers take the fast path."""
+    against the parameter's bounds (met within rounding: :func:`~acausal.model.declarations.beyond`); True when it
+    is an array of values. Numbers take the fast path."""
     if isinstance(v, (float, int)) and not isinstance(v, bool):
         finite, low, high, batch = math.isfinite(v), v, v, False
     elif isinstance(v, (str, bytes, bool, np.bool_)):  # "0.5" or True would pass np.asarray as numbers
@@ -71,12 +73,12 @@ def check_parameter(info, v) -> bool:
         low, high = (arr.min(), arr.max()) if finite and arr.size else (math.inf, -math.inf)
     if not finite:
         raise ModelError(f"parameter {info.name!r} of {info.owner} is not finite: {v}")
-    if info.min is not None and low < info.min:
+    if info.min is not None and beyond(low, info.min, False):
         raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is below its minimum {info.min} "
                          f"[{info.unit}]")
     if info.nonzero and (v == 0 if not batch else bool(np.any(arr == 0))):
         raise ModelError(f"parameter {info.name!r} of {info.owner} is 0, which it must not be ({info.doc})")
-    if info.max is not None and high > info.max:
+    if info.max is not None and beyond(high, info.max, True):
         raise ModelError(f"parameter {info.name!r} of {info.owner} = {v} is above its maximum {info.max} "
                          f"[{info.unit}]")
     return batch

@@ -34,6 +34,7 @@ from sympy.printing.c import C99CodePrinter
 
 from ..backends.numpy import runtime
 from ..errors import ModelError
+from ..model.declarations import BOUND_RTOL
 from ..simulation.events import CASCADE_ITER, KNEE, ROUNDOFF, SETTLE_ITER
 from ..simulation.simulate import simulate
 from ..model.signals import ParametricSignal, SignalCall
@@ -401,11 +402,11 @@ def _functions(cm, lay, printer, names, signals, described) -> str:
         checks = [f"        if (!isfinite(v)) {{ log_msg(m, fmi2Error, \"logStatusError\", "
                   f"{_c_string(f'parameter {name!r} of {info.owner} is not finite: %g')}, v); return 1; }}"]
         if info.min is not None:
-            checks.append(f"        if (v < {_c_double(info.min)}) {{ log_msg(m, fmi2Error, \"logStatusError\", "
+            checks.append(f"        if (v < {_c_double(info.min - BOUND_RTOL * abs(info.min))}) {{ log_msg(m, fmi2Error, \"logStatusError\", "
                           f"{_c_string(f'parameter {name!r} of {info.owner} = %.17g is below its minimum {info.min:g}{unit}')}"
                           ", v); return 1; }")
         if info.max is not None:
-            checks.append(f"        if (v > {_c_double(info.max)}) {{ log_msg(m, fmi2Error, \"logStatusError\", "
+            checks.append(f"        if (v > {_c_double(info.max + BOUND_RTOL * abs(info.max))}) {{ log_msg(m, fmi2Error, \"logStatusError\", "
                           f"{_c_string(f'parameter {name!r} of {info.owner} = %.17g is above its maximum {info.max:g}{unit}')}"
                           ", v); return 1; }")
         cases.append(f"    case {k}:\n" + "\n".join(checks) + "\n        return 0;")

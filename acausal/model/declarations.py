@@ -230,7 +230,18 @@ def _outside(low, high, unit: str) -> str:
             + (" (an absolute temperature: 25 degC is 298.15 K)" if unit == "K" else ""))
 
 
+#: a value within this distance of a bound, relative to the bound, meets it: arithmetic such as ``18 * 1e-3`` lands
+#: an ulp beyond 0.018, which is the bound itself, not a value outside it (a bound of 0 has no slack)
+BOUND_RTOL = 1e-12
+
+
+def beyond(value, bound: float, above: bool) -> bool:
+    """Whether ``value`` lies above (``above``) or below ``bound`` by more than rounding (:data:`BOUND_RTOL`)."""
+    slack = BOUND_RTOL * abs(bound)
+    return bool(value > bound + slack) if above else bool(value < bound - slack)
+
+
 def _within(d: Parameter, value: float) -> bool:
     """Whether a number given to parameter ``d`` is finite and lies within its declared bounds."""
-    return not (value != value or abs(value) == float("inf") or (d.min is not None and value < d.min)
-                or (d.max is not None and value > d.max))
+    return not (value != value or abs(value) == float("inf") or (d.min is not None and beyond(value, d.min, False))
+                or (d.max is not None and beyond(value, d.max, True)))

@@ -201,6 +201,37 @@ def test_parameter_below_its_minimum_is_named(rc):
     rc.simulate(0.1, params={"R.R": 1.0})  # the compiled model is still usable
 
 
+def test_a_bound_is_met_within_rounding_and_refused_beyond_it():
+    """18 * 1e-3 is 0.018 an ulp high: it meets a maximum of 0.018 (run time, a batch, construction, the C check);
+    a value a micrometre over it is refused, naming the parameter and its bound."""
+    from acausal import Parameter, Variable, compile_model
+    from acausal.model.declarations import beyond
+
+    class Stroke(Model):
+        P = Parameter(0.01, unit="m", min=0.001, max=0.018)
+        x = Variable()
+
+        def equations(self):
+            return [Eq(self.x, self.P)]
+
+    assert 18 * 1e-3 > 0.018 and 3 * 0.001 * (1 - 1e-16) <= 0.003
+    cm = compile_model(Stroke())
+    assert cm.simulate(0.1, params={"P": 18 * 1e-3})["x"][-1] == 18 * 1e-3
+    cm.param_vector({"P": np.array([0.005, 18 * 1e-3])})
+    Stroke(P=18 * 1e-3)
+    with pytest.raises(ModelError, match=r"'P' .* is above its maximum 0.018 \[m\]"):
+        cm.simulate(0.1, params={"P": 0.018001})
+    with pytest.raises(ModelError, match=r"'P' .* is above its maximum 0.018 \[m\]"):
+        cm.param_vector({"P": np.array([0.005, 0.018001])})
+    with pytest.raises(ModelError, match="outside its bounds"):
+        Stroke(P=0.0009999)
+    assert not beyond(-0.0, 0.0, False) and beyond(-1e-300, 0.0, False)  # a bound of 0 has no slack
+    from acausal.export.ccode import generate  # the exported model's check has the same slack
+    tail = generate(cm, "stroke", "0")[1]
+    high = float(re.search(r"if \(v > ([0-9.e+-]+)\)", tail).group(1))
+    assert 18 * 1e-3 <= high < 0.018001
+
+
 def test_parameter_below_its_minimum_given_at_construction():
     class BadR(Model):
         def build(self):
