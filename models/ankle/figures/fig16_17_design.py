@@ -65,10 +65,10 @@ def moved_up(ba, bb) -> tuple[int, int]:
 def friction_rows(runs: dict, frictionless: dict) -> list[dict]:
     """Per stiffness, the fitted chain's best precompression at 1.2 and 2 s/stride with the linkage's friction
     (``runs``) and without (``frictionless``: stride time -> map)."""
-    best = {(T, f): best_precompression(m) for T in (1.2, 2.0)
-            for f, m in ((False, runs[(HEADLINE, T)]), (True, frictionless[T]))}
-    return [dict(preset=HEADLINE, k_kNpm=k / 1e3, **{f"best_P_mm_{T:g}s" + ("_frictionless" if f else ""): 1e3 * float(best[(T, f)][i])
-                                   for f in (False, True) for T in (1.2, 2.0)})
+    best = {(T, f): best_precompression(runs[(HEADLINE, T)] if not f else frictionless[T])
+            for f in (False, True) for T in (1.2, 2.0)}
+    column = {(T, f): f"best_P_mm_{T:g}s" + ("_frictionless" if f else "") for T, f in best}
+    return [dict(preset=HEADLINE, k_kNpm=k / 1e3, **{column[c]: 1e3 * float(b[i]) for c, b in best.items()})
             for i, k in enumerate(runs[(HEADLINE, 1.2)].k)]
 
 
